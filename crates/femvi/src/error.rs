@@ -1,0 +1,105 @@
+//! Typed errors of the library. Every failure a user can cause (bad input) or meet
+//! (a step that does not converge) is a variant here; nothing in the library panics on
+//! user input. The command-line tool turns these into messages and exit codes.
+
+use thiserror::Error;
+
+/// Why the solve of one step failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepFailure {
+    /// The iteration cap was reached before the tolerance.
+    NotConverged,
+    /// The increments stopped decreasing above the tolerance (the iteration stalls).
+    Stalled,
+    /// A NaN or an infinity appeared in the unknowns, the residual or the Lagrangian.
+    NonFinite,
+    /// The linear system of a Newton iteration is singular.
+    Singular,
+    /// No admissible (positive, bounded) time step solves the discrete energy equation.
+    NoAdmissibleStep,
+}
+
+impl std::fmt::Display for StepFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            StepFailure::NotConverged => "did not converge within the iteration cap",
+            StepFailure::Stalled => "stalled: the increments stopped decreasing above the tolerance",
+            StepFailure::NonFinite => "met a non-finite value",
+            StepFailure::Singular => "met a singular linear system",
+            StepFailure::NoAdmissibleStep => "found no admissible time step for the energy equation",
+        })
+    }
+}
+
+/// A step of an integrator (or a boundary value solve) that failed, with where and how.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("step {step} at t = {t}: the solver {failure} (residual {residual:.3e}, {iterations} iterations)")]
+pub struct StepError {
+    /// Index of the step that failed (the step from node `step` to node `step + 1`).
+    pub step: usize,
+    /// Time at the start of the failed step.
+    pub t: f64,
+    /// Infinity norm of the residual (or the last increment) when the solver gave up.
+    pub residual: f64,
+    /// Iterations spent on the step.
+    pub iterations: usize,
+    /// What went wrong.
+    pub failure: StepFailure,
+}
+
+/// Every error the library returns.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Error {
+    /// A vector or matrix has the wrong length.
+    #[error("{what} has length {got}, expected {expected}")]
+    Dimension {
+        /// What has the wrong length.
+        what: String,
+        /// The length expected.
+        expected: usize,
+        /// The length given.
+        got: usize,
+    },
+    /// A parameter is out of its admissible range.
+    #[error("invalid {what}: {reason}")]
+    Invalid {
+        /// Which parameter.
+        what: String,
+        /// Why it is rejected.
+        reason: String,
+    },
+    /// The mass matrix of a mechanical Lagrangian is not symmetric positive definite.
+    #[error("the mass matrix is not symmetric positive definite")]
+    MassNotPositiveDefinite,
+    /// ∂²L/∂v² is singular, so the Legendre transform (and the discrete flow) is not defined.
+    #[error("the Lagrangian is degenerate at t = {t}: the Hessian d2L/dv2 is singular (the Legendre transform is not invertible)")]
+    DegenerateLagrangian {
+        /// Where it was detected.
+        t: f64,
+    },
+    /// A step failed.
+    #[error(transparent)]
+    Step(#[from] StepError),
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T> = std::result::Result<T, Error>;
+
+pub(crate) fn invalid(what: &str, reason: impl Into<String>) -> Error {
+    Error::Invalid {
+        what: what.to_string(),
+        reason: reason.into(),
+    }
+}
+
+pub(crate) fn check_len(what: &str, expected: usize, got: usize) -> Result<()> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(Error::Dimension {
+            what: what.to_string(),
+            expected,
+            got,
+        })
+    }
+}

@@ -1,0 +1,26 @@
+//! femvi: discrete mechanics from finite elements (Chen, Guo, Wu, "Discrete Mechanics Based
+//! on Finite Element Methods"). Variational integrators whose discrete Lagrangian comes from
+//! interpolating the path with piecewise polynomials of any degree and integrating the
+//! Lagrangian with a quadrature rule.
+//!
+//! The modules read like a table of contents: [`lagrangian`] (continuous systems),
+//! [`fem`] (bases, quadrature), [`discrete`] (the element: L_d, its derivatives, discrete
+//! Legendre transforms and energies), [`solve`] (nonlinear solvers), [`step`] (the discrete
+//! flow with time steps as parameters), [`expr`] (Lagrangians from math expressions) and
+//! [`models`] (built-in systems).
+#![deny(missing_docs)]
+
+pub mod discrete;
+pub mod error;
+pub mod expr;
+pub mod fem;
+pub mod lagrangian;
+pub mod models;
+pub mod solve;
+pub mod step;
+
+pub use discrete::{Element, ElementWork};
+pub use error::{Error, Result, StepError, StepFailure};
+pub use fem::{NodeFamily, QuadratureKind};
+pub use lagrangian::{Lagrangian, MassMatrix, Mechanical, Potential, Scalar};
+pub use step::{Integrator, Method, SolverOptions, Start, TimeGrid};

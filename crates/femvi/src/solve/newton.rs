@@ -1,0 +1,139 @@
+//! Dense Newton's method with a backtracking (Armijo) line search on ½‖r‖², used for the
+//! step equations (2.40)–(2.42) of general Lagrangians and for the start from (q0, q1).
+//! The caller evaluates the residual and Jacobian into buffers owned by [`DenseNewtonWork`].
+
+use crate::error::StepFailure;
+use nalgebra::{DMatrix, DVector};
+
+/// Buffers of a dense Newton iteration of a fixed size.
+#[derive(Debug, Clone)]
+pub struct DenseNewtonWork {
+    /// Residual at the current iterate.
+    pub r: Vec<f64>,
+    /// Jacobian, row-major.
+    pub jac: Vec<f64>,
+    trial: Vec<f64>,
+    r_trial: Vec<f64>,
+    mat: DMatrix<f64>,
+    rhs: DVector<f64>,
+}
+
+impl DenseNewtonWork {
+    /// Buffers for `dim` unknowns.
+    pub fn new(dim: usize) -> Self {
+        Self {
+            r: vec![0.0; dim],
+            jac: vec![0.0; dim * dim],
+            trial: vec![0.0; dim],
+            r_trial: vec![0.0; dim],
+            mat: DMatrix::zeros(dim, dim),
+            rhs: DVector::zeros(dim),
+        }
+    }
+}
+
+/// How a converged Newton solve went.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonReport {
+    /// Iterations (Jacobian factorisations).
+    pub iterations: usize,
+    /// Infinity norm of the last correction.
+    pub last_increment: f64,
+}
+
+/// How a Newton solve failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonFailure {
+    /// What went wrong.
+    pub failure: StepFailure,
+    /// Infinity norm of the residual at the last iterate.
+    pub residual: f64,
+    /// Iterations spent.
+    pub iterations: usize,
+}
+
+fn inf_norm(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| if v.is_nan() { f64::NAN } else { m.max(v.abs()) })
+}
+
+/// Solves r(x) = 0 from the guess in `x`. `eval(x, r, jac)` writes the residual into `r` and,
+/// when `jac` is `Some`, the row-major Jacobian into it. Converged when the Newton correction
+/// is at most `tol · scale(x)` in the infinity norm.
+///
+/// # Errors
+/// [`NewtonFailure`] on a singular Jacobian, a non-finite value, a line search that cannot
+/// decrease the residual, or the iteration cap.
+pub fn newton_dense<F, S>(
+    x: &mut [f64],
+    tol: f64,
+    max_iterations: usize,
+    scale: S,
+    work: &mut DenseNewtonWork,
+    mut eval: F,
+) -> Result<NewtonReport, NewtonFailure>
+where
+    F: FnMut(&[f64], &mut [f64], Option<&mut [f64]>),
+    S: Fn(&[f64]) -> f64,
+{
+    let dim = x.len();
+    let fail = |failure, residual, iterations| NewtonFailure { failure, residual, iterations };
+    if dim == 0 {
+        return Ok(NewtonReport { iterations: 0, last_increment: 0.0 });
+    }
+    eval(x, &mut work.r, Some(&mut work.jac));
+    for it in 1..=max_iterations {
+        let rnorm = inf_norm(&work.r);
+        if !rnorm.is_finite() || !work.jac.iter().all(|v| v.is_finite()) {
+            return Err(fail(StepFailure::NonFinite, rnorm, it - 1));
+        }
+        if rnorm == 0.0 {
+            return Ok(NewtonReport { iterations: it - 1, last_increment: 0.0 });
+        }
+        for i in 0..dim {
+            work.rhs[i] = -work.r[i];
+            for j in 0..dim {
+                work.mat[(i, j)] = work.jac[i * dim + j];
+            }
+        }
+        let lu = work.mat.clone().lu();
+        if !lu.solve_mut(&mut work.rhs) || !work.rhs.iter().all(|v| v.is_finite()) {
+            return Err(fail(StepFailure::Singular, rnorm, it));
+        }
+        let dnorm = work.rhs.amax();
+        let sc = scale(x);
+        let converged_step = dnorm <= tol * sc;
+        // Backtracking on ½‖r‖² (2-norm); the full step is taken once the correction is at
+        // round-off level, where the residual cannot decrease any more.
+        let r2: f64 = work.r.iter().map(|v| v * v).sum();
+        let mut lambda = 1.0;
+        loop {
+            for i in 0..dim {
+                work.trial[i] = x[i] + lambda * work.rhs[i];
+            }
+            eval(&work.trial, &mut work.r_trial, None);
+            let t2: f64 = work.r_trial.iter().map(|v| v * v).sum();
+            if converged_step || (t2.is_finite() && t2 <= (1.0 - 1e-4 * lambda) * r2) {
+                break;
+            }
+            lambda *= 0.5;
+            if lambda < 1.0 / 1024.0 {
+                if dnorm <= 1e3 * tol * sc {
+                    // Stuck at round-off just above the tolerance: accept the full step.
+                    lambda = 1.0;
+                    for i in 0..dim {
+                        work.trial[i] = x[i] + work.rhs[i];
+                    }
+                    break;
+                }
+                return Err(fail(StepFailure::Stalled, rnorm, it));
+            }
+        }
+        x.copy_from_slice(&work.trial);
+        if converged_step || lambda * dnorm <= tol * sc {
+            eval(x, &mut work.r, None);
+            return Ok(NewtonReport { iterations: it, last_increment: lambda * dnorm });
+        }
+        eval(x, &mut work.r, Some(&mut work.jac));
+    }
+    Err(fail(StepFailure::NotConverged, inf_norm(&work.r), max_iterations))
+}

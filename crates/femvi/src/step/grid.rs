@@ -1,0 +1,132 @@
+//! Time grids for steps as parameters: uniform, or a list of steps used in turn
+//! (variable h_k, the paper's generalised Veselov mechanics (2.1)–(2.3)).
+
+use crate::error::{invalid, Result};
+
+/// The nodes t_0 < t_1 < … ≤ end of a run with steps as parameters. The last step is
+/// shortened to land on `end` exactly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeGrid {
+    t0: f64,
+    end: f64,
+    steps: Vec<f64>,
+}
+
+/// Relative slack below which a remaining interval counts as zero (the run is at `end`).
+const SNAP: f64 = 1e-9;
+
+impl TimeGrid {
+    /// Uniform steps h from t0 to end.
+    ///
+    /// # Errors
+    /// A step that is not positive and finite, or an end not after t0.
+    pub fn uniform(t0: f64, h: f64, end: f64) -> Result<Self> {
+        Self::steps(t0, vec![h], end)
+    }
+
+    /// Steps taken from `steps` in turn, cyclically, from t0 to end.
+    ///
+    /// # Errors
+    /// An empty list, a step that is not positive and finite, or an end not after t0.
+    pub fn steps(t0: f64, steps: Vec<f64>, end: f64) -> Result<Self> {
+        if steps.is_empty() {
+            return Err(invalid("time steps", "the list of steps is empty"));
+        }
+        if let Some(h) = steps.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+            return Err(invalid("time step", format!("{h} is not a positive finite number")));
+        }
+        if !t0.is_finite() || !end.is_finite() {
+            return Err(invalid("time span", "start and end must be finite"));
+        }
+        if end <= t0 {
+            return Err(invalid("time span", format!("end = {end} is not after the start t = {t0}")));
+        }
+        Ok(Self { t0, end, steps })
+    }
+
+    /// Start time.
+    pub fn t0(&self) -> f64 {
+        self.t0
+    }
+
+    /// End time.
+    pub fn end(&self) -> f64 {
+        self.end
+    }
+
+    /// The nominal step k (before shortening at the end).
+    pub fn nominal(&self, k: usize) -> f64 {
+        self.steps[k % self.steps.len()]
+    }
+
+    /// Whether all steps are equal.
+    pub fn is_uniform(&self) -> bool {
+        self.steps.len() == 1
+    }
+
+    /// The step from node k at time t: (h_k, t_{k+1}), or None at the end.
+    pub fn next(&self, k: usize, t: f64) -> Option<(f64, f64)> {
+        let h = self.nominal(k);
+        let remaining = self.end - t;
+        if remaining <= SNAP * h {
+            return None;
+        }
+        let t_next = if self.is_uniform() { self.t0 + (k + 1) as f64 * h } else { t + h };
+        if t_next >= self.end - SNAP * h {
+            return Some((self.end - t, self.end));
+        }
+        Some((h, t_next))
+    }
+
+    /// Number of steps of the whole run (counted by walking the grid).
+    pub fn count(&self) -> usize {
+        if self.is_uniform() {
+            let h = self.steps[0];
+            return ((self.end - self.t0) / h - SNAP).ceil().max(1.0) as usize;
+        }
+        let (mut k, mut t) = (0, self.t0);
+        while let Some((_, tn)) = self.next(k, t) {
+            k += 1;
+            t = tn;
+        }
+        k
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uniform_grid_lands_on_end() {
+        let g = TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
+        let (mut k, mut t) = (0, 0.0);
+        while let Some((h, tn)) = g.next(k, t) {
+            assert!((h - 0.1).abs() < 1e-12);
+            k += 1;
+            t = tn;
+        }
+        assert_eq!(k, 10);
+        assert_eq!(t, 1.0);
+        assert_eq!(g.count(), 10);
+        let g = TimeGrid::uniform(0.0, 0.3, 1.0).unwrap();
+        assert_eq!(g.count(), 4);
+    }
+
+    #[test]
+    fn rejects_bad_steps() {
+        assert!(TimeGrid::uniform(0.0, 0.0, 1.0).is_err());
+        assert!(TimeGrid::uniform(0.0, -0.1, 1.0).is_err());
+        assert!(TimeGrid::uniform(0.0, f64::NAN, 1.0).is_err());
+        assert!(TimeGrid::uniform(1.0, 0.1, 1.0).is_err());
+        assert!(TimeGrid::steps(0.0, vec![], 1.0).is_err());
+        assert!(TimeGrid::steps(0.0, vec![0.1, -1.0], 1.0).is_err());
+    }
+
+    #[test]
+    fn list_of_steps_is_cyclic() {
+        let g = TimeGrid::steps(0.0, vec![0.1, 0.2], 1.0).unwrap();
+        assert_eq!(g.count(), 7);
+        assert_eq!(g.next(1, 0.1), Some((0.2, 0.1 + 0.2)));
+    }
+}

@@ -1,0 +1,679 @@
+//! The integrator with time steps as parameters: state, start-up, and the three solvers of
+//! the step equations — Newton (any Lagrangian, derivatives by automatic differentiation),
+//! fixed-point iteration on forces (mechanical Lagrangians), and explicit stepping (degree 1
+//! with the trapezoid rule, which is Störmer–Verlet). Positions and momenta are advanced by
+//! increments with compensated summation, so round-off grows like √steps.
+
+use super::fixed_point::FixedPointTables;
+use super::grid::TimeGrid;
+use crate::discrete::{Element, ElementWork};
+use crate::error::{check_len, invalid, Error, Result, StepError, StepFailure};
+use crate::fem::QuadratureKind;
+use crate::lagrangian::{check_regular, velocity_from_momentum, Lagrangian, PointDerivatives};
+use crate::solve::{newton_dense, DenseNewtonWork, NewtonFailure};
+
+/// Which solver takes the step equations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Explicit for degree 1 with the trapezoid rule on a mechanical Lagrangian, fixed-point
+    /// iteration for other mechanical Lagrangians, Newton otherwise.
+    Auto,
+    /// Newton's method with a line search.
+    Newton,
+    /// Fixed-point iteration on the forces (mechanical Lagrangians only).
+    FixedPoint,
+    /// Explicit stepping (degree 1, trapezoid rule, mechanical Lagrangians only).
+    Explicit,
+}
+
+/// Tolerance, iteration cap and method of the step solver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolverOptions {
+    /// Relative tolerance on the increments of the unknowns (relative to max |q|).
+    pub tolerance: f64,
+    /// Iteration cap per step.
+    pub max_iterations: usize,
+    /// The solver.
+    pub method: Method,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-14,
+            max_iterations: 50,
+            method: Method::Auto,
+        }
+    }
+}
+
+impl SolverOptions {
+    /// Checks the options.
+    ///
+    /// # Errors
+    /// A tolerance that is not positive and finite, or a zero iteration cap.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
+            return Err(invalid("solver tolerance", format!("{} is not a positive finite number", self.tolerance)));
+        }
+        if self.max_iterations == 0 {
+            return Err(invalid("solver max_iterations", "must be at least 1"));
+        }
+        Ok(())
+    }
+}
+
+/// Initial data of a run.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Start {
+    /// q0 and the velocity v0; p0 = ∂L/∂v(t0, q0, v0).
+    Velocity {
+        /// Position q0.
+        q: Vec<f64>,
+        /// Velocity v0.
+        v: Vec<f64>,
+    },
+    /// q0 and the momentum p0.
+    Momentum {
+        /// Position q0.
+        q: Vec<f64>,
+        /// Momentum p0.
+        p: Vec<f64>,
+    },
+    /// The paper's start from (q0, q1), q1 at the first grid node t1.
+    Positions {
+        /// Position q0.
+        q0: Vec<f64>,
+        /// Position q1.
+        q1: Vec<f64>,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Resolved {
+    Newton,
+    FixedPoint,
+    Explicit,
+}
+
+/// A node of the discrete trajectory.
+#[derive(Debug, Clone, Copy)]
+pub struct Node<'s> {
+    /// Node index k.
+    pub k: usize,
+    /// Time t_k.
+    pub t: f64,
+    /// Position q_k.
+    pub q: &'s [f64],
+    /// Momentum p_k (the discrete Legendre transform).
+    pub p: &'s [f64],
+}
+
+/// The last element the integrator solved: [t, t + h] with nodal values q + incr[j].
+#[derive(Debug, Clone, Copy)]
+pub struct ElementNodes<'s> {
+    /// Start time t_k.
+    pub t: f64,
+    /// Step h_k.
+    pub h: f64,
+    /// q_k.
+    pub base: &'s [f64],
+    /// Nodal increments Q^j − q_k, j = 0 … s, row-major (s+1)×n.
+    pub incr: &'s [f64],
+}
+
+/// Integrates the discrete Euler–Lagrange equations of an element over a time grid.
+pub struct Integrator<'a, L: Lagrangian> {
+    lag: &'a L,
+    element: &'a Element,
+    grid: TimeGrid,
+    opts: SolverOptions,
+    method: Resolved,
+    n: usize,
+    k: usize,
+    t: f64,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    comp_q: Vec<f64>,
+    comp_p: Vec<f64>,
+    /// Velocity at the start, for the first guess.
+    v0: Vec<f64>,
+    pending: Option<(f64, Vec<f64>, Vec<f64>)>,
+    have_last: bool,
+    last_t: f64,
+    last_h: f64,
+    last_base: Vec<f64>,
+    last_incr: Vec<f64>,
+    // Workspaces.
+    x: Vec<f64>,
+    incr: Vec<f64>,
+    grad: Vec<f64>,
+    hess: Vec<f64>,
+    ework: ElementWork,
+    newton: DenseNewtonWork,
+    fp: Option<FixedPointTables>,
+    y: Vec<f64>,
+    y_new: Vec<f64>,
+    force: Vec<f64>,
+    wforce: Vec<f64>,
+    u: Vec<f64>,
+    tmp: Vec<f64>,
+    dq: Vec<f64>,
+    dp: Vec<f64>,
+    force0_valid: bool,
+    extrap_rho: f64,
+    extrap: Vec<f64>,
+    basis_buf: Vec<f64>,
+    iterations: usize,
+    steps: usize,
+}
+
+impl<'a, L: Lagrangian> Integrator<'a, L> {
+    /// Sets up a run of `lag` discretised by `element` on `grid` from `start`.
+    ///
+    /// # Errors
+    /// Wrong dimensions, invalid options, a degenerate element or Lagrangian, a method that
+    /// does not fit the Lagrangian, or (for the start from (q0, q1)) a failed solve of the
+    /// first element.
+    pub fn new(lag: &'a L, element: &'a Element, grid: TimeGrid, start: Start, opts: SolverOptions) -> Result<Self> {
+        opts.validate()?;
+        element.check_nondegenerate()?;
+        let n = lag.dim();
+        let s = element.degree();
+        let r = element.points();
+        let mechanical = lag.mass_matrix().is_some();
+        let explicit_fits = s == 1 && element.rule.kind == QuadratureKind::Trapezoid;
+        let method = match opts.method {
+            Method::Auto if mechanical && explicit_fits => Resolved::Explicit,
+            Method::Auto if mechanical => Resolved::FixedPoint,
+            Method::Auto | Method::Newton => Resolved::Newton,
+            Method::FixedPoint if mechanical => Resolved::FixedPoint,
+            Method::Explicit if mechanical && explicit_fits => Resolved::Explicit,
+            Method::FixedPoint => {
+                return Err(invalid("solver method", "fixed-point iteration needs a mechanical Lagrangian (L = 1/2 v'Mv - V)"))
+            }
+            Method::Explicit => {
+                return Err(invalid(
+                    "solver method",
+                    "explicit stepping needs degree 1 with the trapezoid rule and a mechanical Lagrangian",
+                ))
+            }
+        };
+        let fp = if method == Resolved::FixedPoint { Some(FixedPointTables::new(element)?) } else { None };
+        let t0 = grid.t0();
+        let mut me = Self {
+            lag,
+            element,
+            opts,
+            method,
+            n,
+            k: 0,
+            t: t0,
+            q: vec![0.0; n],
+            p: vec![0.0; n],
+            comp_q: vec![0.0; n],
+            comp_p: vec![0.0; n],
+            v0: vec![0.0; n],
+            pending: None,
+            have_last: false,
+            last_t: t0,
+            last_h: 0.0,
+            last_base: vec![0.0; n],
+            last_incr: vec![0.0; (s + 1) * n],
+            x: vec![0.0; s * n],
+            incr: vec![0.0; (s + 1) * n],
+            grad: vec![0.0; (s + 1) * n],
+            hess: vec![0.0; ((s + 1) * n).pow(2)],
+            ework: ElementWork::new(element, n),
+            newton: DenseNewtonWork::new(s * n),
+            fp,
+            y: vec![0.0; r * n],
+            y_new: vec![0.0; r * n],
+            force: vec![0.0; r * n],
+            wforce: vec![0.0; r * n],
+            u: vec![0.0; n],
+            tmp: vec![0.0; n],
+            dq: vec![0.0; n],
+            dp: vec![0.0; n],
+            force0_valid: false,
+            extrap_rho: f64::NAN,
+            extrap: vec![0.0; s * (s + 1)],
+            basis_buf: vec![0.0; s + 1],
+            iterations: 0,
+            steps: 0,
+            grid,
+        };
+        me.start(start)?;
+        Ok(me)
+    }
+
+    fn start(&mut self, start: Start) -> Result<()> {
+        let n = self.n;
+        let t0 = self.t;
+        let mut work = PointDerivatives::new(n);
+        let finite = |what: &str, x: &[f64]| {
+            if x.iter().all(|v| v.is_finite()) {
+                Ok(())
+            } else {
+                Err(invalid(what, "contains a non-finite number"))
+            }
+        };
+        match start {
+            Start::Velocity { q, v } => {
+                check_len("initial q", n, q.len())?;
+                check_len("initial v", n, v.len())?;
+                finite("initial q", &q)?;
+                finite("initial v", &v)?;
+                check_regular(self.lag, t0, &q, &v)?;
+                self.lag.first_derivatives(t0, &q, &v, false, &mut work);
+                self.p.copy_from_slice(work.l_v());
+                self.q = q;
+                self.v0 = v;
+            }
+            Start::Momentum { q, p } => {
+                check_len("initial q", n, q.len())?;
+                check_len("initial p", n, p.len())?;
+                finite("initial q", &q)?;
+                finite("initial p", &p)?;
+                let mut v = vec![0.0; n];
+                velocity_from_momentum(self.lag, t0, &q, &p, &mut v, &mut work)?;
+                check_regular(self.lag, t0, &q, &v)?;
+                self.q = q;
+                self.p = p;
+                self.v0 = v;
+            }
+            Start::Positions { q0, q1 } => {
+                check_len("initial q", n, q0.len())?;
+                check_len("initial q1", n, q1.len())?;
+                finite("initial q", &q0)?;
+                finite("initial q1", &q1)?;
+                let (h, t1) = self.grid.next(0, t0).ok_or_else(|| invalid("time span", "no first step"))?;
+                let v: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| (b - a) / h).collect();
+                check_regular(self.lag, t0, &q0, &v)?;
+                let (p0, p1) = self.solve_first_element(h, &q0, &q1)?;
+                self.q = q0;
+                self.p = p0;
+                self.v0 = v;
+                self.pending = Some((t1, q1, p1));
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves element 0's internal equations with both ends fixed; returns (p0, p1).
+    fn solve_first_element(&mut self, h: f64, q0: &[f64], q1: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        let n = self.n;
+        let s = self.element.degree();
+        let t0 = self.t;
+        self.incr.iter_mut().for_each(|x| *x = 0.0);
+        for m in 1..=s {
+            let tau = self.element.basis.nodes[m];
+            for c in 0..n {
+                self.incr[m * n + c] = tau * (q1[c] - q0[c]);
+            }
+        }
+        let dim = (s - 1) * n;
+        let mut x: Vec<f64> = self.incr[n..s * n].to_vec();
+        let mut work = DenseNewtonWork::new(dim);
+        let (lag, element, tol) = (self.lag, self.element, self.opts.tolerance);
+        let (incr, ework, grad, hess) = (&mut self.incr, &mut self.ework, &mut self.grad, &mut self.hess);
+        let scale = q0.iter().chain(q1).fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
+        let w = (s + 1) * n;
+        newton_dense(&mut x, tol, self.opts.max_iterations, |_| scale, &mut work, |x, r, jac| {
+            incr[n..s * n].copy_from_slice(x);
+            match jac {
+                Some(jac) => {
+                    element.hessian_in_place(lag, t0, h, q0, incr, ework, grad, hess);
+                    for a in 0..dim {
+                        for b in 0..dim {
+                            jac[a * dim + b] = hess[(n + a) * w + n + b];
+                        }
+                    }
+                }
+                None => {
+                    element.gradient_in_place(lag, t0, h, q0, incr, false, ework, grad);
+                }
+            }
+            r.copy_from_slice(&grad[n..s * n]);
+        })
+        .map_err(|f| self.step_error(f))?;
+        self.incr[n..s * n].copy_from_slice(&x);
+        self.element.gradient_in_place(self.lag, t0, h, q0, &self.incr, false, &mut self.ework, &mut self.grad);
+        let p0: Vec<f64> = self.grad[..n].iter().map(|g| -g).collect();
+        let p1 = self.grad[s * n..].to_vec();
+        self.remember(t0, h, q0);
+        Ok((p0, p1))
+    }
+
+    fn step_error(&self, f: NewtonFailure) -> Error {
+        Error::Step(StepError {
+            step: self.k,
+            t: self.t,
+            residual: f.residual,
+            iterations: f.iterations,
+            failure: f.failure,
+        })
+    }
+
+    fn remember(&mut self, t: f64, h: f64, base: &[f64]) {
+        self.have_last = true;
+        self.last_t = t;
+        self.last_h = h;
+        self.last_base.copy_from_slice(base);
+        self.last_incr.copy_from_slice(&self.incr);
+    }
+
+    /// The current node.
+    pub fn node(&self) -> Node<'_> {
+        Node {
+            k: self.k,
+            t: self.t,
+            q: &self.q,
+            p: &self.p,
+        }
+    }
+
+    /// The element solved by the last step, if any.
+    pub fn last_element(&self) -> Option<ElementNodes<'_>> {
+        self.have_last.then_some(ElementNodes {
+            t: self.last_t,
+            h: self.last_h,
+            base: &self.last_base,
+            incr: &self.last_incr,
+        })
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &TimeGrid {
+        &self.grid
+    }
+
+    /// The Lagrangian.
+    pub fn lagrangian(&self) -> &L {
+        self.lag
+    }
+
+    /// Mean solver iterations per step so far (0 for explicit steps).
+    pub fn mean_iterations(&self) -> f64 {
+        if self.steps == 0 {
+            0.0
+        } else {
+            self.iterations as f64 / self.steps as f64
+        }
+    }
+
+    /// Whether the run has reached the end of its grid.
+    pub fn finished(&self) -> bool {
+        self.pending.is_none() && self.grid.next(self.k, self.t).is_none()
+    }
+
+    /// Advances one step. Returns `Ok(false)` at the end of the grid.
+    ///
+    /// # Errors
+    /// [`Error::Step`] with the step index, time and residual if the step equations cannot be
+    /// solved; the integrator then stays at the last good node.
+    pub fn step(&mut self) -> Result<bool> {
+        if let Some((t1, q1, p1)) = self.pending.take() {
+            self.q = q1;
+            self.p = p1;
+            self.t = t1;
+            self.k = 1;
+            self.steps += 1;
+            return Ok(true);
+        }
+        let Some((h, t_next)) = self.grid.next(self.k, self.t) else {
+            return Ok(false);
+        };
+        match self.method {
+            Resolved::Explicit => self.step_explicit(h),
+            Resolved::FixedPoint => {
+                self.guess(h);
+                self.step_fixed_point(h)?
+            }
+            Resolved::Newton => {
+                self.guess(h);
+                self.step_newton(h)?
+            }
+        }
+        let (t, base) = (self.t, std::mem::take(&mut self.tmp));
+        let mut base = base;
+        base.copy_from_slice(&self.q);
+        self.remember(t, h, &base);
+        self.tmp = base;
+        compensated_add(&mut self.q, &mut self.comp_q, &self.dq);
+        compensated_add(&mut self.p, &mut self.comp_p, &self.dp);
+        if !self.q.iter().chain(&self.p).all(|v| v.is_finite()) {
+            return Err(Error::Step(StepError {
+                step: self.k,
+                t: self.t,
+                residual: f64::NAN,
+                iterations: 0,
+                failure: StepFailure::NonFinite,
+            }));
+        }
+        self.k += 1;
+        self.t = t_next;
+        self.steps += 1;
+        Ok(true)
+    }
+
+    /// Starting values of the node increments x (nodes 1 … s): the previous element's
+    /// polynomial extrapolated, or the initial velocity on the first step.
+    fn guess(&mut self, h: f64) {
+        let n = self.n;
+        let s = self.element.degree();
+        let nodes = &self.element.basis.nodes;
+        if !self.have_last {
+            for m in 1..=s {
+                for c in 0..n {
+                    self.x[(m - 1) * n + c] = nodes[m] * h * self.v0[c];
+                }
+            }
+            return;
+        }
+        let rho = h / self.last_h;
+        if rho != self.extrap_rho {
+            self.extrap_rho = rho;
+            for m in 1..=s {
+                self.element.basis.values_in_place(1.0 + nodes[m] * rho, &mut self.basis_buf);
+                self.extrap[(m - 1) * (s + 1)..m * (s + 1)].copy_from_slice(&self.basis_buf);
+            }
+        }
+        let end = &self.last_incr[s * n..];
+        for m in 1..=s {
+            let row = &self.extrap[(m - 1) * (s + 1)..m * (s + 1)];
+            for c in 0..n {
+                let mut acc = 0.0;
+                for (j, l) in row.iter().enumerate() {
+                    acc += l * (self.last_incr[j * n + c] - end[c]);
+                }
+                self.x[(m - 1) * n + c] = acc;
+            }
+        }
+    }
+
+    fn step_explicit(&mut self, h: f64) {
+        // Störmer–Verlet: degree 1, trapezoid. The force at the end is kept for the next step.
+        let n = self.n;
+        let Some(mass) = self.lag.mass_matrix() else { unreachable!("checked in new") };
+        if !self.force0_valid {
+            self.lag.force(self.t, &self.q, &mut self.force[..n]);
+        }
+        let (f0, f1) = self.force.split_at_mut(n);
+        mass.solve(&self.p, &mut self.u);
+        mass.solve(f0, &mut self.tmp);
+        for c in 0..n {
+            self.dq[c] = h * self.u[c] + 0.5 * h * h * self.tmp[c];
+            self.y[c] = self.q[c] + self.dq[c];
+        }
+        self.lag.force(self.t + h, &self.y[..n], &mut f1[..n]);
+        for c in 0..n {
+            self.dp[c] = 0.5 * h * (f0[c] + f1[c]);
+        }
+        f0.copy_from_slice(&f1[..n]);
+        self.force0_valid = true;
+        self.incr[..n].iter_mut().for_each(|x| *x = 0.0);
+        self.incr[n..2 * n].copy_from_slice(&self.dq);
+    }
+
+    fn step_fixed_point(&mut self, h: f64) -> Result<()> {
+        let n = self.n;
+        let s = self.element.degree();
+        let r = self.element.points();
+        let Some(mass) = self.lag.mass_matrix() else { unreachable!("checked in new") };
+        let Some(tab) = self.fp.as_ref() else { unreachable!("built in new") };
+        let identity = mass.is_identity();
+        mass.solve(&self.p, &mut self.u);
+        // Stage values from the node guess.
+        for l in 0..r {
+            for c in 0..n {
+                self.y[l * n + c] = (1..=s).map(|m| self.element.phi(l, m) * self.x[(m - 1) * n + c]).sum();
+            }
+        }
+        let qscale = self.q.iter().fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
+        let tol = self.opts.tolerance;
+        let mut prev = f64::INFINITY;
+        let mut non_decreasing = 0;
+        let mut iterations = 0;
+        loop {
+            iterations += 1;
+            for l in 0..r {
+                let (yl, fl) = (&self.y[l * n..(l + 1) * n], &mut self.force[l * n..(l + 1) * n]);
+                for c in 0..n {
+                    self.tmp[c] = self.q[c] + yl[c];
+                }
+                self.lag.force(self.t + self.element.rule.nodes[l] * h, &self.tmp, fl);
+                if identity {
+                    self.wforce[l * n..(l + 1) * n].copy_from_slice(fl);
+                } else {
+                    mass.solve(fl, &mut self.wforce[l * n..(l + 1) * n]);
+                }
+            }
+            let mut delta = 0.0f64;
+            let mut ymax = 0.0f64;
+            for l in 0..r {
+                for c in 0..n {
+                    let mut acc = 0.0;
+                    for i in 0..r {
+                        acc += tab.b[l * r + i] * self.wforce[i * n + c];
+                    }
+                    let ynew = h * tab.a[l] * self.u[c] + h * h * acc;
+                    let d = (ynew - self.y[l * n + c]).abs();
+                    delta = if d.is_nan() { f64::NAN } else { delta.max(d) };
+                    ymax = ymax.max(ynew.abs());
+                    self.y_new[l * n + c] = ynew;
+                }
+            }
+            std::mem::swap(&mut self.y, &mut self.y_new);
+            let scale = qscale.max(ymax);
+            let fail = |failure| {
+                Error::Step(StepError {
+                    step: self.k,
+                    t: self.t,
+                    residual: delta,
+                    iterations,
+                    failure,
+                })
+            };
+            if !delta.is_finite() {
+                return Err(fail(StepFailure::NonFinite));
+            }
+            if delta <= tol * scale {
+                break;
+            }
+            if delta >= prev {
+                if delta <= 64.0 * f64::EPSILON * scale {
+                    break; // Round-off level: it cannot get any better.
+                }
+                non_decreasing += 1;
+                if non_decreasing >= 3 {
+                    return Err(fail(StepFailure::Stalled));
+                }
+            }
+            if iterations >= self.opts.max_iterations {
+                return Err(fail(StepFailure::NotConverged));
+            }
+            prev = delta;
+        }
+        self.iterations += iterations;
+        // Node increments, end increment and momentum increment from the last forces.
+        self.incr[..n].iter_mut().for_each(|x| *x = 0.0);
+        for m in 0..s {
+            for c in 0..n {
+                let mut acc = 0.0;
+                for i in 0..r {
+                    acc += tab.beta[m * r + i] * self.wforce[i * n + c];
+                }
+                self.incr[(m + 1) * n + c] = h * tab.alpha[m] * self.u[c] + h * h * acc;
+            }
+        }
+        self.dq.copy_from_slice(&self.incr[s * n..]);
+        for c in 0..n {
+            self.dp[c] = h * (0..r).map(|i| self.element.rule.weights[i] * self.force[i * n + c]).sum::<f64>();
+        }
+        Ok(())
+    }
+
+    fn step_newton(&mut self, h: f64) -> Result<()> {
+        let n = self.n;
+        let s = self.element.degree();
+        let dim = s * n;
+        let w = (s + 1) * n;
+        let (lag, element, t0) = (self.lag, self.element, self.t);
+        let (q, p) = (&self.q, &self.p);
+        let (incr, ework, grad, hess) = (&mut self.incr, &mut self.ework, &mut self.grad, &mut self.hess);
+        incr[..n].iter_mut().for_each(|x| *x = 0.0);
+        let qscale = q.iter().fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
+        let scale = |x: &[f64]| x.iter().fold(qscale, |m, v| m.max(v.abs()));
+        let report = newton_dense(
+            &mut self.x,
+            self.opts.tolerance,
+            self.opts.max_iterations,
+            scale,
+            &mut self.newton,
+            |x, r, jac| {
+                incr[n..].copy_from_slice(x);
+                match jac {
+                    Some(jac) => {
+                        element.hessian_in_place(lag, t0, h, q, incr, ework, grad, hess);
+                        for a in 0..dim {
+                            jac[a * dim..(a + 1) * dim].copy_from_slice(&hess[a * w + n..a * w + w]);
+                        }
+                    }
+                    None => {
+                        element.gradient_in_place(lag, t0, h, q, incr, false, ework, grad);
+                    }
+                }
+                r.copy_from_slice(&grad[..dim]);
+                for c in 0..n {
+                    r[c] += p[c];
+                }
+            },
+        );
+        let report = match report {
+            Ok(r) => r,
+            Err(f) => return Err(self.step_error(f)),
+        };
+        self.iterations += report.iterations;
+        // The last evaluation (residual only) was at the converged x: the points hold ∂L/∂q.
+        self.incr[n..].copy_from_slice(&self.x);
+        self.dq.copy_from_slice(&self.x[(s - 1) * n..]);
+        for c in 0..n {
+            self.dp[c] = h * (0..element.points())
+                .map(|i| element.rule.weights[i] * self.ework.pts[i].l_q()[c])
+                .sum::<f64>();
+        }
+        Ok(())
+    }
+}
+
+/// x += d with Kahan compensation carried in `comp`.
+#[inline]
+pub(crate) fn compensated_add(x: &mut [f64], comp: &mut [f64], d: &[f64]) {
+    for ((x, c), d) in x.iter_mut().zip(comp.iter_mut()).zip(d) {
+        let y = d + *c;
+        let t = *x + y;
+        *c = (*x - t) + y;
+        *x = t;
+    }
+}
