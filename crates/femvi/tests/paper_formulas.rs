@@ -1,0 +1,169 @@
+//! The paper's discrete Euler–Lagrange equations reproduced by the general element, with
+//! unequal steps, for L = ½q̇² − V(q) with V(q) = q⁴/4 + q²/2 (so the element integrals of the
+//! exact-integral cases have closed forms): (2.20), (2.30), corrected (2.48)–(2.50), and
+//! Störmer–Verlet for degree 1 with the trapezoid rule.
+
+mod common;
+use common::Lcg;
+use femvi::{Element, Integrator, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid};
+
+struct Quartic;
+impl Potential for Quartic {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn value<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+        q[0].powi(4) * 0.25 + q[0] * q[0] * 0.5
+    }
+}
+fn dv(q: f64) -> f64 {
+    q * q * q + q
+}
+
+fn random_steps(n: usize, h: f64) -> Vec<f64> {
+    let mut r = Lcg(7);
+    (0..n).map(|_| h * (0.5 + r.next())).collect()
+}
+
+/// Nodes q_k and, for degree 2, the mid nodes q_{k+1/2}, of a run from (q0, q1).
+fn run(el: &Element, steps: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let lag = Mechanical::unit_mass(Quartic);
+    let end: f64 = steps.iter().sum();
+    let grid = TimeGrid::steps(0.0, steps.to_vec(), end).unwrap();
+    let start = Start::Positions { q0: vec![0.8], q1: vec![0.8 + 0.3 * steps[0]] };
+    let opts = SolverOptions { tolerance: 1e-15, ..Default::default() };
+    let mut it = Integrator::new(&lag, el, grid, start, opts).unwrap();
+    let (mut q, mut mid) = (vec![it.node().q[0]], vec![]);
+    while it.step().unwrap() {
+        q.push(it.node().q[0]);
+        let e = it.last_element().unwrap();
+        if el.degree() == 2 {
+            mid.push(e.base[0] + e.incr[1]);
+        }
+    }
+    (q, mid)
+}
+
+#[test]
+fn midpoint_lagrangian_is_2_19_and_gives_2_20_with_unequal_steps() {
+    // L_d of the element equals h × (2.19).
+    let lag = Mechanical::unit_mass(Quartic);
+    let el = Element::midpoint();
+    let mut work = femvi::ElementWork::new(&el, 1);
+    let (q0, q1, h) = (0.3, 0.55, 0.17);
+    let mut g = vec![0.0; 2];
+    let ld = el.gradient_in_place(&lag, 0.0, h, &[q0], &[0.0, q1 - q0], false, &mut work, &mut g);
+    let v = |q: f64| q.powi(4) / 4.0 + q * q / 2.0;
+    let paper = h * (0.5 * ((q1 - q0) / h).powi(2) - v((q0 + q1) / 2.0));
+    assert!((ld - paper).abs() < 1e-15, "{ld} vs {paper}");
+
+    let steps = random_steps(40, 0.1);
+    let (q, _) = run(&el, &steps);
+    let mut worst = 0.0f64;
+    for k in 1..q.len() - 1 {
+        let (hm, hk) = (steps[k - 1], steps[k]);
+        let (bar_m, bar_k) = ((q[k - 1] + q[k]) / 2.0, (q[k] + q[k + 1]) / 2.0);
+        let r = (q[k + 1] - q[k]) / hk - (q[k] - q[k - 1]) / hm + (dv(bar_k) * hk + dv(bar_m) * hm) / 2.0;
+        worst = worst.max(r.abs());
+    }
+    assert!(worst < 1e-13, "(2.20) residual {worst:e}");
+}
+
+#[test]
+fn linear_element_with_exact_integral_gives_2_30() {
+    // F(a, b) = ∫₀¹ V((1−s)a + sb) ds = (a⁴+a³b+a²b²+ab³+b⁴)/20 + (a²+ab+b²)/6.
+    let d1f = |a: f64, b: f64| (4.0 * a.powi(3) + 3.0 * a * a * b + 2.0 * a * b * b + b.powi(3)) / 20.0 + (2.0 * a + b) / 6.0;
+    let d2f = |a: f64, b: f64| d1f(b, a);
+    let el = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(3)).unwrap();
+    let steps = random_steps(40, 0.1);
+    let (q, _) = run(&el, &steps);
+    let mut worst = 0.0f64;
+    for k in 1..q.len() - 1 {
+        let (hm, hk) = (steps[k - 1], steps[k]);
+        let r = (q[k + 1] - q[k]) / hk - (q[k] - q[k - 1]) / hm + d1f(q[k], q[k + 1]) * hk + d2f(q[k - 1], q[k]) * hm;
+        worst = worst.max(r.abs());
+    }
+    assert!(worst < 1e-13, "(2.30) residual {worst:e}");
+}
+
+#[test]
+fn quadratic_element_gives_corrected_2_48_to_2_50() {
+    // ∂G/∂(q_k, q_m, q_{k+1}) = ∫₀¹ V'(q_h(τ)) f(τ) dτ, integrated exactly (degree 8 in τ) by
+    // a 6-point Gauss rule computed here from its closed form nodes' recurrence-free values.
+    let gl = femvi::fem::QuadratureRule::new(QuadratureKind::GaussLegendre(6)).unwrap();
+    let shapes = |t: f64| [(2.0 * t - 1.0) * (t - 1.0), 4.0 * t * (1.0 - t), t * (2.0 * t - 1.0)];
+    let dg = |a: f64, m: f64, b: f64| {
+        let mut d = [0.0; 3];
+        for (c, w) in gl.nodes.iter().zip(&gl.weights) {
+            let f = shapes(*c);
+            let qh = a * f[0] + m * f[1] + b * f[2];
+            for j in 0..3 {
+                d[j] += w * dv(qh) * f[j];
+            }
+        }
+        d
+    };
+    let el = Element::galerkin(2, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(5)).unwrap();
+    let steps = random_steps(30, 0.1);
+    let (q, mid) = run(&el, &steps);
+    let (mut w48, mut w49) = (0.0f64, 0.0f64);
+    for k in 1..q.len() - 1 {
+        let (hm, hk) = (steps[k - 1], steps[k]);
+        let (a1, a2, a3) = (1.0 / (3.0 * hm), 7.0 / 3.0 * (1.0 / hm + 1.0 / hk), 1.0 / (3.0 * hk));
+        let (a4, a5) = (-8.0 / (3.0 * hm), -8.0 / (3.0 * hk));
+        let d1 = dg(q[k], mid[k], q[k + 1])[0];
+        let d2 = dg(q[k - 1], mid[k - 1], q[k])[2];
+        let r = a1 * q[k - 1] + a2 * q[k] + a3 * q[k + 1] + a4 * mid[k - 1] + a5 * mid[k] - d1 * hk - d2 * hm;
+        w48 = w48.max(r.abs());
+        // (2.49): −8/(3h²)(q_k + q_{k+1} − 2q_m) − ∂G/∂q_m = 0.
+        let r = -8.0 / (3.0 * hk * hk) * (q[k] + q[k + 1] - 2.0 * mid[k]) - dg(q[k], mid[k], q[k + 1])[1];
+        w49 = w49.max(r.abs() * hk);
+    }
+    assert!(w48 < 1e-12, "(2.48) residual {w48:e}");
+    assert!(w49 < 1e-12, "(2.49) residual {w49:e}");
+    // The misprinted (2.48) (a4 in place of a5) does not hold with unequal steps.
+    let k = 5;
+    let (hm, hk) = (steps[k - 1], steps[k]);
+    let a4 = -8.0 / (3.0 * hm);
+    let d1 = dg(q[k], mid[k], q[k + 1])[0];
+    let d2 = dg(q[k - 1], mid[k - 1], q[k])[2];
+    let misprint = q[k - 1] / (3.0 * hm) + 7.0 / 3.0 * (1.0 / hm + 1.0 / hk) * q[k] + q[k + 1] / (3.0 * hk) + a4 * mid[k - 1]
+        + a4 * mid[k]
+        - d1 * hk
+        - d2 * hm;
+    assert!(misprint.abs() > 1e-3, "the misprint should not hold: {misprint:e}");
+}
+
+#[test]
+fn linear_element_with_trapezoid_rule_is_stormer_verlet() {
+    let lag = femvi::models::kepler(1.0);
+    let el = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    let h = 0.01;
+    let n = 2000;
+    let grid = TimeGrid::uniform(0.0, h, n as f64 * h).unwrap();
+    let start = Start::Momentum { q: vec![0.4, 0.0], p: vec![0.0, 2.0] };
+    for method in [femvi::Method::Explicit, femvi::Method::FixedPoint, femvi::Method::Newton] {
+        let opts = SolverOptions { method, ..Default::default() };
+        let mut it = Integrator::new(&lag, &el, grid.clone(), start.clone(), opts).unwrap();
+        // Hand-written velocity Verlet.
+        let (mut q, mut p) = ([0.4f64, 0.0], [0.0f64, 2.0]);
+        let f = |q: [f64; 2]| {
+            let r3 = (q[0] * q[0] + q[1] * q[1]).powf(1.5);
+            [-q[0] / r3, -q[1] / r3]
+        };
+        let mut worst = 0.0f64;
+        for _ in 0..n {
+            let f0 = f(q);
+            let ph = [p[0] + 0.5 * h * f0[0], p[1] + 0.5 * h * f0[1]];
+            q = [q[0] + h * ph[0], q[1] + h * ph[1]];
+            let f1 = f(q);
+            p = [ph[0] + 0.5 * h * f1[0], ph[1] + 0.5 * h * f1[1]];
+            assert!(it.step().unwrap());
+            let node = it.node();
+            for c in 0..2 {
+                worst = worst.max((node.q[c] - q[c]).abs()).max((node.p[c] - p[c]).abs());
+            }
+        }
+        assert!(worst < 1e-11, "{method:?}: deviation from Verlet {worst:e}");
+    }
+}
