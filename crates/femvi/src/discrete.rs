@@ -133,7 +133,13 @@ impl Element {
         let mut ld = 0.0;
         for i in 0..self.points() {
             let pd = &mut work.pts[i];
-            lag.first_derivatives(work.tc[i], &work.qc[i * n..(i + 1) * n], &work.vc[i * n..(i + 1) * n], with_t, pd);
+            lag.first_derivatives(
+                work.tc[i],
+                &work.qc[i * n..(i + 1) * n],
+                &work.vc[i * n..(i + 1) * n],
+                with_t,
+                pd,
+            );
             let b = self.rule.weights[i];
             ld += b * pd.value;
             for j in 0..self.nodes() {
@@ -169,7 +175,13 @@ impl Element {
         let mut ld = 0.0;
         for i in 0..self.points() {
             let pd = &mut work.pts[i];
-            lag.second_derivatives(work.tc[i], &work.qc[i * n..(i + 1) * n], &work.vc[i * n..(i + 1) * n], false, pd);
+            lag.second_derivatives(
+                work.tc[i],
+                &work.qc[i * n..(i + 1) * n],
+                &work.vc[i * n..(i + 1) * n],
+                false,
+                pd,
+            );
             let b = self.rule.weights[i];
             ld += b * pd.value;
             for j in 0..w {
@@ -207,7 +219,11 @@ impl Element {
             let pd = &work.pts[i];
             let b = self.rule.weights[i];
             let c = self.rule.nodes[i];
-            let vlv: f64 = work.vc[i * n..(i + 1) * n].iter().zip(pd.l_v()).map(|(a, b)| a * b).sum();
+            let vlv: f64 = work.vc[i * n..(i + 1) * n]
+                .iter()
+                .zip(pd.l_v())
+                .map(|(a, b)| a * b)
+                .sum();
             e += b * (vlv - pd.value);
             lt_minus += b * (1.0 - c) * pd.l_t();
             lt_plus += b * c * pd.l_t();

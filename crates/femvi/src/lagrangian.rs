@@ -189,7 +189,12 @@ impl MassMatrix {
             m[i * n + i] = d[i];
             inv[i * n + i] = 1.0 / d[i];
         }
-        Ok(Self { n, m, inv, diagonal: Some(d) })
+        Ok(Self {
+            n,
+            m,
+            inv,
+            diagonal: Some(d),
+        })
     }
 
     /// A dense mass matrix from its row-major entries.

@@ -67,7 +67,13 @@ pub fn parameters(model: &str, given: &[(String, f64)]) -> Result<Vec<f64>> {
     for (name, v) in given {
         let i = m.parameters.iter().position(|p| p.0 == name).ok_or_else(|| {
             let known: Vec<&str> = m.parameters.iter().map(|p| p.0).collect();
-            invalid("parameter", format!("model '{model}' has no parameter '{name}' (it has: {})", known.join(", ")))
+            invalid(
+                "parameter",
+                format!(
+                    "model '{model}' has no parameter '{name}' (it has: {})",
+                    known.join(", ")
+                ),
+            )
         })?;
         if !v.is_finite() {
             return Err(invalid("parameter", format!("'{name}' = {v} is not finite")));
@@ -199,7 +205,10 @@ pub fn harmonic(m: f64, k: f64) -> Result<Mechanical<HarmonicPotential>> {
 /// # Errors
 /// m l² not positive.
 pub fn pendulum(m: f64, g: f64, l: f64) -> Result<Mechanical<PendulumPotential>> {
-    Mechanical::new(PendulumPotential { mgl: m * g * l }, MassMatrix::diagonal(vec![m * l * l])?)
+    Mechanical::new(
+        PendulumPotential { mgl: m * g * l },
+        MassMatrix::diagonal(vec![m * l * l])?,
+    )
 }
 
 /// Kepler's problem with gravitational parameter μ, unit mass.
@@ -229,7 +238,10 @@ mod tests {
             d.first_by_ad(&l, 0.0, q, &vec![0.0; n], false);
             ad.copy_from_slice(d.l_q());
             for i in 0..n {
-                assert!((hand[i] - ad[i]).abs() < 1e-14 * (1.0 + ad[i].abs()), "{hand:?} vs {ad:?}");
+                assert!(
+                    (hand[i] - ad[i]).abs() < 1e-14 * (1.0 + ad[i].abs()),
+                    "{hand:?} vs {ad:?}"
+                );
             }
         }
         check(HarmonicPotential { k: 2.5 }, &[0.7]);

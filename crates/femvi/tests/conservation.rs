@@ -11,7 +11,10 @@ fn kepler_angular_momentum_over_1e5_steps() {
         let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).unwrap();
         let steps = 100_000;
         let grid = TimeGrid::uniform(0.0, h, h * steps as f64).unwrap();
-        let start = Start::Momentum { q: vec![0.4, 0.0], p: vec![0.0, 2.0] };
+        let start = Start::Momentum {
+            q: vec![0.4, 0.0],
+            p: vec![0.0, 2.0],
+        };
         let mut it = Integrator::new(&lag, &el, grid, start, SolverOptions::default()).unwrap();
         let l0 = 0.4 * 2.0;
         let mut worst = 0.0f64;
@@ -35,7 +38,17 @@ fn pendulum_energy_bounded_without_drift_over_1e6_steps() {
     let el = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
     let (h, steps) = (0.05, 1_000_000usize);
     let grid = TimeGrid::uniform(0.0, h, h * steps as f64).unwrap();
-    let mut it = Integrator::new(&lag, &el, grid, Start::Momentum { q: vec![0.0], p: vec![1.5] }, SolverOptions::default()).unwrap();
+    let mut it = Integrator::new(
+        &lag,
+        &el,
+        grid,
+        Start::Momentum {
+            q: vec![0.0],
+            p: vec![1.5],
+        },
+        SolverOptions::default(),
+    )
+    .unwrap();
     let energy = |q: f64, p: f64| 0.5 * p * p - q.cos();
     let e0 = energy(0.0, 1.5);
     // Max |ΔE| per tenth of the run: no drift means the last tenth is no worse than the first.

@@ -4,7 +4,7 @@
 //! L² orders 2 and 3 of the interpolant for s = 1, 2 ((2.33), (2.56)).
 
 mod common;
-use common::{fit_order, Errs, kepler_exact, run_final, Lcg};
+use common::{fit_order, kepler_exact, run_final, Errs, Lcg};
 use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
 
 fn gauss(s: usize) -> Element {
@@ -27,7 +27,12 @@ fn grid(t_end: f64, n: usize, random: bool) -> (TimeGrid, f64) {
 }
 
 fn phase_error(q: &[f64], p: &[f64], qe: &[f64], pe: &[f64]) -> f64 {
-    q.iter().zip(qe).chain(p.iter().zip(pe)).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt()
+    q.iter()
+        .zip(qe)
+        .chain(p.iter().zip(pe))
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Kepler: (eccentricity, periods, step counts) per degree, chosen (by a scan) so that the
@@ -64,13 +69,25 @@ fn kepler_orders(random: bool) {
         let (mut hs, mut errs) = (vec![], vec![]);
         for n in counts {
             let (g, h) = grid(t_end, n, random);
-            let (_, q, p) = run_final(&lag, &el, g, Start::Momentum { q: q0.to_vec(), p: p0.to_vec() });
+            let (_, q, p) = run_final(
+                &lag,
+                &el,
+                g,
+                Start::Momentum {
+                    q: q0.to_vec(),
+                    p: p0.to_vec(),
+                },
+            );
             hs.push(h);
             errs.push(phase_error(&q, &p, &qe, &pe));
         }
         let order = fit_order(&hs, &errs);
         eprintln!("kepler s={s} random={random}: errors {} order {order:.3}", Errs(&errs));
-        assert!((order - 2.0 * s as f64).abs() < 0.35, "s={s}: order {order} (errors {})", Errs(&errs));
+        assert!(
+            (order - 2.0 * s as f64).abs() < 0.35,
+            "s={s}: order {order} (errors {})",
+            Errs(&errs)
+        );
     }
 }
 
@@ -106,10 +123,18 @@ fn pendulum_orders(random: bool) {
         let (q0, t_end, counts) = pendulum_config(s);
         // Random steps reach the asymptotic range later: 1.5 times as many steps.
         let counts: Vec<usize> = counts.iter().map(|n| if random { n * 3 / 2 } else { *n }).collect();
-        let start = Start::Velocity { q: vec![q0], v: vec![0.0] };
+        let start = Start::Velocity {
+            q: vec![q0],
+            v: vec![0.0],
+        };
         // Reference: degree 6 with steps 20 times smaller than the finest run.
         let finest = counts[counts.len() - 1] * 20;
-        let (_, qr, pr) = run_final(&lag, &gauss(6), TimeGrid::uniform(0.0, t_end / finest as f64, t_end).unwrap(), start.clone());
+        let (_, qr, pr) = run_final(
+            &lag,
+            &gauss(6),
+            TimeGrid::uniform(0.0, t_end / finest as f64, t_end).unwrap(),
+            start.clone(),
+        );
         let el = gauss(s);
         let (mut hs, mut errs) = (vec![], vec![]);
         for n in counts {
@@ -119,8 +144,15 @@ fn pendulum_orders(random: bool) {
             errs.push(phase_error(&q, &p, &qr, &pr));
         }
         let order = fit_order(&hs, &errs);
-        eprintln!("pendulum s={s} random={random}: errors {} order {order:.3}", Errs(&errs));
-        assert!((order - 2.0 * s as f64).abs() < 0.35, "s={s}: order {order} (errors {})", Errs(&errs));
+        eprintln!(
+            "pendulum s={s} random={random}: errors {} order {order:.3}",
+            Errs(&errs)
+        );
+        assert!(
+            (order - 2.0 * s as f64).abs() < 0.35,
+            "s={s}: order {order} (errors {})",
+            Errs(&errs)
+        );
     }
 }
 
@@ -139,7 +171,10 @@ fn l2_error(el: &Element, n: usize, random: bool) -> (f64, f64) {
     let lag = models::harmonic(1.0, 1.0).unwrap();
     let t_end = 4.0;
     let (g, h) = grid(t_end, n, random);
-    let start = Start::Velocity { q: vec![1.0], v: vec![0.0] };
+    let start = Start::Velocity {
+        q: vec![1.0],
+        v: vec![0.0],
+    };
     let mut it = Integrator::new(&lag, el, g, start, SolverOptions::default()).unwrap();
     let fine = femvi::fem::QuadratureRule::new(QuadratureKind::GaussLegendre(10)).unwrap();
     let mut vals = vec![0.0; el.nodes()];
@@ -181,7 +216,15 @@ fn midpoint_has_order_2_on_kepler() {
     let (mut hs, mut errs) = (vec![], vec![]);
     for n in [100, 200, 400, 800] {
         let (g, h) = grid(2.0, n, false);
-        let (_, q, _) = run_final(&lag, &Element::midpoint(), g, Start::Momentum { q: q0.to_vec(), p: p0.to_vec() });
+        let (_, q, _) = run_final(
+            &lag,
+            &Element::midpoint(),
+            g,
+            Start::Momentum {
+                q: q0.to_vec(),
+                p: p0.to_vec(),
+            },
+        );
         hs.push(h);
         errs.push(((q[0] - qe[0]).powi(2) + (q[1] - qe[1]).powi(2)).sqrt());
     }

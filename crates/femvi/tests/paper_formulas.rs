@@ -5,7 +5,9 @@
 
 mod common;
 use common::Lcg;
-use femvi::{Element, Integrator, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid};
+use femvi::{
+    Element, Integrator, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid,
+};
 
 struct Quartic;
 impl Potential for Quartic {
@@ -30,8 +32,14 @@ fn run(el: &Element, steps: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let lag = Mechanical::unit_mass(Quartic);
     let end: f64 = steps.iter().sum();
     let grid = TimeGrid::steps(0.0, steps.to_vec(), end).unwrap();
-    let start = Start::Positions { q0: vec![0.8], q1: vec![0.8 + 0.3 * steps[0]] };
-    let opts = SolverOptions { tolerance: 1e-15, ..Default::default() };
+    let start = Start::Positions {
+        q0: vec![0.8],
+        q1: vec![0.8 + 0.3 * steps[0]],
+    };
+    let opts = SolverOptions {
+        tolerance: 1e-15,
+        ..Default::default()
+    };
     let mut it = Integrator::new(&lag, el, grid, start, opts).unwrap();
     let (mut q, mut mid) = (vec![it.node().q[0]], vec![]);
     while it.step().unwrap() {
@@ -72,7 +80,8 @@ fn midpoint_lagrangian_is_2_19_and_gives_2_20_with_unequal_steps() {
 #[test]
 fn linear_element_with_exact_integral_gives_2_30() {
     // F(a, b) = ∫₀¹ V((1−s)a + sb) ds = (a⁴+a³b+a²b²+ab³+b⁴)/20 + (a²+ab+b²)/6.
-    let d1f = |a: f64, b: f64| (4.0 * a.powi(3) + 3.0 * a * a * b + 2.0 * a * b * b + b.powi(3)) / 20.0 + (2.0 * a + b) / 6.0;
+    let d1f =
+        |a: f64, b: f64| (4.0 * a.powi(3) + 3.0 * a * a * b + 2.0 * a * b * b + b.powi(3)) / 20.0 + (2.0 * a + b) / 6.0;
     let d2f = |a: f64, b: f64| d1f(b, a);
     let el = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(3)).unwrap();
     let steps = random_steps(40, 0.1);
@@ -127,7 +136,10 @@ fn quadratic_element_gives_corrected_2_48_to_2_50() {
     let a4 = -8.0 / (3.0 * hm);
     let d1 = dg(q[k], mid[k], q[k + 1])[0];
     let d2 = dg(q[k - 1], mid[k - 1], q[k])[2];
-    let misprint = q[k - 1] / (3.0 * hm) + 7.0 / 3.0 * (1.0 / hm + 1.0 / hk) * q[k] + q[k + 1] / (3.0 * hk) + a4 * mid[k - 1]
+    let misprint = q[k - 1] / (3.0 * hm)
+        + 7.0 / 3.0 * (1.0 / hm + 1.0 / hk) * q[k]
+        + q[k + 1] / (3.0 * hk)
+        + a4 * mid[k - 1]
         + a4 * mid[k]
         - d1 * hk
         - d2 * hm;
@@ -141,9 +153,19 @@ fn linear_element_with_trapezoid_rule_is_stormer_verlet() {
     let h = 0.01;
     let n = 2000;
     let grid = TimeGrid::uniform(0.0, h, n as f64 * h).unwrap();
-    let start = Start::Momentum { q: vec![0.4, 0.0], p: vec![0.0, 2.0] };
-    for method in [femvi::Method::Explicit, femvi::Method::FixedPoint, femvi::Method::Newton] {
-        let opts = SolverOptions { method, ..Default::default() };
+    let start = Start::Momentum {
+        q: vec![0.4, 0.0],
+        p: vec![0.0, 2.0],
+    };
+    for method in [
+        femvi::Method::Explicit,
+        femvi::Method::FixedPoint,
+        femvi::Method::Newton,
+    ] {
+        let opts = SolverOptions {
+            method,
+            ..Default::default()
+        };
         let mut it = Integrator::new(&lag, &el, grid.clone(), start.clone(), opts).unwrap();
         // Hand-written velocity Verlet.
         let (mut q, mut p) = ([0.4f64, 0.0], [0.0f64, 2.0]);

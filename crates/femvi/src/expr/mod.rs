@@ -111,8 +111,14 @@ mod tests {
             ("sin(pi/2) + cos(0) + tan(0)", 2.0),
             ("exp(0) + ln(1) + log(1) + sqrt(4) + abs(-3)", 6.0),
             ("sinh(0) + cosh(0) + tanh(0)", 1.0),
-            ("asin(1) + acos(1) + atan(1)", std::f64::consts::FRAC_PI_2 + std::f64::consts::FRAC_PI_4),
-            ("atan2(1, 1) + pow(2, 10) + min(1, 2) + max(1, 2)", std::f64::consts::FRAC_PI_4 + 1024.0 + 3.0),
+            (
+                "asin(1) + acos(1) + atan(1)",
+                std::f64::consts::FRAC_PI_2 + std::f64::consts::FRAC_PI_4,
+            ),
+            (
+                "atan2(1, 1) + pow(2, 10) + min(1, 2) + max(1, 2)",
+                std::f64::consts::FRAC_PI_4 + 1024.0 + 3.0,
+            ),
             ("x*x_dot + t", 0.5 * 3.0 + 7.0),
         ];
         for (src, want) in cases {
@@ -137,7 +143,10 @@ mod tests {
         assert!(e.message.contains("unexpected character"), "{}", e.message);
         assert!(ExprLagrangian::new("", &c, &[]).is_err());
         assert!(ExprLagrangian::new("x 2", &c, &[]).is_err());
-        assert!(ExprLagrangian::new("foo(x)", &c, &[]).unwrap_err().message.contains("unknown function"));
+        assert!(ExprLagrangian::new("foo(x)", &c, &[])
+            .unwrap_err()
+            .message
+            .contains("unknown function"));
         assert!(ExprLagrangian::new("x", &c, &[("x".into(), 1.0)]).is_err());
     }
 

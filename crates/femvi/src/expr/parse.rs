@@ -247,7 +247,11 @@ impl<'s> Parser<'s> {
             }
             t => {
                 self.pos = self.pos.saturating_sub(usize::from(t != Tok::End));
-                Err(ExprError::at(self.src, at, format!("expected a number, a name or '(', found {}", describe(&t))))
+                Err(ExprError::at(
+                    self.src,
+                    at,
+                    format!("expected a number, a name or '(', found {}", describe(&t)),
+                ))
             }
         }
     }

@@ -60,7 +60,12 @@ const FUNCS1: &[(&str, F1)] = &[
     ("acos", F1::Acos),
     ("atan", F1::Atan),
 ];
-const FUNCS2: &[(&str, F2)] = &[("atan2", F2::Atan2), ("pow", F2::Pow), ("min", F2::Min), ("max", F2::Max)];
+const FUNCS2: &[(&str, F2)] = &[
+    ("atan2", F2::Atan2),
+    ("pow", F2::Pow),
+    ("min", F2::Min),
+    ("max", F2::Max),
+];
 
 /// A compiled expression: a postfix program over numbered variables.
 #[derive(Debug, Clone, PartialEq)]
@@ -92,7 +97,11 @@ impl Program {
     pub fn compile(source: &str, vars: &[String], params: &[(String, f64)]) -> Result<Self, ExprError> {
         for (name, _) in params {
             if vars.contains(name) {
-                return Err(ExprError::at(source, 0, format!("parameter '{name}' has the name of a variable")));
+                return Err(ExprError::at(
+                    source,
+                    0,
+                    format!("parameter '{name}' has the name of a variable"),
+                ));
             }
         }
         let ast = Parser::parse(source)?;
@@ -131,7 +140,11 @@ impl Program {
                 }
                 if *op == '^' {
                     if let Node::Const(e) = b {
-                        let op = if e.fract() == 0.0 && e.abs() <= 64.0 { Op::PowI(e as i32) } else { Op::PowF(e) };
+                        let op = if e.fract() == 0.0 && e.abs() <= 64.0 {
+                            Op::PowI(e as i32)
+                        } else {
+                            Op::PowF(e)
+                        };
                         return Ok(Self::combine(vec![a], op));
                     }
                     return Ok(Self::combine(vec![a, b], Op::Call2(F2::Pow)));
@@ -169,7 +182,11 @@ impl Program {
                     if *f == F2::Pow {
                         if let Node::Const(e) = lowered[1] {
                             let base = lowered.into_iter().next().unwrap_or(Node::Const(0.0));
-                            let op = if e.fract() == 0.0 && e.abs() <= 64.0 { Op::PowI(e as i32) } else { Op::PowF(e) };
+                            let op = if e.fract() == 0.0 && e.abs() <= 64.0 {
+                                Op::PowI(e as i32)
+                            } else {
+                                Op::PowF(e)
+                            };
                             return Ok(Self::combine(vec![base], op));
                         }
                     }

@@ -133,7 +133,11 @@ mod tests {
         for tau in [0.0, 0.1, 0.37, 0.5, 0.9, 1.0] {
             b.values_in_place(tau, &mut v);
             b.derivatives_in_place(tau, &mut d);
-            let exact = [(2.0 * tau - 1.0) * (tau - 1.0), 4.0 * tau * (1.0 - tau), tau * (2.0 * tau - 1.0)];
+            let exact = [
+                (2.0 * tau - 1.0) * (tau - 1.0),
+                4.0 * tau * (1.0 - tau),
+                tau * (2.0 * tau - 1.0),
+            ];
             let dexact = [4.0 * tau - 3.0, 4.0 - 8.0 * tau, 4.0 * tau - 1.0];
             for j in 0..3 {
                 assert!((v[j] - exact[j]).abs() < 1e-15);

@@ -39,7 +39,10 @@ impl Dd {
         Dd::quick(s.hi, s.lo + t.lo)
     }
     fn neg(self) -> Dd {
-        Dd { hi: -self.hi, lo: -self.lo }
+        Dd {
+            hi: -self.hi,
+            lo: -self.lo,
+        }
     }
     fn sub(self, o: Dd) -> Dd {
         self.add(o.neg())
@@ -157,7 +160,6 @@ fn legendre(n: usize, x: Dd) -> (Dd, Dd) {
     }
     (p1, p0)
 }
-
 
 /// Maps a node x ∈ [-1, 1] and weight w of a rule for [-1, 1] to [0, 1].
 fn to_unit(x: Dd, w: Dd) -> (f64, f64) {

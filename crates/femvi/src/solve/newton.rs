@@ -53,7 +53,8 @@ pub struct NewtonFailure {
 }
 
 fn inf_norm(x: &[f64]) -> f64 {
-    x.iter().fold(0.0f64, |m, v| if v.is_nan() { f64::NAN } else { m.max(v.abs()) })
+    x.iter()
+        .fold(0.0f64, |m, v| if v.is_nan() { f64::NAN } else { m.max(v.abs()) })
 }
 
 /// Solves r(x) = 0 from the guess in `x`. `eval(x, r, jac)` writes the residual into `r` and,
@@ -76,9 +77,16 @@ where
     S: Fn(&[f64]) -> f64,
 {
     let dim = x.len();
-    let fail = |failure, residual, iterations| NewtonFailure { failure, residual, iterations };
+    let fail = |failure, residual, iterations| NewtonFailure {
+        failure,
+        residual,
+        iterations,
+    };
     if dim == 0 {
-        return Ok(NewtonReport { iterations: 0, last_increment: 0.0 });
+        return Ok(NewtonReport {
+            iterations: 0,
+            last_increment: 0.0,
+        });
     }
     eval(x, &mut work.r, Some(&mut work.jac));
     for it in 1..=max_iterations {
@@ -87,7 +95,10 @@ where
             return Err(fail(StepFailure::NonFinite, rnorm, it - 1));
         }
         if rnorm == 0.0 {
-            return Ok(NewtonReport { iterations: it - 1, last_increment: 0.0 });
+            return Ok(NewtonReport {
+                iterations: it - 1,
+                last_increment: 0.0,
+            });
         }
         for i in 0..dim {
             work.rhs[i] = -work.r[i];
@@ -131,7 +142,10 @@ where
         x.copy_from_slice(&work.trial);
         if converged_step || lambda * dnorm <= tol * sc {
             eval(x, &mut work.r, None);
-            return Ok(NewtonReport { iterations: it, last_increment: lambda * dnorm });
+            return Ok(NewtonReport {
+                iterations: it,
+                last_increment: lambda * dnorm,
+            });
         }
         eval(x, &mut work.r, Some(&mut work.jac));
     }

@@ -39,7 +39,10 @@ impl TimeGrid {
             return Err(invalid("time span", "start and end must be finite"));
         }
         if end <= t0 {
-            return Err(invalid("time span", format!("end = {end} is not after the start t = {t0}")));
+            return Err(invalid(
+                "time span",
+                format!("end = {end} is not after the start t = {t0}"),
+            ));
         }
         Ok(Self { t0, end, steps })
     }
@@ -71,7 +74,11 @@ impl TimeGrid {
         if remaining <= SNAP * h {
             return None;
         }
-        let t_next = if self.is_uniform() { self.t0 + (k + 1) as f64 * h } else { t + h };
+        let t_next = if self.is_uniform() {
+            self.t0 + (k + 1) as f64 * h
+        } else {
+            t + h
+        };
         if t_next >= self.end - SNAP * h {
             return Some((self.end - t, self.end));
         }

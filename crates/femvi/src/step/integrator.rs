@@ -54,7 +54,10 @@ impl SolverOptions {
     /// A tolerance that is not positive and finite, or a zero iteration cap.
     pub fn validate(&self) -> Result<()> {
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
-            return Err(invalid("solver tolerance", format!("{} is not a positive finite number", self.tolerance)));
+            return Err(invalid(
+                "solver tolerance",
+                format!("{} is not a positive finite number", self.tolerance),
+            ));
         }
         if self.max_iterations == 0 {
             return Err(invalid("solver max_iterations", "must be at least 1"));
@@ -190,7 +193,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             Method::FixedPoint if mechanical => Resolved::FixedPoint,
             Method::Explicit if mechanical && explicit_fits => Resolved::Explicit,
             Method::FixedPoint => {
-                return Err(invalid("solver method", "fixed-point iteration needs a mechanical Lagrangian (L = 1/2 v'Mv - V)"))
+                return Err(invalid(
+                    "solver method",
+                    "fixed-point iteration needs a mechanical Lagrangian (L = 1/2 v'Mv - V)",
+                ))
             }
             Method::Explicit => {
                 return Err(invalid(
@@ -199,7 +205,11 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 ))
             }
         };
-        let fp = if method == Resolved::FixedPoint { Some(FixedPointTables::new(element)?) } else { None };
+        let fp = if method == Resolved::FixedPoint {
+            Some(FixedPointTables::new(element)?)
+        } else {
+            None
+        };
         let t0 = grid.t0();
         let mut me = Self {
             lag,
@@ -287,7 +297,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 check_len("initial q1", n, q1.len())?;
                 finite("initial q", &q0)?;
                 finite("initial q1", &q1)?;
-                let (h, t1) = self.grid.next(0, t0).ok_or_else(|| invalid("time span", "no first step"))?;
+                let (h, t1) = self
+                    .grid
+                    .next(0, t0)
+                    .ok_or_else(|| invalid("time span", "no first step"))?;
                 let v: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| (b - a) / h).collect();
                 check_regular(self.lag, t0, &q0, &v)?;
                 let (p0, p1) = self.solve_first_element(h, &q0, &q1)?;
@@ -319,26 +332,34 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let (incr, ework, grad, hess) = (&mut self.incr, &mut self.ework, &mut self.grad, &mut self.hess);
         let scale = q0.iter().chain(q1).fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
         let w = (s + 1) * n;
-        newton_dense(&mut x, tol, self.opts.max_iterations, |_| scale, &mut work, |x, r, jac| {
-            incr[n..s * n].copy_from_slice(x);
-            match jac {
-                Some(jac) => {
-                    element.hessian_in_place(lag, t0, h, q0, incr, ework, grad, hess);
-                    for a in 0..dim {
-                        for b in 0..dim {
-                            jac[a * dim + b] = hess[(n + a) * w + n + b];
+        newton_dense(
+            &mut x,
+            tol,
+            self.opts.max_iterations,
+            |_| scale,
+            &mut work,
+            |x, r, jac| {
+                incr[n..s * n].copy_from_slice(x);
+                match jac {
+                    Some(jac) => {
+                        element.hessian_in_place(lag, t0, h, q0, incr, ework, grad, hess);
+                        for a in 0..dim {
+                            for b in 0..dim {
+                                jac[a * dim + b] = hess[(n + a) * w + n + b];
+                            }
                         }
                     }
+                    None => {
+                        element.gradient_in_place(lag, t0, h, q0, incr, false, ework, grad);
+                    }
                 }
-                None => {
-                    element.gradient_in_place(lag, t0, h, q0, incr, false, ework, grad);
-                }
-            }
-            r.copy_from_slice(&grad[n..s * n]);
-        })
+                r.copy_from_slice(&grad[n..s * n]);
+            },
+        )
         .map_err(|f| self.step_error(f))?;
         self.incr[n..s * n].copy_from_slice(&x);
-        self.element.gradient_in_place(self.lag, t0, h, q0, &self.incr, false, &mut self.ework, &mut self.grad);
+        self.element
+            .gradient_in_place(self.lag, t0, h, q0, &self.incr, false, &mut self.ework, &mut self.grad);
         let p0: Vec<f64> = self.grad[..n].iter().map(|g| -g).collect();
         let p1 = self.grad[s * n..].to_vec();
         self.remember(t0, h, q0);
@@ -475,7 +496,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         if rho != self.extrap_rho {
             self.extrap_rho = rho;
             for m in 1..=s {
-                self.element.basis.values_in_place(1.0 + nodes[m] * rho, &mut self.basis_buf);
+                self.element
+                    .basis
+                    .values_in_place(1.0 + nodes[m] * rho, &mut self.basis_buf);
                 self.extrap[(m - 1) * (s + 1)..m * (s + 1)].copy_from_slice(&self.basis_buf);
             }
         }
@@ -495,7 +518,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     fn step_explicit(&mut self, h: f64) {
         // Störmer–Verlet: degree 1, trapezoid. The force at the end is kept for the next step.
         let n = self.n;
-        let Some(mass) = self.lag.mass_matrix() else { unreachable!("checked in new") };
+        let Some(mass) = self.lag.mass_matrix() else {
+            unreachable!("checked in new")
+        };
         if !self.force0_valid {
             self.lag.force(self.t, &self.q, &mut self.force[..n]);
         }
@@ -520,8 +545,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let n = self.n;
         let s = self.element.degree();
         let r = self.element.points();
-        let Some(mass) = self.lag.mass_matrix() else { unreachable!("checked in new") };
-        let Some(tab) = self.fp.as_ref() else { unreachable!("built in new") };
+        let Some(mass) = self.lag.mass_matrix() else {
+            unreachable!("checked in new")
+        };
+        let Some(tab) = self.fp.as_ref() else {
+            unreachable!("built in new")
+        };
         let identity = mass.is_identity();
         mass.solve(&self.p, &mut self.u);
         // Stage values from the node guess.
@@ -618,7 +647,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         }
         self.dq.copy_from_slice(&self.incr[s * n..]);
         for c in 0..n {
-            self.dp[c] = h * (0..r).map(|i| self.element.rule.weights[i] * self.force[i * n + c]).sum::<f64>();
+            self.dp[c] = h
+                * (0..r)
+                    .map(|i| self.element.rule.weights[i] * self.force[i * n + c])
+                    .sum::<f64>();
         }
         Ok(())
     }
@@ -668,9 +700,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.incr[n..].copy_from_slice(&self.x);
         self.dq.copy_from_slice(&self.x[(s - 1) * n..]);
         for c in 0..n {
-            self.dp[c] = h * (0..element.points())
-                .map(|i| element.rule.weights[i] * self.ework.pts[i].l_q()[c])
-                .sum::<f64>();
+            self.dp[c] = h
+                * (0..element.points())
+                    .map(|i| element.rule.weights[i] * self.ework.pts[i].l_q()[c])
+                    .sum::<f64>();
         }
         Ok(())
     }

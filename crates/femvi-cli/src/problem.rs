@@ -1,0 +1,475 @@
+//! Problem files (TOML, version 1): parsing with unknown keys rejected, and conversion into
+//! library types. Errors carry the file name, line and column of the offending text.
+
+use femvi::expr::ExprLagrangian;
+use femvi::models;
+use femvi::{Element, Method, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A problem file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemFile {
+    pub name: Option<String>,
+    pub system: SystemTable,
+    pub initial: InitialTable,
+    #[serde(default)]
+    pub scheme: SchemeTable,
+    pub time: TimeTable,
+    #[serde(default)]
+    pub solver: SolverTable,
+    #[serde(default)]
+    pub output: OutputTable,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SystemTable {
+    pub coordinates: Option<Vec<String>>,
+    #[serde(default)]
+    pub parameters: BTreeMap<String, f64>,
+    pub lagrangian: Option<toml::Spanned<String>>,
+    pub model: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialTable {
+    pub t: Option<f64>,
+    pub q: Vec<f64>,
+    pub v: Option<Vec<f64>>,
+    pub p: Option<Vec<f64>>,
+    pub q1: Option<Vec<f64>>,
+}
+
+#[derive(Debug, Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    #[default]
+    Galerkin,
+    Midpoint,
+}
+
+#[derive(Debug, Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Nodes {
+    #[default]
+    Equispaced,
+    Lobatto,
+}
+
+#[derive(Debug, Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Quadrature {
+    Midpoint,
+    Trapezoid,
+    Simpson,
+    #[default]
+    GaussLegendre,
+    GaussLobatto,
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SchemeTable {
+    #[serde(default)]
+    pub kind: Kind,
+    pub degree: Option<usize>,
+    #[serde(default)]
+    pub nodes: Nodes,
+    #[serde(default)]
+    pub quadrature: Quadrature,
+    pub points: Option<usize>,
+}
+
+#[derive(Debug, Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    #[default]
+    Fixed,
+    Energy,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeTable {
+    #[serde(default)]
+    pub mode: Mode,
+    pub step: Option<f64>,
+    pub steps: Option<Vec<f64>>,
+    pub end: f64,
+}
+
+#[derive(Debug, Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolverMethod {
+    #[default]
+    Auto,
+    Newton,
+    FixedPoint,
+    Explicit,
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SolverTable {
+    pub tolerance: Option<f64>,
+    pub max_iterations: Option<usize>,
+    #[serde(default)]
+    pub method: SolverMethod,
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct OutputTable {
+    pub directory: Option<String>,
+    pub every: Option<usize>,
+}
+
+/// A bad problem file: the message is complete (file, position, excerpt).
+#[derive(Debug)]
+pub struct InputError(pub String);
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+fn bad(msg: impl Into<String>) -> InputError {
+    InputError(msg.into())
+}
+
+/// Line and column (1-based) of a byte offset, and the line's text.
+fn locate(text: &str, offset: usize) -> (usize, usize, String) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let start = before.rfind('\n').map_or(0, |i| i + 1);
+    let col = text[start..offset].chars().count() + 1;
+    let src = text[start..].lines().next().unwrap_or("").to_string();
+    (line, col, src)
+}
+
+fn excerpt(file: &Path, text: &str, offset: usize, msg: &str) -> String {
+    let (line, col, src) = locate(text, offset);
+    format!(
+        "{}:{line}:{col}: {msg}\n  {src}\n  {}^",
+        file.display(),
+        " ".repeat(col - 1)
+    )
+}
+
+/// The system a problem describes: built-in or from an expression.
+pub enum System {
+    Expr(ExprLagrangian),
+    Harmonic(femvi::Mechanical<models::HarmonicPotential>),
+    Pendulum(femvi::Mechanical<models::PendulumPotential>),
+    Kepler(femvi::Mechanical<models::KeplerPotential>),
+    HenonHeiles(femvi::Mechanical<models::HenonHeilesPotential>),
+    DoublePendulum(models::DoublePendulum),
+}
+
+/// Everything a run needs, checked.
+pub struct Problem {
+    pub name: String,
+    pub coordinates: Vec<String>,
+    pub system: System,
+    pub element: Element,
+    pub scheme_label: String,
+    pub grid: TimeGrid,
+    pub start: Start,
+    pub options: SolverOptions,
+    pub directory: PathBuf,
+    pub every: usize,
+}
+
+/// Reads and checks a problem file.
+pub fn load(path: &Path) -> Result<Problem, InputError> {
+    let bytes =
+        std::fs::read(path).map_err(|e| bad(format!("{}: cannot read the problem file: {e}", path.display())))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        bad(format!(
+            "{}: the problem file is not UTF-8 text (byte {})",
+            path.display(),
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
+    if text.trim().is_empty() {
+        return Err(bad(format!(
+            "{}: the problem file is empty (it needs [system], [initial] and [time])",
+            path.display()
+        )));
+    }
+    let file: ProblemFile = toml::from_str(&text).map_err(|e| {
+        let msg = e.message().to_string();
+        match e.span() {
+            Some(span) => bad(excerpt(path, &text, span.start, &msg)),
+            None => bad(format!("{}: {msg}", path.display())),
+        }
+    })?;
+    build(path, &text, file)
+}
+
+fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputError> {
+    let ctx = |msg: String| bad(format!("{}: {msg}", path.display()));
+    let name = file.name.clone().unwrap_or_else(|| {
+        path.file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "run".into())
+    });
+    // System.
+    let sys = &file.system;
+    let params: Vec<(String, f64)> = sys.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
+    let (system, coordinates) = match (&sys.lagrangian, &sys.model) {
+        (Some(_), Some(_)) => return Err(ctx("[system] has both `lagrangian` and `model`; give one".into())),
+        (None, None) => {
+            return Err(ctx(
+                "[system] needs `lagrangian` (an expression) or `model` (a built-in system)".into(),
+            ))
+        }
+        (None, Some(model)) => {
+            let info = models::info(model).ok_or_else(|| {
+                let names: Vec<&str> = models::MODELS.iter().map(|m| m.name).collect();
+                let hint = did_you_mean(model, &names);
+                ctx(format!(
+                    "unknown model '{model}'{hint}; built-in models: {}",
+                    names.join(", ")
+                ))
+            })?;
+            let coords: Vec<String> = info.coordinates.iter().map(|s| s.to_string()).collect();
+            if let Some(given) = &sys.coordinates {
+                if *given != coords {
+                    return Err(ctx(format!(
+                        "model '{model}' has coordinates [{}]; [system] coordinates = [{}] disagree (leave them out)",
+                        coords.join(", "),
+                        given.join(", ")
+                    )));
+                }
+            }
+            let p = models::parameters(model, &params).map_err(|e| ctx(e.to_string()))?;
+            let system = match model.as_str() {
+                "harmonic" => {
+                    System::Harmonic(models::harmonic(p[0], p[1]).map_err(|e| ctx(format!("model harmonic: {e}")))?)
+                }
+                "pendulum" => System::Pendulum(
+                    models::pendulum(p[0], p[1], p[2]).map_err(|e| ctx(format!("model pendulum: {e}")))?,
+                ),
+                "kepler" => System::Kepler(models::kepler(p[0])),
+                "henon-heiles" => System::HenonHeiles(models::henon_heiles()),
+                _ => System::DoublePendulum(models::DoublePendulum {
+                    m1: p[0],
+                    m2: p[1],
+                    l1: p[2],
+                    l2: p[3],
+                    g: p[4],
+                }),
+            };
+            (system, coords)
+        }
+        (Some(expr), None) => {
+            let coords = sys
+                .coordinates
+                .clone()
+                .ok_or_else(|| ctx("[system] with a `lagrangian` needs `coordinates` (a list of names)".into()))?;
+            if coords.is_empty() {
+                return Err(ctx("[system] coordinates is empty".into()));
+            }
+            for c in &coords {
+                let ok = c.chars().next().is_some_and(|ch| ch.is_ascii_alphabetic() || ch == '_')
+                    && c.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_');
+                if !ok || c == "t" || c == "pi" {
+                    return Err(ctx(format!(
+                        "coordinate name '{c}' is not allowed (letters, digits, _; not t or pi)"
+                    )));
+                }
+            }
+            if let Some(d) = coords.iter().enumerate().find(|(i, c)| coords[..*i].contains(c)) {
+                return Err(ctx(format!("coordinate '{}' is named twice", d.1)));
+            }
+            if let Some((k, v)) = params.iter().find(|(_, v)| !v.is_finite()) {
+                return Err(ctx(format!("parameter '{k}' = {v} is not finite")));
+            }
+            let lag =
+                ExprLagrangian::new(expr.get_ref(), &coords, &params).map_err(|e| expr_error(path, text, expr, &e))?;
+            (System::Expr(lag), coords)
+        }
+    };
+    let n = coordinates.len();
+    // Scheme.
+    let sc = &file.scheme;
+    let (element, scheme_label) = match sc.kind {
+        Kind::Midpoint => {
+            if sc.degree.is_some_and(|d| d != 1) || sc.points.is_some() {
+                return Err(ctx("[scheme] kind = \"midpoint\" takes no degree or points".into()));
+            }
+            (Element::midpoint(), "midpoint (2.19)".to_string())
+        }
+        Kind::Galerkin => {
+            let degree = sc.degree.unwrap_or(2);
+            if degree == 0 || degree > 64 {
+                return Err(ctx(format!("[scheme] degree = {degree} is out of range (1 to 64)")));
+            }
+            let rule = match sc.quadrature {
+                Quadrature::Midpoint => QuadratureKind::Midpoint,
+                Quadrature::Trapezoid => QuadratureKind::Trapezoid,
+                Quadrature::Simpson => QuadratureKind::Simpson,
+                Quadrature::GaussLegendre => QuadratureKind::GaussLegendre(sc.points.unwrap_or(degree)),
+                Quadrature::GaussLobatto => QuadratureKind::GaussLobatto(sc.points.unwrap_or(degree + 1)),
+            };
+            if matches!(
+                sc.quadrature,
+                Quadrature::Midpoint | Quadrature::Trapezoid | Quadrature::Simpson
+            ) && sc.points.is_some()
+            {
+                return Err(ctx(format!(
+                    "[scheme] points does not apply to the {:?} rule",
+                    sc.quadrature
+                )));
+            }
+            if sc.points.is_some_and(|p| p > 1000) {
+                return Err(ctx("[scheme] points must be at most 1000".into()));
+            }
+            let family = match sc.nodes {
+                Nodes::Equispaced => NodeFamily::Equispaced,
+                Nodes::Lobatto => NodeFamily::Lobatto,
+            };
+            let el = Element::galerkin(degree, family, rule).map_err(|e| ctx(format!("[scheme]: {e}")))?;
+            el.check_nondegenerate().map_err(|e| ctx(format!("[scheme]: {e}")))?;
+            (el, format!("galerkin degree {degree}, {:?} nodes, {rule:?}", sc.nodes))
+        }
+    };
+    // Time.
+    let t0 = file.initial.t.unwrap_or(0.0);
+    let tt = &file.time;
+    if tt.mode == Mode::Energy {
+        return Err(ctx("[time] mode = \"energy\" (time steps as variables, paper §3) is not available yet in this version; use mode = \"fixed\"".into()));
+    }
+    let grid = match (&tt.step, &tt.steps) {
+        (Some(h), None) => TimeGrid::uniform(t0, *h, tt.end),
+        (None, Some(list)) => TimeGrid::steps(t0, list.clone(), tt.end),
+        _ => return Err(ctx("[time] needs exactly one of `step` or `steps`".into())),
+    }
+    .map_err(|e| ctx(format!("[time]: {e}")))?;
+    // Initial values.
+    let init = &file.initial;
+    let check = |what: &str, v: &Vec<f64>| -> Result<(), InputError> {
+        if v.len() != n {
+            return Err(ctx(format!(
+                "[initial] {what} has {} entries, but the system has {n} coordinates ({})",
+                v.len(),
+                coordinates.join(", ")
+            )));
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(ctx(format!("[initial] {what} has a non-finite entry")));
+        }
+        Ok(())
+    };
+    check("q", &init.q)?;
+    let start = match (&init.v, &init.p, &init.q1) {
+        (Some(v), None, None) => {
+            check("v", v)?;
+            Start::Velocity {
+                q: init.q.clone(),
+                v: v.clone(),
+            }
+        }
+        (None, Some(p), None) => {
+            check("p", p)?;
+            Start::Momentum {
+                q: init.q.clone(),
+                p: p.clone(),
+            }
+        }
+        (None, None, Some(q1)) => {
+            check("q1", q1)?;
+            Start::Positions {
+                q0: init.q.clone(),
+                q1: q1.clone(),
+            }
+        }
+        _ => return Err(ctx("[initial] needs exactly one of `v`, `p` or `q1`".into())),
+    };
+    // Solver and output.
+    let method = match file.solver.method {
+        SolverMethod::Auto => Method::Auto,
+        SolverMethod::Newton => Method::Newton,
+        SolverMethod::FixedPoint => Method::FixedPoint,
+        SolverMethod::Explicit => Method::Explicit,
+    };
+    let defaults = SolverOptions::default();
+    let options = SolverOptions {
+        tolerance: file.solver.tolerance.unwrap_or(defaults.tolerance),
+        max_iterations: file.solver.max_iterations.unwrap_or(defaults.max_iterations),
+        method,
+    };
+    options.validate().map_err(|e| ctx(format!("[solver]: {e}")))?;
+    let every = file.output.every.unwrap_or(1);
+    if every == 0 {
+        return Err(ctx("[output] every must be at least 1".into()));
+    }
+    let directory = PathBuf::from(file.output.directory.clone().unwrap_or_else(|| format!("out/{name}")));
+    Ok(Problem {
+        name,
+        coordinates,
+        system,
+        element,
+        scheme_label,
+        grid,
+        start,
+        options,
+        directory,
+        every,
+    })
+}
+
+/// Maps an expression error to a position in the file where the string has no escapes.
+fn expr_error(path: &Path, text: &str, expr: &toml::Spanned<String>, e: &femvi::expr::ExprError) -> InputError {
+    let span = expr.span();
+    let raw = text.get(span.clone()).unwrap_or("");
+    let (mut open, close) = if raw.starts_with("\"\"\"") || raw.starts_with("'''") {
+        (3, 3)
+    } else {
+        (1, 1)
+    };
+    if open == 3 && raw[3..].starts_with('\n') {
+        open += 1;
+    }
+    let inner = raw.get(open..raw.len().saturating_sub(close)).unwrap_or("");
+    if inner == expr.get_ref() {
+        bad(excerpt(
+            path,
+            text,
+            span.start + open + e.offset,
+            &format!("in the lagrangian: {}", e.message),
+        ))
+    } else {
+        bad(format!("{}: in the lagrangian: {}", path.display(), e.render()))
+    }
+}
+
+/// " (did you mean 'x'?)" for the closest name within edit distance 2, else "".
+pub fn did_you_mean(word: &str, names: &[&str]) -> String {
+    let best = names.iter().map(|n| (strsim(word, n), n)).min_by_key(|(d, _)| *d);
+    match best {
+        Some((d, n)) if d <= 2 => format!(" (did you mean '{n}'?)"),
+        _ => String::new(),
+    }
+}
+
+/// Levenshtein distance (small strings).
+fn strsim(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            cur[j + 1] = (prev[j] + usize::from(ca != *cb)).min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}

@@ -1,0 +1,176 @@
+//! `femvi run`: integrates a problem, streaming trajectory.csv as it goes and writing
+//! summary.json at the end (also after a failure, with the error).
+
+use crate::problem::{Problem, System};
+use femvi::lagrangian::{hamiltonian, PointDerivatives};
+use femvi::{Integrator, Lagrangian};
+use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// What summary.json holds.
+#[derive(Debug, Serialize)]
+pub struct Summary {
+    pub name: String,
+    pub scheme: String,
+    pub steps: usize,
+    pub t_end: f64,
+    pub final_t: f64,
+    pub final_q: Vec<f64>,
+    pub final_p: Vec<f64>,
+    pub max_rel_energy_error: f64,
+    pub mean_solver_iterations: f64,
+    pub wall_seconds: f64,
+    pub error: Option<String>,
+}
+
+/// How a run ended.
+pub enum Outcome {
+    /// Finished; the summary.
+    Done(Summary),
+    /// A numerical failure after some steps (written to disk); the summary has the error.
+    Failed(Summary),
+    /// The problem could not be started (bad input the library detected).
+    Rejected(String),
+}
+
+/// Runs a problem with output into `dir`.
+pub fn run(problem: &Problem, dir: &Path) -> std::io::Result<Outcome> {
+    match &problem.system {
+        System::Expr(l) => run_with(l, problem, dir),
+        System::Harmonic(l) => run_with(l, problem, dir),
+        System::Pendulum(l) => run_with(l, problem, dir),
+        System::Kepler(l) => run_with(l, problem, dir),
+        System::HenonHeiles(l) => run_with(l, problem, dir),
+        System::DoublePendulum(l) => run_with(l, problem, dir),
+    }
+}
+
+fn num(x: f64) -> String {
+    // Debug formatting of f64 is the shortest string that reads back to the same number.
+    format!("{x:?}")
+}
+
+fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::Result<Outcome> {
+    let clock = Instant::now();
+    let mut it = match Integrator::new(
+        lag,
+        &problem.element,
+        problem.grid.clone(),
+        problem.start.clone(),
+        problem.options,
+    ) {
+        Ok(it) => it,
+        Err(femvi::Error::Step(e)) => {
+            // Only the start from (q0, q1) solves anything here.
+            let summary = empty_summary(problem, clock.elapsed().as_secs_f64(), format!("first element: {e}"));
+            std::fs::create_dir_all(dir)?;
+            write_summary(dir, &summary)?;
+            return Ok(Outcome::Failed(summary));
+        }
+        Err(e) => return Ok(Outcome::Rejected(e.to_string())),
+    };
+    std::fs::create_dir_all(dir)?;
+    let mut csv = csv::Writer::from_path(dir.join("trajectory.csv"))?;
+    let mut header = vec!["step".to_string(), "t".to_string()];
+    header.extend(problem.coordinates.iter().cloned());
+    header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+    header.push("energy".into());
+    csv.write_record(&header)?;
+    let n = lag.dim();
+    let mut work = PointDerivatives::new(n);
+    let mut v = match &problem.start {
+        femvi::Start::Velocity { v, .. } => v.clone(),
+        _ => vec![0.0; n],
+    };
+    let mut e0 = f64::NAN;
+    let mut max_rel = 0.0f64;
+    let mut error = None;
+    let mut row = Vec::with_capacity(header.len());
+    let mut last_written = usize::MAX;
+    let mut steps = 0;
+    let mut record = |it: &Integrator<L>, csv: &mut csv::Writer<std::fs::File>, force: bool| -> Result<(), String> {
+        let node = it.node();
+        let h = hamiltonian(lag, node.t, node.q, node.p, &mut v, &mut work).map_err(|e| e.to_string())?;
+        if e0.is_nan() {
+            e0 = h;
+        }
+        let rel = if e0 != 0.0 {
+            ((h - e0) / e0).abs()
+        } else {
+            (h - e0).abs()
+        };
+        max_rel = max_rel.max(rel);
+        if (force || node.k % problem.every == 0) && last_written != node.k {
+            last_written = node.k;
+            row.clear();
+            row.push(node.k.to_string());
+            row.push(num(node.t));
+            row.extend(node.q.iter().map(|&x| num(x)));
+            row.extend(node.p.iter().map(|&x| num(x)));
+            row.push(num(h));
+            csv.write_record(&row).map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    };
+    if let Err(e) = record(&it, &mut csv, true) {
+        error = Some(e);
+    }
+    while error.is_none() {
+        match it.step() {
+            Ok(true) => {
+                steps += 1;
+                let last = it.finished();
+                if let Err(e) = record(&it, &mut csv, last) {
+                    error = Some(e);
+                }
+            }
+            Ok(false) => break,
+            Err(e) => error = Some(e.to_string()),
+        }
+    }
+    csv.flush()?;
+    let node = it.node();
+    let summary = Summary {
+        name: problem.name.clone(),
+        scheme: problem.scheme_label.clone(),
+        steps,
+        t_end: problem.grid.end(),
+        final_t: node.t,
+        final_q: node.q.to_vec(),
+        final_p: node.p.to_vec(),
+        max_rel_energy_error: max_rel,
+        mean_solver_iterations: it.mean_iterations(),
+        wall_seconds: clock.elapsed().as_secs_f64(),
+        error,
+    };
+    write_summary(dir, &summary)?;
+    Ok(if summary.error.is_some() {
+        Outcome::Failed(summary)
+    } else {
+        Outcome::Done(summary)
+    })
+}
+
+fn empty_summary(problem: &Problem, wall: f64, error: String) -> Summary {
+    Summary {
+        name: problem.name.clone(),
+        scheme: problem.scheme_label.clone(),
+        steps: 0,
+        t_end: problem.grid.end(),
+        final_t: problem.grid.t0(),
+        final_q: vec![],
+        final_p: vec![],
+        max_rel_energy_error: f64::NAN,
+        mean_solver_iterations: 0.0,
+        wall_seconds: wall,
+        error: Some(error),
+    }
+}
+
+fn write_summary(dir: &Path, s: &Summary) -> std::io::Result<()> {
+    let mut f = std::fs::File::create(dir.join("summary.json"))?;
+    let text = serde_json::to_string_pretty(s).map_err(std::io::Error::other)?;
+    writeln!(f, "{text}")
+}

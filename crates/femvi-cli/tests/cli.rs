@@ -1,0 +1,218 @@
+//! The `femvi` binary driven as a user would: every bundled example runs, and every broken
+//! input gives exit code 2 (bad input) or 1 (numerical failure), a message naming the problem,
+//! and no panic.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+fn femvi() -> Command {
+    Command::cargo_bin("femvi").unwrap()
+}
+
+#[test]
+fn every_example_runs() {
+    let mut count = 0;
+    for entry in std::fs::read_dir(examples()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let out = tempfile::tempdir().unwrap();
+        let res = femvi()
+            .arg("run")
+            .arg(&path)
+            .arg("--out")
+            .arg(out.path())
+            .arg("--quiet")
+            .output()
+            .unwrap();
+        assert!(
+            res.status.success(),
+            "{}: {}",
+            path.display(),
+            String::from_utf8_lossy(&res.stderr)
+        );
+        let csv = std::fs::read_to_string(out.path().join("trajectory.csv")).unwrap();
+        assert!(csv.lines().count() > 10, "{}", path.display());
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+        assert!(summary["error"].is_null());
+        let energy_error = summary["max_rel_energy_error"].as_f64().unwrap();
+        // The forced oscillator's energy is not conserved; the autonomous examples' is.
+        let forced = path.file_stem().is_some_and(|s| s == "variable-steps");
+        assert!(
+            energy_error.is_finite() && (forced || energy_error < 1e-2),
+            "{}: {summary}",
+            path.display()
+        );
+        count += 1;
+    }
+    assert!(count >= 6);
+}
+
+#[test]
+fn csv_numbers_read_back_exactly_and_match_the_summary() {
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .arg("run")
+        .arg(examples().join("kepler.toml"))
+        .arg("--out")
+        .arg(out.path())
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.path().join("trajectory.csv")).unwrap();
+    assert!(csv.starts_with("step,t,x,y,p_x,p_y,energy\n"));
+    let last: Vec<f64> = csv
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(last[2], summary["final_q"][0].as_f64().unwrap());
+    assert_eq!(last[5], summary["final_p"][1].as_f64().unwrap());
+    // Energy column: H = |p|²/2 − 1/|q| recomputed from the written state.
+    let h = 0.5 * (last[4] * last[4] + last[5] * last[5]) - 1.0 / (last[2] * last[2] + last[3] * last[3]).sqrt();
+    assert!((h - last[6]).abs() < 1e-15);
+}
+
+const GOOD: &str = r#"
+[system]
+coordinates = ["x"]
+lagrangian = "0.5*x_dot^2 - 0.5*x^2"
+
+[initial]
+q = [1.0]
+v = [0.0]
+
+[time]
+step = 0.1
+end = 1.0
+"#;
+
+/// (name, file content, expected exit code, text the message must contain).
+fn corpus() -> Vec<(&'static str, Vec<u8>, i32, &'static str)> {
+    let g = |from: &str, to: &str| GOOD.replacen(from, to, 1).into_bytes();
+    vec![
+        ("empty", b"".to_vec(), 2, "empty"),
+        ("garbage", vec![0xff, 0xfe, 0x00, 0x13, 0x80], 2, "not UTF-8"),
+        ("toml-syntax", g("step = 0.1", "step = = 0.1"), 2, "toml-syntax.toml:11:8:"),
+        ("unknown-top-key", format!("nmae = \"x\"\n{GOOD}").into_bytes(), 2, "unknown field `nmae`"),
+        ("unknown-system-key", g("coordinates", "coordinate"), 2, "unknown field `coordinate`"),
+        ("unknown-time-key", g("end = 1.0", "ned = 1.0"), 2, "ned"),
+        ("unknown-initial-key", g("v = [0.0]", "vel = [0.0]"), 2, "vel"),
+        ("unknown-scheme-key", format!("{GOOD}\n[scheme]\ndegre = 2\n").into_bytes(), 2, "degre"),
+        ("unknown-solver-key", format!("{GOOD}\n[solver]\ntol = 1e-9\n").into_bytes(), 2, "tol"),
+        ("unknown-output-key", format!("{GOOD}\n[output]\ndir = \"x\"\n").into_bytes(), 2, "dir"),
+        ("unknown-table", format!("{GOOD}\n[extra]\na = 1\n").into_bytes(), 2, "extra"),
+        ("bad-quadrature", format!("{GOOD}\n[scheme]\nquadrature = \"gauss\"\n").into_bytes(), 2, "gauss-legendre"),
+        ("bad-kind", format!("{GOOD}\n[scheme]\nkind = \"fem\"\n").into_bytes(), 2, "galerkin"),
+        ("degree-zero", format!("{GOOD}\n[scheme]\ndegree = 0\n").into_bytes(), 2, "degree"),
+        ("degenerate-rule", format!("{GOOD}\n[scheme]\ndegree = 3\nquadrature = \"midpoint\"\n").into_bytes(), 2, "degenerate"),
+        ("expr-syntax", g("0.5*x^2\"", "0.5*x^2 +\""), 2, ":4:"),
+        ("expr-unknown-symbol", g("0.5*x^2", "0.5*y^2"), 2, "unknown symbol 'y'"),
+        ("expr-unknown-function", g("0.5*x^2", "0.5*sine(x)"), 2, "unknown function 'sine'"),
+        ("expr-arity", g("0.5*x^2", "atan2(x)"), 2, "takes 2 arguments"),
+        ("expr-bad-char", g("0.5*x^2", "0.5*x#2"), 2, "unexpected character"),
+        ("expr-empty", g("0.5*x_dot^2 - 0.5*x^2", ""), 2, "expected a number"),
+        ("q-wrong-length", g("q = [1.0]", "q = [1.0, 2.0]"), 2, "q has 2 entries"),
+        ("v-wrong-length", g("v = [0.0]", "v = []"), 2, "v has 0 entries"),
+        ("q-not-numbers", g("q = [1.0]", "q = [\"a\"]"), 2, "invalid type"),
+        ("q-missing", g("q = [1.0]\n", ""), 2, "missing field `q`"),
+        ("v-and-p", g("v = [0.0]", "v = [0.0]\np = [0.0]"), 2, "exactly one of"),
+        ("no-velocity", g("v = [0.0]", ""), 2, "exactly one of"),
+        ("zero-step", g("step = 0.1", "step = 0.0"), 2, "positive"),
+        ("negative-step", g("step = 0.1", "step = -0.1"), 2, "positive"),
+        ("nan-step", g("step = 0.1", "step = nan"), 2, "positive"),
+        ("bad-step-list", g("step = 0.1", "steps = [0.1, 0.0]"), 2, "positive"),
+        ("step-and-steps", g("step = 0.1", "step = 0.1\nsteps = [0.1]"), 2, "exactly one of"),
+        ("end-before-start", g("end = 1.0", "end = -1.0"), 2, "not after"),
+        ("degenerate-lagrangian", g("0.5*x_dot^2 - 0.5*x^2", "x_dot - 0.5*x^2"), 2, "degenerate"),
+        ("mass-not-positive", b"[system]\nmodel = \"harmonic\"\nparameters = { m = -1.0 }\n[initial]\nq = [1.0]\nv = [0.0]\n[time]\nstep = 0.1\nend = 1.0\n".to_vec(), 2, "positive definite"),
+        ("unknown-model", b"[system]\nmodel = \"keplr\"\n[initial]\nq = [1.0, 0.0]\nv = [0.0, 1.0]\n[time]\nstep = 0.1\nend = 1.0\n".to_vec(), 2, "did you mean 'kepler'"),
+        ("unknown-model-parameter", b"[system]\nmodel = \"kepler\"\nparameters = { nu = 1.0 }\n[initial]\nq = [1.0, 0.0]\nv = [0.0, 1.0]\n[time]\nstep = 0.1\nend = 1.0\n".to_vec(), 2, "no parameter 'nu'"),
+        ("model-and-lagrangian", g("coordinates", "model = \"kepler\"\ncoordinates"), 2, "both"),
+        ("no-coordinates", g("coordinates = [\"x\"]\n", ""), 2, "needs `coordinates`"),
+        ("duplicate-coordinates", g("[\"x\"]", "[\"x\", \"x\"]"), 2, "twice"),
+        ("param-clash", g("coordinates = [\"x\"]", "coordinates = [\"x\"]\nparameters = { x = 1.0 }"), 2, "name of a variable"),
+        ("bad-tolerance", format!("{GOOD}\n[solver]\ntolerance = -1.0\n").into_bytes(), 2, "tolerance"),
+        ("bad-iterations", format!("{GOOD}\n[solver]\nmax_iterations = 0\n").into_bytes(), 2, "max_iterations"),
+        ("fixed-point-general", format!("{GOOD}\n[solver]\nmethod = \"fixed-point\"\n").into_bytes(), 2, "mechanical"),
+        ("every-zero", format!("{GOOD}\n[output]\nevery = 0\n").into_bytes(), 2, "every"),
+        ("energy-mode", g("step = 0.1", "mode = \"energy\"\nstep = 0.1"), 2, "energy"),
+        ("inf-initial", g("q = [1.0]", "q = [inf]"), 2, "non-finite"),
+    ]
+}
+
+#[test]
+fn broken_inputs_give_clear_errors_and_no_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let corpus = corpus();
+    assert!(corpus.len() >= 40);
+    for (name, content, code, needle) in corpus {
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, content).unwrap();
+        let res = femvi()
+            .arg("run")
+            .arg(&path)
+            .arg("--out")
+            .arg(dir.path().join(name))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&res.stderr);
+        assert_eq!(res.status.code(), Some(code), "{name}: {err}");
+        assert!(err.contains(needle), "{name}: message lacks '{needle}':\n{err}");
+        assert!(
+            !err.contains("panicked") && !err.contains("internal error"),
+            "{name}: {err}"
+        );
+    }
+}
+
+#[test]
+fn expression_errors_point_into_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.toml");
+    std::fs::write(&path, GOOD.replacen("0.5*x^2", "0.5*y^2", 1)).unwrap();
+    let res = femvi().arg("run").arg(&path).output().unwrap();
+    let err = String::from_utf8_lossy(&res.stderr);
+    // Line 4 of the file, column of 'y' (after `lagrangian = "0.5*x_dot^2 - 0.5*`).
+    assert!(
+        err.contains("p.toml:4:33: in the lagrangian: unknown symbol 'y'"),
+        "{err}"
+    );
+    assert!(err.contains(&format!("\n  {}^", " ".repeat(32))), "{err}");
+}
+
+#[test]
+fn a_step_that_cannot_converge_is_a_numerical_failure_with_output_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.toml");
+    // Kepler passing close to the centre with a huge step: the fixed-point iteration fails.
+    let text = "[system]\nmodel = \"kepler\"\n[initial]\nq = [1.0, 0.0]\nv = [0.0, 0.1]\n[scheme]\ndegree = 3\n[time]\nstep = 0.5\nend = 100.0\n";
+    std::fs::write(&path, text).unwrap();
+    let out = dir.path().join("out");
+    let res = femvi().arg("run").arg(&path).arg("--out").arg(&out).output().unwrap();
+    let err = String::from_utf8_lossy(&res.stderr);
+    assert_eq!(res.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("step ") && err.contains("residual") && err.contains("hint"),
+        "{err}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let steps = summary["steps"].as_u64().unwrap() as usize;
+    assert!(summary["error"].as_str().unwrap().contains("step"));
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    assert_eq!(
+        csv.lines().count(),
+        steps + 2,
+        "header, node 0 and one row per completed step"
+    );
+}
