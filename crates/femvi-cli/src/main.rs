@@ -26,7 +26,7 @@ enum Command {
     Run {
         /// The problem file (TOML).
         problem: PathBuf,
-        /// Output directory (default: [output] directory, else out/<name>).
+        /// Output directory (default: the `directory` of the output table, else out/NAME).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print nothing but errors.

@@ -102,7 +102,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
             (h - e0).abs()
         };
         max_rel = max_rel.max(rel);
-        if (force || node.k % problem.every == 0) && last_written != node.k {
+        if (force || node.k.is_multiple_of(problem.every)) && last_written != node.k {
             last_written = node.k;
             row.clear();
             row.push(node.k.to_string());

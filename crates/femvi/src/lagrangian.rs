@@ -476,7 +476,7 @@ pub fn check_regular<L: Lagrangian>(lag: &L, t: f64, q: &[f64], v: &[f64]) -> Re
     }
     let svd = hvv.singular_values();
     let max = svd.max();
-    if !(max > 0.0) || svd.min() <= 1e-12 * max {
+    if max.is_nan() || max <= 0.0 || svd.min() <= 1e-12 * max {
         return Err(Error::DegenerateLagrangian { t });
     }
     Ok(())

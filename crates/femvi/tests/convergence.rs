@@ -19,7 +19,7 @@ fn grid(t_end: f64, n: usize, random: bool) -> (TimeGrid, f64) {
         return (TimeGrid::uniform(0.0, h, t_end).unwrap(), h);
     }
     let mut r = Lcg(11);
-    let raw: Vec<f64> = (0..7).map(|_| 0.6 + 0.8 * r.next()).collect();
+    let raw: Vec<f64> = (0..7).map(|_| 0.6 + 0.8 * r.uniform()).collect();
     let mean = raw.iter().sum::<f64>() / 7.0;
     let steps: Vec<f64> = raw.iter().map(|x| x / mean * h).collect();
     let hmax = steps.iter().cloned().fold(0.0, f64::max);

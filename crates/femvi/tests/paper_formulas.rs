@@ -24,7 +24,7 @@ fn dv(q: f64) -> f64 {
 
 fn random_steps(n: usize, h: f64) -> Vec<f64> {
     let mut r = Lcg(7);
-    (0..n).map(|_| h * (0.5 + r.next())).collect()
+    (0..n).map(|_| h * (0.5 + r.uniform())).collect()
 }
 
 /// Nodes q_k and, for degree 2, the mid nodes q_{k+1/2}, of a run from (q0, q1).

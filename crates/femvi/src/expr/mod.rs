@@ -1,6 +1,7 @@
 //! Lagrangians from math expressions, for problem files: coordinates by name, the velocity of
 //! `x` is `x_dot`, time `t`, named parameters, the constant `pi`; `+ - * / ^`, unary minus,
-//! parentheses and the functions of [`parse`]'s table. The expression is compiled once into a
+//! parentheses and the functions sin cos tan exp ln (log) sqrt abs sinh cosh tanh asin acos
+//! atan atan2 pow min max. The expression is compiled once into a
 //! postfix program with constants folded, then evaluated generically over num-dual scalars, so
 //! its derivatives come from the same automatic differentiation as Rust Lagrangians.
 //!

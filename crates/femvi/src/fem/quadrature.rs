@@ -6,7 +6,7 @@
 //! arithmetic and rounded once, so nodes and weights are correct to the last bit of f64 (up to
 //! rare rounding ties) for any r. Hand-written because the quadrature crates compute in f64
 //! (losing a few ulps for large r), and the `twofloat` crate's division was measured to lose
-//! ~1e-16 relative, which defeats the purpose; the ~40 lines of [`Dd`] are exact to ~1e-32.
+//! ~1e-16 relative, which defeats the purpose; the ~40 lines of `Dd` are exact to ~1e-32.
 
 use crate::error::{invalid, Result};
 

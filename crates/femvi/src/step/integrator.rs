@@ -112,7 +112,7 @@ pub struct Node<'s> {
     pub p: &'s [f64],
 }
 
-/// The last element the integrator solved: [t, t + h] with nodal values q + incr[j].
+/// The last element the integrator solved: [t, t + h] with nodal values q + incr_j.
 #[derive(Debug, Clone, Copy)]
 pub struct ElementNodes<'s> {
     /// Start time t_k.

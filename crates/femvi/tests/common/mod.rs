@@ -59,7 +59,7 @@ pub fn kepler_exact(e: f64, t: f64) -> ([f64; 2], [f64; 2]) {
 /// Deterministic numbers in [0, 1) (a 64-bit LCG), so tests with random steps are reproducible.
 pub struct Lcg(pub u64);
 impl Lcg {
-    pub fn next(&mut self) -> f64 {
+    pub fn uniform(&mut self) -> f64 {
         self.0 = self
             .0
             .wrapping_mul(6364136223846793005)
