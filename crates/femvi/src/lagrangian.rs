@@ -166,6 +166,9 @@ pub struct MassMatrix {
     inv: Vec<f64>,
     /// Diagonal matrices (the identity among them) are applied entry by entry.
     diagonal: Option<Vec<f64>>,
+    /// Reciprocals of the diagonal, so that solves multiply instead of dividing.
+    inv_diagonal: Option<Vec<f64>>,
+    identity: bool,
 }
 
 impl MassMatrix {
@@ -189,11 +192,15 @@ impl MassMatrix {
             m[i * n + i] = d[i];
             inv[i * n + i] = 1.0 / d[i];
         }
+        let identity = d.iter().all(|&x| x == 1.0);
+        let inv_d = d.iter().map(|x| 1.0 / x).collect();
         Ok(Self {
             n,
             m,
             inv,
             diagonal: Some(d),
+            inv_diagonal: Some(inv_d),
+            identity,
         })
     }
 
@@ -218,6 +225,8 @@ impl MassMatrix {
             inv: inv.transpose().as_slice().to_vec(),
             m,
             diagonal: None,
+            inv_diagonal: None,
+            identity: false,
         })
     }
 
@@ -240,16 +249,21 @@ impl MassMatrix {
     }
 
     /// out = M⁻¹ x.
+    #[inline]
     pub fn solve(&self, x: &[f64], out: &mut [f64]) {
-        match &self.diagonal {
-            Some(d) => out.iter_mut().zip(x).zip(d).for_each(|((o, x), d)| *o = x / d),
+        if self.identity {
+            out.copy_from_slice(x);
+            return;
+        }
+        match &self.inv_diagonal {
+            Some(d) => out.iter_mut().zip(x).zip(d).for_each(|((o, x), d)| *o = x * d),
             None => matvec(&self.inv, x, out),
         }
     }
 
     /// Whether M is the identity.
     pub fn is_identity(&self) -> bool {
-        self.diagonal.as_ref().is_some_and(|d| d.iter().all(|&x| x == 1.0))
+        self.identity
     }
 }
 

@@ -456,11 +456,11 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 self.step_newton(h)?
             }
         }
-        let (t, base) = (self.t, std::mem::take(&mut self.tmp));
-        let mut base = base;
-        base.copy_from_slice(&self.q);
-        self.remember(t, h, &base);
-        self.tmp = base;
+        self.have_last = true;
+        self.last_t = self.t;
+        self.last_h = h;
+        self.last_base.copy_from_slice(&self.q);
+        self.last_incr.copy_from_slice(&self.incr);
         compensated_add(&mut self.q, &mut self.comp_q, &self.dq);
         compensated_add(&mut self.p, &mut self.comp_p, &self.dp);
         if !self.q.iter().chain(&self.p).all(|v| v.is_finite()) {
@@ -515,6 +515,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         }
     }
 
+    #[inline]
     fn step_explicit(&mut self, h: f64) {
         // Störmer–Verlet: degree 1, trapezoid. The force at the end is kept for the next step.
         let n = self.n;
