@@ -4,7 +4,9 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use femvi::expr::ExprLagrangian;
-use femvi::{models, Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+use femvi::{
+    models, Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid,
+};
 use std::hint::black_box;
 
 const STEPS: usize = 10_000;
@@ -31,8 +33,14 @@ fn verlet(steps: usize) -> [f64; 4] {
 
 fn run<L: Lagrangian>(lag: &L, el: &Element, method: Method) -> f64 {
     let grid = TimeGrid::uniform(0.0, H, H * STEPS as f64).unwrap();
-    let start = Start::Momentum { q: vec![0.4, 0.0], p: vec![0.0, 2.0] };
-    let opts = SolverOptions { method, ..Default::default() };
+    let start = Start::Momentum {
+        q: vec![0.4, 0.0],
+        p: vec![0.0, 2.0],
+    };
+    let opts = SolverOptions {
+        method,
+        ..Default::default()
+    };
     let mut it = Integrator::new(lag, el, grid, start, opts).unwrap();
     while it.step().unwrap() {}
     it.node().q[0]
@@ -45,13 +53,17 @@ fn bench(c: &mut Criterion) {
     g.bench_function("verlet_hand_loop", |b| b.iter(|| verlet(black_box(STEPS))));
     let kepler = models::kepler(1.0);
     let trap = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
-    g.bench_function("femvi_degree1_trapezoid", |b| b.iter(|| run(&kepler, &trap, Method::Auto)));
+    g.bench_function("femvi_degree1_trapezoid", |b| {
+        b.iter(|| run(&kepler, &trap, Method::Auto))
+    });
     for s in 2..=4 {
         let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).unwrap();
         g.bench_with_input(BenchmarkId::new("gauss_fixed_point", s), &el, |b, el| {
             b.iter(|| run(&kepler, el, Method::FixedPoint))
         });
-        g.bench_with_input(BenchmarkId::new("gauss_newton", s), &el, |b, el| b.iter(|| run(&kepler, el, Method::Newton)));
+        g.bench_with_input(BenchmarkId::new("gauss_newton", s), &el, |b, el| {
+            b.iter(|| run(&kepler, el, Method::Newton))
+        });
     }
     let expr = ExprLagrangian::new(
         "0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)",
@@ -60,7 +72,9 @@ fn bench(c: &mut Criterion) {
     )
     .unwrap();
     let el2 = Element::galerkin(2, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(2)).unwrap();
-    g.bench_function("expression_newton_degree2", |b| b.iter(|| run(&expr, &el2, Method::Newton)));
+    g.bench_function("expression_newton_degree2", |b| {
+        b.iter(|| run(&expr, &el2, Method::Newton))
+    });
     g.finish();
 }
 
