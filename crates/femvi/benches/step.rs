@@ -42,7 +42,7 @@ fn run<L: Lagrangian>(lag: &L, el: &Element, method: Method) -> f64 {
         ..Default::default()
     };
     let mut it = Integrator::new(lag, el, grid, start, opts).unwrap();
-    while it.step().unwrap() {}
+    while it.advance(usize::MAX).unwrap() > 0 {}
     it.node().q[0]
 }
 

@@ -189,3 +189,72 @@ fn linear_element_with_trapezoid_rule_is_stormer_verlet() {
         assert!(worst < 1e-11, "{method:?}: deviation from Verlet {worst:e}");
     }
 }
+
+#[test]
+fn advance_is_bit_identical_to_step() {
+    // The fixed-size fast path of explicit stepping against the general step, on Kepler
+    // (n = 2), Hénon–Heiles with a non-unit diagonal mass (n = 2) and a 5-D chain (generic n).
+    let trap = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    let grid = TimeGrid::uniform(0.0, 0.01, 7.005).unwrap();
+    let start = Start::Momentum {
+        q: vec![0.4, 0.0],
+        p: vec![0.0, 2.0],
+    };
+    let lag = femvi::models::kepler(1.0);
+    let hh = Mechanical::new(
+        femvi::models::HenonHeilesPotential,
+        femvi::MassMatrix::diagonal(vec![2.0, 0.5]).unwrap(),
+    )
+    .unwrap();
+    fn compare<L: femvi::Lagrangian>(lag: &L, el: &Element, grid: &TimeGrid, start: &Start) {
+        let mut a = Integrator::new(lag, el, grid.clone(), start.clone(), SolverOptions::default()).unwrap();
+        let mut b = Integrator::new(lag, el, grid.clone(), start.clone(), SolverOptions::default()).unwrap();
+        while a.step().unwrap() {}
+        let mut total = 0;
+        loop {
+            let d = b.advance(97).unwrap();
+            if d == 0 {
+                break;
+            }
+            total += d;
+        }
+        assert_eq!(total, grid.count());
+        assert_eq!(a.node().k, b.node().k);
+        assert_eq!(a.node().t, b.node().t);
+        assert_eq!(a.node().q, b.node().q);
+        assert_eq!(a.node().p, b.node().p);
+        let (ea, eb) = (a.last_element().unwrap(), b.last_element().unwrap());
+        assert_eq!((ea.t, ea.h, ea.base, ea.incr), (eb.t, eb.h, eb.base, eb.incr));
+    }
+    compare(&lag, &trap, &grid, &start);
+    compare(
+        &hh,
+        &trap,
+        &grid,
+        &Start::Momentum {
+            q: vec![0.1, -0.1],
+            p: vec![0.3, 0.2],
+        },
+    );
+    struct Chain;
+    impl Potential for Chain {
+        fn dim(&self) -> usize {
+            5
+        }
+        fn value<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+            (1..5)
+                .map(|i| (q[i] - q[i - 1]).powi(4) * 0.25)
+                .fold(q[0] * q[0], |a, b| a + b)
+        }
+    }
+    let chain = Mechanical::unit_mass(Chain);
+    compare(
+        &chain,
+        &trap,
+        &grid,
+        &Start::Velocity {
+            q: vec![0.1, 0.0, -0.1, 0.2, 0.0],
+            v: vec![0.0; 5],
+        },
+    );
+}

@@ -3,6 +3,7 @@
 //! and quadrature rules that turn the element integral (2.27)/(2.39b) into a sum.
 
 pub mod basis;
+pub(crate) mod dd;
 pub mod quadrature;
 
 pub use basis::{LagrangeBasis, NodeFamily};

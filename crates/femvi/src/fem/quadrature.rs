@@ -10,67 +10,7 @@
 
 use crate::error::{invalid, Result};
 
-/// A double-double number hi + lo (|lo| ≤ ulp(hi)/2), with error-free transformations
-/// (Knuth's two-sum, a fused multiply-add two-product). Only what the Legendre recurrence needs.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Dd {
-    hi: f64,
-    lo: f64,
-}
-
-impl Dd {
-    fn new(x: f64) -> Self {
-        Dd { hi: x, lo: 0.0 }
-    }
-    fn two_sum(a: f64, b: f64) -> Self {
-        let s = a + b;
-        let bb = s - a;
-        let e = (a - (s - bb)) + (b - bb);
-        Dd { hi: s, lo: e }
-    }
-    fn quick(a: f64, b: f64) -> Self {
-        let s = a + b;
-        Dd { hi: s, lo: b - (s - a) }
-    }
-    fn add(self, o: Dd) -> Dd {
-        let s = Dd::two_sum(self.hi, o.hi);
-        let t = Dd::two_sum(self.lo, o.lo);
-        let s = Dd::quick(s.hi, s.lo + t.hi);
-        Dd::quick(s.hi, s.lo + t.lo)
-    }
-    fn neg(self) -> Dd {
-        Dd {
-            hi: -self.hi,
-            lo: -self.lo,
-        }
-    }
-    fn sub(self, o: Dd) -> Dd {
-        self.add(o.neg())
-    }
-    fn mul(self, o: Dd) -> Dd {
-        let p = self.hi * o.hi;
-        let e = self.hi.mul_add(o.hi, -p);
-        Dd::quick(p, e + (self.hi * o.lo + self.lo * o.hi))
-    }
-    fn mulf(self, f: f64) -> Dd {
-        self.mul(Dd::new(f))
-    }
-    fn div(self, o: Dd) -> Dd {
-        let q1 = self.hi / o.hi;
-        let r = self.sub(o.mulf(q1));
-        let q2 = r.hi / o.hi;
-        let r = r.sub(o.mulf(q2));
-        let q3 = r.hi / o.hi;
-        Dd::quick(q1, q2).add(Dd::new(q3))
-    }
-    fn divf(self, f: f64) -> Dd {
-        self.div(Dd::new(f))
-    }
-    /// Rounds to the nearest f64.
-    fn round(self) -> f64 {
-        self.hi + self.lo
-    }
-}
+use super::dd::Dd;
 
 /// Which quadrature family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

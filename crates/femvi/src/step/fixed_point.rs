@@ -11,6 +11,7 @@
 
 use crate::discrete::Element;
 use crate::error::{invalid, Result};
+use crate::fem::dd::Dd;
 
 /// The h-independent tables of the fixed-point iteration of one element.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,36 +33,127 @@ impl FixedPointTables {
     /// The stiffness block K[0..s, 1..=s] is singular (a degenerate element).
     pub fn new(element: &Element) -> Result<Self> {
         element.check_nondegenerate()?;
+        // Everything in double-double, rounded once: in f64 the inverse of the stiffness block
+        // carries cond·ε errors into β and B, which showed as a round-off floor ~1e-12 (vs
+        // ~1e-14 for Newton) over 10 Kepler periods with degree 6.
         let s = element.degree();
         let r = element.points();
         let w = s + 1;
-        let k = element.stiffness();
-        let a_mat = nalgebra::DMatrix::from_fn(s, s, |j, m| k[j * w + m + 1]);
-        let inv = a_mat
-            .try_inverse()
-            .ok_or_else(|| invalid("scheme", "the element stiffness is singular"))?;
+        let tau: Vec<Dd> = element.basis.nodes.iter().map(|&t| Dd::new(t)).collect();
+        let (phi, dphi) = basis_dd(&tau, &element.rule.nodes);
+        let bw: Vec<Dd> = element.rule.weights.iter().map(|&b| Dd::new(b)).collect();
+        // A_jm = K_j,m+1 = Σ_i b_i ℓ_j'(c_i) ℓ_{m+1}'(c_i), j, m < s.
+        let mut a_mat = vec![Dd::new(0.0); s * s];
+        for j in 0..s {
+            for m in 0..s {
+                let mut acc = Dd::new(0.0);
+                for i in 0..r {
+                    acc = acc.add(bw[i].mul(dphi[i * w + j]).mul(dphi[i * w + m + 1]));
+                }
+                a_mat[j * s + m] = acc;
+            }
+        }
+        let inv = invert(s, a_mat).ok_or_else(|| invalid("scheme", "the element stiffness is singular"))?;
         // Unknown m (1..=s) is row m−1 of inv; equation j (0..s) is column j.
-        let alpha: Vec<f64> = (0..s).map(|m| -inv[(m, 0)]).collect();
-        let mut beta = vec![0.0; s * r];
+        let alpha_dd: Vec<Dd> = (0..s).map(|m| inv[m * s].neg()).collect();
+        let mut beta_dd = vec![Dd::new(0.0); s * r];
         for m in 0..s {
             for i in 0..r {
-                let bw = element.rule.weights[i];
-                beta[m * r + i] = -(0..s).map(|j| inv[(m, j)] * bw * element.phi(i, j)).sum::<f64>();
+                let mut acc = Dd::new(0.0);
+                for j in 0..s {
+                    acc = acc.add(inv[m * s + j].mul(bw[i]).mul(phi[i * w + j]));
+                }
+                beta_dd[m * r + i] = acc.neg();
             }
         }
         let mut a = vec![0.0; r];
         let mut b = vec![0.0; r * r];
         for l in 0..r {
+            let mut acc = Dd::new(0.0);
             for m in 0..s {
-                let pl = element.phi(l, m + 1);
-                a[l] += pl * alpha[m];
-                for i in 0..r {
-                    b[l * r + i] += pl * beta[m * r + i];
+                acc = acc.add(phi[l * w + m + 1].mul(alpha_dd[m]));
+            }
+            a[l] = acc.round();
+            for i in 0..r {
+                let mut acc = Dd::new(0.0);
+                for m in 0..s {
+                    acc = acc.add(phi[l * w + m + 1].mul(beta_dd[m * r + i]));
                 }
+                b[l * r + i] = acc.round();
             }
         }
-        Ok(Self { alpha, beta, a, b })
+        Ok(Self {
+            alpha: alpha_dd.iter().map(|x| x.round()).collect(),
+            beta: beta_dd.iter().map(|x| x.round()).collect(),
+            a,
+            b,
+        })
     }
+}
+
+/// Lagrange basis values ℓ_j(c_i) and derivatives ℓ_j'(c_i) on nodes `tau`, row-major by point.
+fn basis_dd(tau: &[Dd], c: &[f64]) -> (Vec<Dd>, Vec<Dd>) {
+    let w = tau.len();
+    let mut phi = vec![Dd::new(0.0); c.len() * w];
+    let mut dphi = vec![Dd::new(0.0); c.len() * w];
+    for (i, &ci) in c.iter().enumerate() {
+        let ci = Dd::new(ci);
+        for j in 0..w {
+            let mut v = Dd::new(1.0);
+            let mut d = Dd::new(0.0);
+            for m in 0..w {
+                if m == j {
+                    continue;
+                }
+                let denom = tau[j].sub(tau[m]);
+                v = v.mul(ci.sub(tau[m])).div(denom);
+                let mut prod = Dd::new(1.0).div(denom);
+                for l in 0..w {
+                    if l != j && l != m {
+                        prod = prod.mul(ci.sub(tau[l])).div(tau[j].sub(tau[l]));
+                    }
+                }
+                d = d.add(prod);
+            }
+            phi[i * w + j] = v;
+            dphi[i * w + j] = d;
+        }
+    }
+    (phi, dphi)
+}
+
+/// Gauss–Jordan inverse with partial pivoting of a row-major n×n matrix, in double-double.
+fn invert(n: usize, mut a: Vec<Dd>) -> Option<Vec<Dd>> {
+    let mut inv = vec![Dd::new(0.0); n * n];
+    for i in 0..n {
+        inv[i * n + i] = Dd::new(1.0);
+    }
+    for col in 0..n {
+        let piv = (col..n).max_by(|&x, &y| a[x * n + col].hi.abs().total_cmp(&a[y * n + col].hi.abs()))?;
+        if a[piv * n + col].hi == 0.0 {
+            return None;
+        }
+        for k in 0..n {
+            a.swap(col * n + k, piv * n + k);
+            inv.swap(col * n + k, piv * n + k);
+        }
+        let p = a[col * n + col];
+        for k in 0..n {
+            a[col * n + k] = a[col * n + k].div(p);
+            inv[col * n + k] = inv[col * n + k].div(p);
+        }
+        for row in 0..n {
+            if row == col {
+                continue;
+            }
+            let f = a[row * n + col];
+            for k in 0..n {
+                a[row * n + k] = a[row * n + k].sub(f.mul(a[col * n + k]));
+                inv[row * n + k] = inv[row * n + k].sub(f.mul(inv[col * n + k]));
+            }
+        }
+    }
+    Some(inv)
 }
 
 #[cfg(test)]

@@ -58,8 +58,13 @@ impl TimeGrid {
     }
 
     /// The nominal step k (before shortening at the end).
+    #[inline]
     pub fn nominal(&self, k: usize) -> f64 {
-        self.steps[k % self.steps.len()]
+        if self.steps.len() == 1 {
+            self.steps[0]
+        } else {
+            self.steps[k % self.steps.len()]
+        }
     }
 
     /// Whether all steps are equal.
@@ -68,6 +73,7 @@ impl TimeGrid {
     }
 
     /// The step from node k at time t: (h_k, t_{k+1}), or None at the end.
+    #[inline]
     pub fn next(&self, k: usize, t: f64) -> Option<(f64, f64)> {
         let h = self.nominal(k);
         let remaining = self.end - t;

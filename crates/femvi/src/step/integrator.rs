@@ -164,6 +164,7 @@ pub struct Integrator<'a, L: Lagrangian> {
     dq: Vec<f64>,
     dp: Vec<f64>,
     force0_valid: bool,
+    fsal_slot: usize,
     extrap_rho: f64,
     extrap: Vec<f64>,
     basis_buf: Vec<f64>,
@@ -246,6 +247,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             dq: vec![0.0; n],
             dp: vec![0.0; n],
             force0_valid: false,
+            fsal_slot: 0,
             extrap_rho: f64::NAN,
             extrap: vec![0.0; s * (s + 1)],
             basis_buf: vec![0.0; s + 1],
@@ -456,14 +458,29 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 self.step_newton(h)?
             }
         }
+        // The node becomes the last element's base; buffers are swapped, not copied (copies
+        // of a few numbers cost more than the Verlet step itself).
         self.have_last = true;
         self.last_t = self.t;
         self.last_h = h;
-        self.last_base.copy_from_slice(&self.q);
-        self.last_incr.copy_from_slice(&self.incr);
-        compensated_add(&mut self.q, &mut self.comp_q, &self.dq);
-        compensated_add(&mut self.p, &mut self.comp_p, &self.dp);
-        if !self.q.iter().chain(&self.p).all(|v| v.is_finite()) {
+        std::mem::swap(&mut self.q, &mut self.last_base);
+        if self.method != Resolved::Explicit {
+            std::mem::swap(&mut self.incr, &mut self.last_incr);
+        }
+        let mut finite = true;
+        for c in 0..self.n {
+            let base = self.last_base[c];
+            let y = self.dq[c] + self.comp_q[c];
+            let t = base + y;
+            self.comp_q[c] = (base - t) + y;
+            self.q[c] = t;
+            let y = self.dp[c] + self.comp_p[c];
+            let t = self.p[c] + y;
+            self.comp_p[c] = (self.p[c] - t) + y;
+            self.p[c] = t;
+            finite &= t.is_finite() && self.q[c].is_finite();
+        }
+        if !finite {
             return Err(Error::Step(StepError {
                 step: self.k,
                 t: self.t,
@@ -476,6 +493,136 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.t = t_next;
         self.steps += 1;
         Ok(true)
+    }
+
+    /// Advances up to `max_steps` steps and returns how many were taken (0 at the end of the
+    /// grid). Results are identical to calling [`Integrator::step`] that many times; for
+    /// explicit stepping of small systems the steps run in a tight loop over fixed-size arrays.
+    ///
+    /// # Errors
+    /// As [`Integrator::step`]; the steps before the failure are kept.
+    pub fn advance(&mut self, max_steps: usize) -> Result<usize> {
+        if self.method == Resolved::Explicit && self.pending.is_none() {
+            return match self.n {
+                1 => self.advance_explicit::<1>(max_steps),
+                2 => self.advance_explicit::<2>(max_steps),
+                3 => self.advance_explicit::<3>(max_steps),
+                4 => self.advance_explicit::<4>(max_steps),
+                6 => self.advance_explicit::<6>(max_steps),
+                _ => self.advance_generic(max_steps),
+            };
+        }
+        self.advance_generic(max_steps)
+    }
+
+    fn advance_generic(&mut self, max_steps: usize) -> Result<usize> {
+        let mut done = 0;
+        while done < max_steps && self.step()? {
+            done += 1;
+        }
+        Ok(done)
+    }
+
+    /// Störmer–Verlet over `[f64; N]` locals: the same operations as `step_explicit` and the
+    /// compensated update of `step`, in the same order.
+    fn advance_explicit<const N: usize>(&mut self, max_steps: usize) -> Result<usize> {
+        let Some(mass) = self.lag.mass_matrix() else {
+            unreachable!("checked in new")
+        };
+        let identity = mass.is_identity();
+        let load = |v: &[f64]| -> [f64; N] {
+            let mut a = [0.0; N];
+            a.copy_from_slice(&v[..N]);
+            a
+        };
+        let (mut q, mut p, mut cq, mut cp) = (load(&self.q), load(&self.p), load(&self.comp_q), load(&self.comp_p));
+        let (mut f0, mut f1, mut y, mut dq, mut dp) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+        let (mut u, mut w) = ([0.0; N], [0.0; N]);
+        if self.force0_valid {
+            let off = self.fsal_slot * N;
+            f0 = load(&self.force[off..off + N]);
+        } else {
+            self.lag.force(self.t, &q, &mut f0);
+        }
+        let (mut k, mut t) = (self.k, self.t);
+        let (mut last_t, mut last_h, mut last_q, mut last_dq) = (self.last_t, self.last_h, q, dq);
+        let mut done = 0;
+        let mut failed = false;
+        while done < max_steps {
+            let Some((h, t_next)) = self.grid.next(k, t) else { break };
+            let half_h2 = 0.5 * h * h;
+            if identity {
+                for c in 0..N {
+                    dq[c] = h * p[c] + half_h2 * f0[c];
+                    y[c] = q[c] + dq[c];
+                }
+            } else {
+                mass.solve(&p, &mut u);
+                mass.solve(&f0, &mut w);
+                for c in 0..N {
+                    dq[c] = h * u[c] + half_h2 * w[c];
+                    y[c] = q[c] + dq[c];
+                }
+            }
+            self.lag.force(t + h, &y, &mut f1);
+            let mut finite = true;
+            let prev = (q, p, cq, cp);
+            for c in 0..N {
+                dp[c] = 0.5 * h * (f0[c] + f1[c]);
+                let yq = dq[c] + cq[c];
+                let tq = q[c] + yq;
+                cq[c] = (q[c] - tq) + yq;
+                q[c] = tq;
+                let yp = dp[c] + cp[c];
+                let tp = p[c] + yp;
+                cp[c] = (p[c] - tp) + yp;
+                p[c] = tp;
+                finite &= tp.is_finite() && tq.is_finite();
+            }
+            if !finite {
+                (q, p, cq, cp) = prev;
+                failed = true;
+                break;
+            }
+            last_q = prev.0;
+            last_dq = dq;
+            f0 = f1;
+            last_t = t;
+            last_h = h;
+            k += 1;
+            t = t_next;
+            done += 1;
+        }
+        // Write the state back.
+        self.q.copy_from_slice(&q);
+        self.p.copy_from_slice(&p);
+        self.comp_q.copy_from_slice(&cq);
+        self.comp_p.copy_from_slice(&cp);
+        self.force[..N].copy_from_slice(&f0);
+        self.fsal_slot = 0;
+        self.force0_valid = true;
+        self.steps += done;
+        if done > 0 {
+            self.have_last = true;
+            self.last_t = last_t;
+            self.last_h = last_h;
+            self.last_base.copy_from_slice(&last_q);
+            self.last_incr[N..2 * N].copy_from_slice(&last_dq);
+        }
+        self.k = k;
+        self.t = t;
+        if failed {
+            // The state is at the last good node; report like `step` does.
+            self.force0_valid = false;
+            return Err(Error::Step(StepError {
+                step: k,
+                t,
+                residual: f64::NAN,
+                iterations: 0,
+                failure: StepFailure::NonFinite,
+            }));
+        }
+        Ok(done)
     }
 
     /// Starting values of the node increments x (nodes 1 … s): the previous element's
@@ -517,29 +664,42 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     #[inline]
     fn step_explicit(&mut self, h: f64) {
-        // Störmer–Verlet: degree 1, trapezoid. The force at the end is kept for the next step.
+        // Störmer–Verlet: degree 1, trapezoid. The force at the end of a step is the force at
+        // the start of the next (kept in the other half of `force`, which alternates).
         let n = self.n;
         let Some(mass) = self.lag.mass_matrix() else {
             unreachable!("checked in new")
         };
+        let (lo, hi) = self.force.split_at_mut(n);
+        let (f0, f1) = if self.fsal_slot == 0 {
+            (lo, &mut hi[..n])
+        } else {
+            (&mut hi[..n], lo)
+        };
         if !self.force0_valid {
-            self.lag.force(self.t, &self.q, &mut self.force[..n]);
+            self.lag.force(self.t, &self.q, f0);
         }
-        let (f0, f1) = self.force.split_at_mut(n);
-        mass.solve(&self.p, &mut self.u);
-        mass.solve(f0, &mut self.tmp);
-        for c in 0..n {
-            self.dq[c] = h * self.u[c] + 0.5 * h * h * self.tmp[c];
-            self.y[c] = self.q[c] + self.dq[c];
+        let half_h2 = 0.5 * h * h;
+        if mass.is_identity() {
+            for c in 0..n {
+                self.dq[c] = h * self.p[c] + half_h2 * f0[c];
+                self.y[c] = self.q[c] + self.dq[c];
+            }
+        } else {
+            mass.solve(&self.p, &mut self.u);
+            mass.solve(f0, &mut self.tmp);
+            for c in 0..n {
+                self.dq[c] = h * self.u[c] + half_h2 * self.tmp[c];
+                self.y[c] = self.q[c] + self.dq[c];
+            }
         }
-        self.lag.force(self.t + h, &self.y[..n], &mut f1[..n]);
+        self.lag.force(self.t + h, &self.y[..n], f1);
         for c in 0..n {
             self.dp[c] = 0.5 * h * (f0[c] + f1[c]);
+            self.last_incr[n + c] = self.dq[c];
         }
-        f0.copy_from_slice(&f1[..n]);
+        self.fsal_slot ^= 1;
         self.force0_valid = true;
-        self.incr[..n].iter_mut().for_each(|x| *x = 0.0);
-        self.incr[n..2 * n].copy_from_slice(&self.dq);
     }
 
     fn step_fixed_point(&mut self, h: f64) -> Result<()> {
@@ -707,16 +867,5 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                     .sum::<f64>();
         }
         Ok(())
-    }
-}
-
-/// x += d with Kahan compensation carried in `comp`.
-#[inline]
-pub(crate) fn compensated_add(x: &mut [f64], comp: &mut [f64], d: &[f64]) {
-    for ((x, c), d) in x.iter_mut().zip(comp.iter_mut()).zip(d) {
-        let y = d + *c;
-        let t = *x + y;
-        *c = (*x - t) + y;
-        *x = t;
     }
 }
