@@ -20,6 +20,12 @@ pub trait Lagrangian {
     /// L(t, q, v), for any scalar type (f64 or dual numbers).
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D;
 
+    /// Whether L does not depend on t (then ∂L/∂t = 0 is not computed, and the discrete
+    /// energy is conserved in the energy-preserving mode). Default: false (t is differentiated).
+    fn is_autonomous(&self) -> bool {
+        false
+    }
+
     /// If L = ½vᵀMv − V(t, q) with a constant mass matrix M, that matrix. The fixed-point and
     /// explicit solvers are available only then.
     fn mass_matrix(&self) -> Option<&MassMatrix> {
@@ -110,6 +116,7 @@ impl PointDerivatives {
         let n = self.n;
         let m = 2 * n + 1;
         Self::load(&mut self.d1, t, q, v);
+        let with_t = with_t && !lag.is_autonomous();
         let start = if with_t { 0 } else { 1 };
         if !with_t {
             self.grad[0] = 0.0;
@@ -129,6 +136,7 @@ impl PointDerivatives {
         let n = self.n;
         let m = 2 * n + 1;
         Self::load(&mut self.d2, t, q, v);
+        let with_t = with_t && !lag.is_autonomous();
         let start = if with_t { 0 } else { 1 };
         if !with_t {
             self.grad[0] = 0.0;
@@ -282,6 +290,11 @@ pub trait Potential {
     /// V(t, q), for any scalar type.
     fn value<D: Scalar>(&self, t: D, q: &[D]) -> D;
 
+    /// Whether V does not depend on t. Default: false.
+    fn is_autonomous(&self) -> bool {
+        false
+    }
+
     /// The force −∇V(t, q) into `out`. The default differentiates [`Potential::value`]
     /// (n forward passes); override it with a hand-coded force for speed.
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
@@ -370,6 +383,10 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         Some(&self.mass)
     }
 
+    fn is_autonomous(&self) -> bool {
+        self.potential.is_autonomous()
+    }
+
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
         self.potential.force(t, q, out);
     }
@@ -381,7 +398,7 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         self.potential.force(t, q, gq);
         self.mass.apply(v, gv);
         let kin: f64 = 0.5 * v.iter().zip(gv.iter()).map(|(a, b)| a * b).sum::<f64>();
-        let vt = if with_t {
+        let vt = if with_t && !self.potential.is_autonomous() {
             let qd: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
             let r = self.potential.value(Dual64::new(t, 1.0), &qd);
             gt[0] = -r.eps;

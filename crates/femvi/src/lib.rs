@@ -23,4 +23,4 @@ pub use discrete::{Element, ElementWork};
 pub use error::{Error, Result, StepError, StepFailure};
 pub use fem::{NodeFamily, QuadratureKind};
 pub use lagrangian::{Lagrangian, MassMatrix, Mechanical, Potential, Scalar};
-pub use step::{Integrator, Method, SolverOptions, Start, TimeGrid};
+pub use step::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start, TimeGrid};

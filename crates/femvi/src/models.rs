@@ -91,6 +91,9 @@ pub struct HarmonicPotential {
 }
 
 impl Potential for HarmonicPotential {
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn dim(&self) -> usize {
         1
     }
@@ -110,6 +113,9 @@ pub struct PendulumPotential {
 }
 
 impl Potential for PendulumPotential {
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn dim(&self) -> usize {
         1
     }
@@ -129,6 +135,9 @@ pub struct KeplerPotential {
 }
 
 impl Potential for KeplerPotential {
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn dim(&self) -> usize {
         2
     }
@@ -149,6 +158,9 @@ impl Potential for KeplerPotential {
 pub struct HenonHeilesPotential;
 
 impl Potential for HenonHeilesPotential {
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn dim(&self) -> usize {
         2
     }
@@ -181,6 +193,9 @@ pub struct DoublePendulum {
 impl Lagrangian for DoublePendulum {
     fn dim(&self) -> usize {
         2
+    }
+    fn is_autonomous(&self) -> bool {
+        true
     }
     fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
         let (m1, m2, l1, l2, g) = (self.m1, self.m2, self.l1, self.l2, self.g);

@@ -56,6 +56,10 @@ impl Lagrangian for ExprLagrangian {
         self.coordinates.len()
     }
 
+    fn is_autonomous(&self) -> bool {
+        !self.depends_on_time()
+    }
+
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
         let n = self.coordinates.len();
         self.program.eval(|i| {

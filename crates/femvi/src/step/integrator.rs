@@ -12,6 +12,11 @@ use crate::fem::QuadratureKind;
 use crate::lagrangian::{check_regular, velocity_from_momentum, Lagrangian, PointDerivatives};
 use crate::solve::{newton_dense, DenseNewtonWork, NewtonFailure};
 
+#[path = "energy.rs"]
+mod energy;
+use energy::EnergyState;
+pub use energy::{Degenerate, EnergyOptions, EnergyStats};
+
 /// Which solver takes the step equations.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
@@ -170,6 +175,7 @@ pub struct Integrator<'a, L: Lagrangian> {
     basis_buf: Vec<f64>,
     iterations: usize,
     steps: usize,
+    energy: Option<EnergyState>,
 }
 
 impl<'a, L: Lagrangian> Integrator<'a, L> {
@@ -253,6 +259,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             basis_buf: vec![0.0; s + 1],
             iterations: 0,
             steps: 0,
+            energy: None,
             grid,
         };
         me.start(start)?;
@@ -444,9 +451,20 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             self.steps += 1;
             return Ok(true);
         }
+        if self.energy.is_some() {
+            return self.step_energy();
+        }
         let Some((h, t_next)) = self.grid.next(self.k, self.t) else {
             return Ok(false);
         };
+        self.solve_at(h)?;
+        self.commit(h, t_next)?;
+        Ok(true)
+    }
+
+    /// Solves the step equations from the current node with step h into `dq`, `dp` and
+    /// `incr`, without moving the state.
+    fn solve_at(&mut self, h: f64) -> Result<()> {
         match self.method {
             Resolved::Explicit => self.step_explicit(h),
             Resolved::FixedPoint => {
@@ -458,6 +476,11 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 self.step_newton(h)?
             }
         }
+        Ok(())
+    }
+
+    /// Moves the state to the node solved by [`Self::solve_at`] with step h.
+    fn commit(&mut self, h: f64, t_next: f64) -> Result<()> {
         // The node becomes the last element's base; buffers are swapped, not copied (copies
         // of a few numbers cost more than the Verlet step itself).
         self.have_last = true;
@@ -492,7 +515,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.k += 1;
         self.t = t_next;
         self.steps += 1;
-        Ok(true)
+        Ok(())
     }
 
     /// Advances up to `max_steps` steps and returns how many were taken (0 at the end of the

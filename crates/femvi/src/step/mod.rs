@@ -8,4 +8,4 @@ pub mod grid;
 pub mod integrator;
 
 pub use grid::TimeGrid;
-pub use integrator::{Integrator, Method, SolverOptions, Start};
+pub use integrator::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start};
