@@ -100,6 +100,16 @@ pub struct TimeTable {
     pub step: Option<f64>,
     pub steps: Option<Vec<f64>>,
     pub end: f64,
+    pub min_step: Option<f64>,
+    pub max_step: Option<f64>,
+    pub on_degenerate: Option<OnDegenerate>,
+}
+
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum OnDegenerate {
+    Error,
+    Fixed,
 }
 
 #[derive(Debug, Deserialize, Default, Clone, Copy, PartialEq)]
@@ -184,6 +194,8 @@ pub struct Problem {
     pub options: SolverOptions,
     pub directory: PathBuf,
     pub every: usize,
+    /// Time steps as variables (paper §3), with these bounds and policy.
+    pub energy: Option<femvi::EnergyOptions>,
 }
 
 /// Reads and checks a problem file.
@@ -344,9 +356,35 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
     // Time.
     let t0 = file.initial.t.unwrap_or(0.0);
     let tt = &file.time;
-    if tt.mode == Mode::Energy {
-        return Err(ctx("[time] mode = \"energy\" (time steps as variables, paper §3) is not available yet in this version; use mode = \"fixed\"".into()));
-    }
+    let energy = match tt.mode {
+        Mode::Fixed => {
+            if tt.min_step.is_some() || tt.max_step.is_some() || tt.on_degenerate.is_some() {
+                return Err(ctx(
+                    "[time] min_step, max_step and on_degenerate apply only to mode = \"energy\"".into(),
+                ));
+            }
+            None
+        }
+        Mode::Energy => {
+            let h = tt.step.ok_or_else(|| {
+                ctx("[time] mode = \"energy\" needs `step` (the first step; later steps are variables)".into())
+            })?;
+            if tt.steps.is_some() {
+                return Err(ctx(
+                    "[time] mode = \"energy\" takes `step`, not a list of `steps`".into()
+                ));
+            }
+            let d = femvi::EnergyOptions::from_step(h);
+            Some(femvi::EnergyOptions {
+                min_step: tt.min_step.unwrap_or(d.min_step),
+                max_step: tt.max_step.unwrap_or(d.max_step),
+                on_degenerate: match tt.on_degenerate {
+                    Some(OnDegenerate::Fixed) => femvi::Degenerate::Fixed,
+                    _ => femvi::Degenerate::Error,
+                },
+            })
+        }
+    };
     let grid = match (&tt.step, &tt.steps) {
         (Some(h), None) => TimeGrid::uniform(t0, *h, tt.end),
         (None, Some(list)) => TimeGrid::steps(t0, list.clone(), tt.end),
@@ -423,6 +461,7 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
         options,
         directory,
         every,
+        energy,
     })
 }
 

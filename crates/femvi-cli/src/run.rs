@@ -23,6 +23,18 @@ pub struct Summary {
     pub mean_solver_iterations: f64,
     pub wall_seconds: f64,
     pub error: Option<String>,
+    /// Energy mode only: largest relative residual of the discrete energy equations (3.3).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_rel_discrete_energy_error: Option<f64>,
+    /// Energy mode only: smallest step taken.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_step: Option<f64>,
+    /// Energy mode only: largest step taken.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_step: Option<f64>,
+    /// Energy mode only: steps taken with time as a parameter (on_degenerate = "fixed").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub degenerate_steps: Option<usize>,
 }
 
 /// How a run ended.
@@ -54,13 +66,12 @@ fn num(x: f64) -> String {
 
 fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::Result<Outcome> {
     let clock = Instant::now();
-    let mut it = match Integrator::new(
-        lag,
-        &problem.element,
-        problem.grid.clone(),
-        problem.start.clone(),
-        problem.options,
-    ) {
+    let (grid, start) = (problem.grid.clone(), problem.start.clone());
+    let made = match problem.energy {
+        None => Integrator::new(lag, &problem.element, grid, start, problem.options),
+        Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
+    };
+    let mut it = match made {
         Ok(it) => it,
         Err(femvi::Error::Step(e)) => {
             // Only the start from (q0, q1) solves anything here.
@@ -77,6 +88,10 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
     header.push("energy".into());
+    let energy_mode = problem.energy.is_some();
+    if energy_mode {
+        header.push("discrete_energy".into());
+    }
     csv.write_record(&header)?;
     let n = lag.dim();
     let mut work = PointDerivatives::new(n);
@@ -110,6 +125,9 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
             row.extend(node.q.iter().map(|&x| num(x)));
             row.extend(node.p.iter().map(|&x| num(x)));
             row.push(num(h));
+            if let Some(st) = it.energy_stats() {
+                row.push(num(st.energy));
+            }
             csv.write_record(&row).map_err(|e| e.to_string())?;
         }
         Ok(())
@@ -144,6 +162,10 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
         mean_solver_iterations: it.mean_iterations(),
         wall_seconds: clock.elapsed().as_secs_f64(),
         error,
+        max_rel_discrete_energy_error: it.energy_stats().map(|s| s.max_rel_residual),
+        min_step: it.energy_stats().map(|s| s.min_step),
+        max_step: it.energy_stats().map(|s| s.max_step),
+        degenerate_steps: it.energy_stats().map(|s| s.degenerate_steps),
     };
     write_summary(dir, &summary)?;
     Ok(if summary.error.is_some() {
@@ -166,6 +188,10 @@ fn empty_summary(problem: &Problem, wall: f64, error: String) -> Summary {
         mean_solver_iterations: 0.0,
         wall_seconds: wall,
         error: Some(error),
+        max_rel_discrete_energy_error: None,
+        min_step: None,
+        max_step: None,
+        degenerate_steps: None,
     }
 }
 

@@ -145,7 +145,10 @@ fn corpus() -> Vec<(&'static str, Vec<u8>, i32, &'static str)> {
         ("bad-iterations", format!("{GOOD}\n[solver]\nmax_iterations = 0\n").into_bytes(), 2, "max_iterations"),
         ("fixed-point-general", format!("{GOOD}\n[solver]\nmethod = \"fixed-point\"\n").into_bytes(), 2, "mechanical"),
         ("every-zero", format!("{GOOD}\n[output]\nevery = 0\n").into_bytes(), 2, "every"),
-        ("energy-mode", g("step = 0.1", "mode = \"energy\"\nstep = 0.1"), 2, "energy"),
+        ("energy-mode-steps-list", g("step = 0.1", "mode = \"energy\"\nsteps = [0.1]"), 2, "needs `step`"),
+        ("energy-keys-in-fixed-mode", g("step = 0.1", "step = 0.1\nmin_step = 0.01"), 2, "only to mode"),
+        ("energy-bad-bounds", g("step = 0.1", "mode = \"energy\"\nstep = 0.1\nmax_step = 0.05"), 2, "max_step"),
+        ("energy-bad-policy", g("step = 0.1", "mode = \"energy\"\nstep = 0.1\non_degenerate = \"skip\""), 2, "fixed"),
         ("inf-initial", g("q = [1.0]", "q = [inf]"), 2, "non-finite"),
     ]
 }
@@ -215,4 +218,36 @@ fn a_step_that_cannot_converge_is_a_numerical_failure_with_output_kept() {
         steps + 2,
         "header, node 0 and one row per completed step"
     );
+}
+
+#[test]
+fn energy_mode_writes_the_discrete_energy() {
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .arg("run")
+        .arg(examples().join("energy-henon-heiles.toml"))
+        .arg("--out")
+        .arg(out.path())
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.path().join("trajectory.csv")).unwrap();
+    assert!(csv.starts_with("step,t,x,y,p_x,p_y,energy,discrete_energy\n"));
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // Node 0 precedes the first element: its discrete energy is not defined yet (NaN).
+    let e1 = rows[1][7];
+    assert!(rows[1..].iter().all(|r| r[7] == e1), "the discrete energy is conserved");
+    let t_end = rows.last().unwrap()[1];
+    assert!(
+        t_end >= 50.0 && rows[rows.len() - 2][1] < 50.0,
+        "stops at the first node at or past the end"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+    assert!(summary["max_rel_discrete_energy_error"].as_f64().unwrap() < 1e-13);
+    assert_eq!(summary["degenerate_steps"].as_u64(), Some(0));
+    assert!(summary["min_step"].as_f64().unwrap() > 0.0);
 }

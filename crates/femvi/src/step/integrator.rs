@@ -434,6 +434,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// Whether the run has reached the end of its grid.
     pub fn finished(&self) -> bool {
+        if self.energy.is_some() {
+            return self.pending.is_none() && self.t >= self.grid.end();
+        }
         self.pending.is_none() && self.grid.next(self.k, self.t).is_none()
     }
 
