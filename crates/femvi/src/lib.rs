@@ -6,10 +6,12 @@
 //! The modules read like a table of contents: [`lagrangian`] (continuous systems),
 //! [`fem`] (bases, quadrature), [`discrete`] (the element: L_d, its derivatives, discrete
 //! Legendre transforms and energies), [`solve`] (nonlinear solvers), [`step`] (the discrete
-//! flow with time steps as parameters), [`expr`] (Lagrangians from math expressions) and
+//! flow with time steps as parameters and as variables), [`diagnostics`] (symplecticity,
+//! orders), [`expr`] (Lagrangians from math expressions) and
 //! [`models`] (built-in systems).
 #![deny(missing_docs)]
 
+pub mod diagnostics;
 pub mod discrete;
 pub mod error;
 pub mod expr;
