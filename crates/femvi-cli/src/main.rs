@@ -2,6 +2,8 @@
 //! writes what the library returns, and turns errors into messages and exit codes
 //! (0 success, 1 numerical failure, 2 bad input).
 
+mod check;
+mod convergence;
 mod problem;
 mod run;
 
@@ -33,6 +35,35 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Run a problem and measure symplecticity, energy error and drift, Noether momenta and
+    /// time reversal.
+    Check {
+        /// The problem file (TOML).
+        problem: PathBuf,
+        /// Print one JSON object on standard output.
+        #[arg(long)]
+        json: bool,
+        /// Also write check.json into this directory.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Measure convergence orders over several step sizes.
+    Convergence {
+        /// The problem file (TOML).
+        problem: PathBuf,
+        /// Step sizes, comma-separated (e.g. 0.1,0.05,0.025).
+        #[arg(long, value_delimiter = ',', required = true)]
+        steps: Vec<f64>,
+        /// Reference: exact, finest, or a step size for a reference run of degree s + 2.
+        #[arg(long)]
+        reference: Option<String>,
+        /// Print one JSON object on standard output.
+        #[arg(long)]
+        json: bool,
+        /// Directory for convergence.csv (default: the problem's output directory).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 const NUMERICAL: u8 = 1;
@@ -60,16 +91,134 @@ fn main() -> ExitCode {
 fn dispatch(cli: Cli) -> ExitCode {
     match cli.command {
         Command::Run { problem, out, quiet } => cmd_run(&problem, out, quiet),
+        Command::Check { problem, json, out } => cmd_check(&problem, json, out),
+        Command::Convergence {
+            problem,
+            steps,
+            reference,
+            json,
+            out,
+        } => cmd_convergence(&problem, &steps, reference.as_deref(), json, out),
     }
 }
 
-fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCode {
-    let problem = match problem::load(path) {
+fn load(path: &std::path::Path) -> Result<problem::Problem, ExitCode> {
+    problem::load(path).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(BAD_INPUT)
+    })
+}
+
+fn cmd_check(path: &std::path::Path, json: bool, out: Option<PathBuf>) -> ExitCode {
+    let problem = match load(path) {
         Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
+        Err(code) => return code,
+    };
+    let report = match check::check(&problem) {
+        Ok(r) => r,
+        Err((msg, code)) => {
+            eprintln!("error: {}: {msg}", path.display());
+            return ExitCode::from(code);
+        }
+    };
+    let text = serde_json::to_string_pretty(&report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+    if let Some(dir) = out {
+        if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("check.json"), &text)) {
+            eprintln!("error: cannot write {}: {e}", dir.display());
             return ExitCode::from(BAD_INPUT);
         }
+    }
+    if json {
+        println!("{text}");
+    } else {
+        println!(
+            "{} ({}), {} steps to t = {}",
+            report.name, report.scheme, report.steps, report.final_t
+        );
+        match report.symplecticity_defect {
+            Some(d) => println!(
+                "  symplecticity defect   {d:.3e} ({} steps sampled)",
+                report.symplecticity_samples
+            ),
+            None => println!("  symplecticity defect   n/a"),
+        }
+        println!("  max rel energy error   {:.3e}", report.max_rel_energy_error);
+        println!("  energy drift           {:.3e} per unit time", report.energy_drift);
+        for (k, v) in &report.momentum_drift {
+            println!("  momentum drift {k:<8} {v:.3e}");
+        }
+        if let Some(r) = report.time_reversal_error {
+            println!("  time reversal error    {r:.3e}");
+        }
+        for note in &report.notes {
+            println!("  note: {note}");
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+fn cmd_convergence(
+    path: &std::path::Path,
+    steps: &[f64],
+    reference: Option<&str>,
+    json: bool,
+    out: Option<PathBuf>,
+) -> ExitCode {
+    let problem = match load(path) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
+    let reference = match reference {
+        None => None,
+        Some("exact") => Some(convergence::Reference::Exact),
+        Some("finest") => Some(convergence::Reference::Finest),
+        Some(other) => match other.parse::<f64>() {
+            Ok(h) if h > 0.0 && h.is_finite() => Some(convergence::Reference::Step(h)),
+            _ => {
+                eprintln!("error: --reference must be exact, finest or a positive step, not '{other}'");
+                return ExitCode::from(BAD_INPUT);
+            }
+        },
+    };
+    let study = match convergence::study(&problem, steps, reference) {
+        Ok(s) => s,
+        Err((msg, code)) => {
+            eprintln!("error: {}: {msg}", path.display());
+            return ExitCode::from(code);
+        }
+    };
+    let dir = out.unwrap_or_else(|| problem.directory.clone());
+    let mut csv = String::from("step,error,order_from_previous\n");
+    for r in &study.runs {
+        let o = r.order_from_previous.map(|o| format!("{o:?}")).unwrap_or_default();
+        csv.push_str(&format!("{:?},{:?},{o}\n", r.step, r.error));
+    }
+    if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("convergence.csv"), csv)) {
+        eprintln!("error: cannot write {}: {e}", dir.display());
+        return ExitCode::from(BAD_INPUT);
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&study).unwrap_or_default());
+    } else {
+        println!("{} ({}), reference: {}", study.name, study.scheme, study.reference);
+        println!("{:>14} {:>14} {:>8}", "step", "error", "order");
+        for r in &study.runs {
+            let o = r.order_from_previous.map(|o| format!("{o:.3}")).unwrap_or_default();
+            println!("{:>14.6e} {:>14.6e} {:>8}", r.step, r.error, o);
+        }
+        println!(
+            "fitted order {:.3}; wrote {}",
+            study.order,
+            dir.join("convergence.csv").display()
+        );
+    }
+    ExitCode::SUCCESS
+}
+
+fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCode {
+    let problem = match load(path) {
+        Ok(p) => p,
+        Err(code) => return code,
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
     match run::run(&problem, &dir) {

@@ -22,6 +22,61 @@ pub struct ProblemFile {
     pub solver: SolverTable,
     #[serde(default)]
     pub output: OutputTable,
+    pub symmetries: Option<SymmetriesTable>,
+}
+
+/// Continuous symmetries whose Noether momenta `femvi check` follows.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SymmetriesTable {
+    /// Directions d of translation invariance: momentum p·d.
+    #[serde(default)]
+    pub translations: Vec<Vec<f64>>,
+    /// Planes (i, j) of rotation invariance: momentum q_i p_j − q_j p_i.
+    #[serde(default)]
+    pub rotations: Vec<[usize; 2]>,
+}
+
+/// A declared symmetry.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Symmetry {
+    /// Translation along d.
+    Translation(Vec<f64>),
+    /// Rotation in the plane of coordinates (i, j).
+    Rotation(usize, usize),
+}
+
+impl Symmetry {
+    /// The Noether momentum at (q, p).
+    pub fn momentum(&self, q: &[f64], p: &[f64]) -> f64 {
+        match self {
+            Symmetry::Translation(d) => d.iter().zip(p).map(|(a, b)| a * b).sum(),
+            Symmetry::Rotation(i, j) => q[*i] * p[*j] - q[*j] * p[*i],
+        }
+    }
+
+    /// A label such as "rotation(x,y)".
+    pub fn label(&self, names: &[String]) -> String {
+        match self {
+            Symmetry::Translation(d) => format!("translation{d:?}"),
+            Symmetry::Rotation(i, j) => format!("rotation({},{})", names[*i], names[*j]),
+        }
+    }
+}
+
+/// Dispatches `$body` with `$l` bound to the concrete Lagrangian of a [`System`].
+#[macro_export]
+macro_rules! with_system {
+    ($sys:expr, $l:ident => $body:expr) => {
+        match $sys {
+            $crate::problem::System::Expr($l) => $body,
+            $crate::problem::System::Harmonic($l) => $body,
+            $crate::problem::System::Pendulum($l) => $body,
+            $crate::problem::System::Kepler($l) => $body,
+            $crate::problem::System::HenonHeiles($l) => $body,
+            $crate::problem::System::DoublePendulum($l) => $body,
+        }
+    };
 }
 
 #[derive(Debug, Deserialize)]
@@ -196,6 +251,10 @@ pub struct Problem {
     pub every: usize,
     /// Time steps as variables (paper §3), with these bounds and policy.
     pub energy: Option<femvi::EnergyOptions>,
+    /// Declared symmetries (from the file, or the built-in model's).
+    pub symmetries: Vec<Symmetry>,
+    /// Built-in model name, if any, and its resolved parameters.
+    pub model: Option<(String, Vec<f64>)>,
 }
 
 /// Reads and checks a problem file.
@@ -235,6 +294,7 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
     // System.
     let sys = &file.system;
     let params: Vec<(String, f64)> = sys.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
+    let mut model_info = None;
     let (system, coordinates) = match (&sys.lagrangian, &sys.model) {
         (Some(_), Some(_)) => return Err(ctx("[system] has both `lagrangian` and `model`; give one".into())),
         (None, None) => {
@@ -262,6 +322,7 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
                 }
             }
             let p = models::parameters(model, &params).map_err(|e| ctx(e.to_string()))?;
+            model_info = Some((model.clone(), p.clone()));
             let system = match model.as_str() {
                 "harmonic" => {
                     System::Harmonic(models::harmonic(p[0], p[1]).map_err(|e| ctx(format!("model harmonic: {e}")))?)
@@ -450,6 +511,33 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
         return Err(ctx("[output] every must be at least 1".into()));
     }
     let directory = PathBuf::from(file.output.directory.clone().unwrap_or_else(|| format!("out/{name}")));
+    // Symmetries: declared in the file, else the built-in model's.
+    let symmetries = match &file.symmetries {
+        Some(table) => {
+            let mut out = Vec::new();
+            for d in &table.translations {
+                if d.len() != n || d.iter().any(|x| !x.is_finite()) || d.iter().all(|x| *x == 0.0) {
+                    return Err(ctx(format!(
+                        "[symmetries] translation {d:?} must be a non-zero vector of {n} finite numbers"
+                    )));
+                }
+                out.push(Symmetry::Translation(d.clone()));
+            }
+            for [i, j] in &table.rotations {
+                if *i >= n || *j >= n || i == j {
+                    return Err(ctx(format!(
+                        "[symmetries] rotation [{i}, {j}] must name two different coordinate indices below {n}"
+                    )));
+                }
+                out.push(Symmetry::Rotation(*i, *j));
+            }
+            out
+        }
+        None => match model_info.as_ref().map(|(m, _)| m.as_str()) {
+            Some("kepler") => vec![Symmetry::Rotation(0, 1)],
+            _ => vec![],
+        },
+    };
     Ok(Problem {
         name,
         coordinates,
@@ -462,6 +550,8 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
         directory,
         every,
         energy,
+        symmetries,
+        model: model_info,
     })
 }
 

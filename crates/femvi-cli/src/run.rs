@@ -1,7 +1,7 @@
 //! `femvi run`: integrates a problem, streaming trajectory.csv as it goes and writing
 //! summary.json at the end (also after a failure, with the error).
 
-use crate::problem::{Problem, System};
+use crate::problem::Problem;
 use femvi::lagrangian::{hamiltonian, PointDerivatives};
 use femvi::{Integrator, Lagrangian};
 use serde::Serialize;
@@ -49,14 +49,7 @@ pub enum Outcome {
 
 /// Runs a problem with output into `dir`.
 pub fn run(problem: &Problem, dir: &Path) -> std::io::Result<Outcome> {
-    match &problem.system {
-        System::Expr(l) => run_with(l, problem, dir),
-        System::Harmonic(l) => run_with(l, problem, dir),
-        System::Pendulum(l) => run_with(l, problem, dir),
-        System::Kepler(l) => run_with(l, problem, dir),
-        System::HenonHeiles(l) => run_with(l, problem, dir),
-        System::DoublePendulum(l) => run_with(l, problem, dir),
-    }
+    crate::with_system!(&problem.system, l => run_with(l, problem, dir))
 }
 
 fn num(x: f64) -> String {

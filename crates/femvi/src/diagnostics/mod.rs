@@ -1,6 +1,9 @@
 //! Proof in numbers: quantities that check the paper's claims on a computed trajectory —
 //! the symplecticity defect of step maps ((2.17), (2.46): the tangent map M of a step
-//! satisfies MᵀJM = J), energy errors and their drift, and least-squares order fits.
+//! satisfies MᵀJM = J), energy errors and their drift, least-squares order fits, and closed
+//! forms to measure errors against.
+
+pub mod exact;
 
 /// max |MᵀJM − J| for a row-major 2n×2n tangent map M in variables (q, p), with
 /// J = [[0, I], [−I, 0]]. Zero for a symplectic map (up to round-off).

@@ -1,0 +1,158 @@
+//! `femvi convergence`: runs a problem's scheme at several step sizes over the same time span,
+//! measures the final nodal error in phase space, ‖(q, p) − (q, p)_ref‖₂, and fits observed
+//! orders. The reference is a closed form where the model has one (harmonic, kepler), or a
+//! run with a finer step and an element of degree s + 2.
+
+use crate::problem::Problem;
+use femvi::diagnostics::{exact, fit_order};
+use femvi::{Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, Start, TimeGrid};
+use serde::Serialize;
+
+/// Which reference the errors are measured against.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Reference {
+    /// The closed form of the model.
+    Exact,
+    /// A run with a quarter of the finest step and degree s + 2.
+    Finest,
+    /// A run with this step and degree s + 2.
+    Step(f64),
+}
+
+/// One run of the study.
+#[derive(Debug, Serialize)]
+pub struct Run {
+    pub step: f64,
+    pub error: f64,
+    pub order_from_previous: Option<f64>,
+}
+
+/// The study, printed as JSON with `--json`.
+#[derive(Debug, Serialize)]
+pub struct Study {
+    pub name: String,
+    pub scheme: String,
+    /// Least-squares slope of ln(error) against ln(step) over all runs.
+    pub order: f64,
+    /// What the errors were measured against.
+    pub reference: String,
+    pub t_end: f64,
+    pub runs: Vec<Run>,
+}
+
+/// Runs the study; Err carries a message and an exit code.
+pub fn study(problem: &Problem, steps: &[f64], reference: Option<Reference>) -> Result<Study, (String, u8)> {
+    if problem.energy.is_some() {
+        return Err((
+            "convergence studies use fixed steps: set [time] mode = \"fixed\"".into(),
+            2,
+        ));
+    }
+    if steps.len() < 2 {
+        return Err(("--steps needs at least two step sizes".into(), 2));
+    }
+    if let Some(h) = steps.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+        return Err((format!("--steps: {h} is not a positive number"), 2));
+    }
+    crate::with_system!(&problem.system, l => study_with(l, problem, steps, reference))
+}
+
+fn fail(e: femvi::Error) -> (String, u8) {
+    let code = if matches!(e, femvi::Error::Step(_)) { 1 } else { 2 };
+    (e.to_string(), code)
+}
+
+fn final_state<L: Lagrangian>(lag: &L, el: &Element, problem: &Problem, h: f64) -> Result<Vec<f64>, (String, u8)> {
+    let grid = TimeGrid::uniform(problem.grid.t0(), h, problem.grid.end()).map_err(fail)?;
+    let mut it = Integrator::new(lag, el, grid, problem.start.clone(), problem.options).map_err(fail)?;
+    while it.step().map_err(fail)? {}
+    let n = it.node();
+    Ok(n.q.iter().chain(n.p).cloned().collect())
+}
+
+/// The closed-form final state, if the model has one and the start gives (q0, p0).
+fn exact_final<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<Vec<f64>> {
+    let (model, params) = problem.model.as_ref()?;
+    let (q0, p0) = match &problem.start {
+        Start::Momentum { q, p } => (q.clone(), p.clone()),
+        Start::Velocity { q, v } => {
+            let mut work = femvi::lagrangian::PointDerivatives::new(lag.dim());
+            lag.first_derivatives(problem.grid.t0(), q, v, false, &mut work);
+            (q.clone(), work.l_v().to_vec())
+        }
+        Start::Positions { .. } => return None,
+    };
+    let (t0, t1) = (problem.grid.t0(), problem.grid.end());
+    match model.as_str() {
+        "harmonic" => {
+            let (q, p) = exact::harmonic(params[0], params[1], t0, q0[0], p0[0], t1);
+            Some(vec![q, p])
+        }
+        "kepler" => {
+            let (q, p) = exact::kepler(params[0], t0, [q0[0], q0[1]], [p0[0], p0[1]], t1)?;
+            Some(vec![q[0], q[1], p[0], p[1]])
+        }
+        _ => None,
+    }
+}
+
+fn study_with<L: Lagrangian>(
+    lag: &L,
+    problem: &Problem,
+    steps: &[f64],
+    reference: Option<Reference>,
+) -> Result<Study, (String, u8)> {
+    let exact = exact_final(lag, problem);
+    let reference = reference.unwrap_or(if exact.is_some() {
+        Reference::Exact
+    } else {
+        Reference::Finest
+    });
+    let finest = steps.iter().cloned().fold(f64::INFINITY, f64::min);
+    let (reference_state, label) = match reference {
+        Reference::Exact => match exact {
+            Some(s) => (s, "exact (closed form)".to_string()),
+            None => {
+                return Err((
+                    "no closed form for this problem (only the harmonic and kepler models, started from v or p, have one); use --reference finest or a step".into(),
+                    2,
+                ))
+            }
+        },
+        Reference::Finest | Reference::Step(_) => {
+            let h = match reference {
+                Reference::Step(h) => h,
+                _ => finest / 4.0,
+            };
+            let s = problem.element.degree() + 2;
+            let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).map_err(fail)?;
+            (final_state(lag, &el, problem, h)?, format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}"))
+        }
+    };
+    let mut runs: Vec<Run> = vec![];
+    for &h in steps {
+        let state = final_state(lag, &problem.element, problem, h)?;
+        let error = state
+            .iter()
+            .zip(&reference_state)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let order_from_previous = runs.last().map(|r: &Run| (error / r.error).ln() / (h / r.step).ln());
+        runs.push(Run {
+            step: h,
+            error,
+            order_from_previous,
+        });
+    }
+    let hs: Vec<f64> = runs.iter().map(|r| r.step).collect();
+    let es: Vec<f64> = runs.iter().map(|r| r.error).collect();
+    Ok(Study {
+        name: problem.name.clone(),
+        scheme: problem.scheme_label.clone(),
+        order: fit_order(&hs, &es),
+        reference: label,
+        t_end: problem.grid.end(),
+        runs,
+    })
+}
