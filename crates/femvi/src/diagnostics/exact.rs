@@ -18,7 +18,7 @@ pub fn kepler(mu: f64, t0: f64, q0: [f64; 2], p0: [f64; 2], t: f64) -> Option<([
     let v2 = p0[0] * p0[0] + p0[1] * p0[1];
     let energy = 0.5 * v2 - mu / r0;
     let ang = q0[0] * p0[1] - q0[1] * p0[0];
-    if !(energy < 0.0) || ang == 0.0 {
+    if energy.is_nan() || energy >= 0.0 || ang == 0.0 {
         return None;
     }
     let a = -mu / (2.0 * energy);
