@@ -155,7 +155,9 @@ fn check_in_energy_mode_and_with_time_dependence() {
             .arg("--out")
             .arg(dir.path()),
     );
-    assert!(v["symplecticity_defect"].is_null());
+    // Extended map (3.6); degree 2 makes it ill-conditioned, so the relative defect is the check.
+    assert!(v["symplecticity_defect_relative"].as_f64().unwrap() < 1e-13, "{v}");
+    assert!(v["symplecticity_samples"].as_u64().unwrap() > 100);
     assert!(v["max_rel_discrete_energy_error"].as_f64().unwrap() < 1e-13);
     assert!(dir.path().join("check.json").exists());
     let v = json(femvi().arg("check").arg(root.join("variable-steps.toml")).arg("--json"));
