@@ -37,32 +37,7 @@ pub struct SymmetriesTable {
     pub rotations: Vec<[usize; 2]>,
 }
 
-/// A declared symmetry.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Symmetry {
-    /// Translation along d.
-    Translation(Vec<f64>),
-    /// Rotation in the plane of coordinates (i, j).
-    Rotation(usize, usize),
-}
-
-impl Symmetry {
-    /// The Noether momentum at (q, p).
-    pub fn momentum(&self, q: &[f64], p: &[f64]) -> f64 {
-        match self {
-            Symmetry::Translation(d) => d.iter().zip(p).map(|(a, b)| a * b).sum(),
-            Symmetry::Rotation(i, j) => q[*i] * p[*j] - q[*j] * p[*i],
-        }
-    }
-
-    /// A label such as "rotation(x,y)".
-    pub fn label(&self, names: &[String]) -> String {
-        match self {
-            Symmetry::Translation(d) => format!("translation{d:?}"),
-            Symmetry::Rotation(i, j) => format!("rotation({},{})", names[*i], names[*j]),
-        }
-    }
-}
+pub use femvi::diagnostics::Symmetry;
 
 /// Dispatches `$body` with `$l` bound to the concrete Lagrangian of a [`System`].
 #[macro_export]

@@ -3,7 +3,10 @@
 //! satisfies MᵀJM = J), energy errors and their drift, least-squares order fits, and closed
 //! forms to measure errors against.
 
+pub mod check;
 pub mod exact;
+
+pub use check::{check, CheckReport, Symmetry};
 
 /// max |MᵀJM − J| for a row-major 2n×2n tangent map M in variables (q, p), with
 /// J = [[0, I], [−I, 0]]. Zero for a symplectic map (up to round-off).
