@@ -4,6 +4,7 @@
 //! Lagrangian with a quadrature rule.
 //!
 //! The modules read like a table of contents: [`lagrangian`] (continuous systems),
+//! [`bvp`] (two-point boundary value problems by the discrete variational principle),
 //! [`fem`] (bases, quadrature), [`discrete`] (the element: L_d, its derivatives, discrete
 //! Legendre transforms and energies), [`solve`] (nonlinear solvers), [`step`] (the discrete
 //! flow with time steps as parameters and as variables), [`diagnostics`] (symplecticity,
@@ -11,6 +12,7 @@
 //! [`models`] (built-in systems).
 #![deny(missing_docs)]
 
+pub mod bvp;
 pub mod diagnostics;
 pub mod discrete;
 pub mod error;

@@ -1,6 +1,8 @@
 //! Nonlinear solvers shared by every problem femvi solves: a dense Newton iteration with a
-//! backtracking line search (general Lagrangians), and the convergence rules they share.
+//! backtracking line search (general Lagrangians), and a banded LU for boundary value problems.
 
+pub mod banded;
 pub mod newton;
 
+pub use banded::BandMatrix;
 pub use newton::{newton_dense, DenseNewtonWork, NewtonFailure, NewtonReport};
