@@ -2,6 +2,7 @@
 //! writes what the library returns, and turns errors into messages and exit codes
 //! (0 success, 1 numerical failure, 2 bad input).
 
+mod bvp;
 mod check;
 mod convergence;
 mod problem;
@@ -46,6 +47,18 @@ enum Command {
         /// Also write check.json into this directory.
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Solve a two-point boundary value problem ([boundary] table) by the discrete variational
+    /// principle; writes trajectory.csv and summary.json.
+    Bvp {
+        /// The problem file (TOML) with a [boundary] table.
+        problem: PathBuf,
+        /// Output directory (default: the problem's output directory).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print nothing but errors.
+        #[arg(long)]
+        quiet: bool,
     },
     /// Measure convergence orders over several step sizes.
     Convergence {
@@ -92,6 +105,7 @@ fn dispatch(cli: Cli) -> ExitCode {
     match cli.command {
         Command::Run { problem, out, quiet } => cmd_run(&problem, out, quiet),
         Command::Check { problem, json, out } => cmd_check(&problem, json, out),
+        Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
         Command::Convergence {
             problem,
             steps,
@@ -99,6 +113,44 @@ fn dispatch(cli: Cli) -> ExitCode {
             json,
             out,
         } => cmd_convergence(&problem, &steps, reference.as_deref(), json, out),
+    }
+}
+
+fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCode {
+    let problem = match problem::load_bvp(path) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(BAD_INPUT);
+        }
+    };
+    let dir = out.unwrap_or_else(|| problem.directory.clone());
+    match bvp::run(&problem, &dir) {
+        Err((msg, code)) => {
+            eprintln!("error: {}: {msg}", path.display());
+            ExitCode::from(code)
+        }
+        Ok(s) if s.error.is_some() => {
+            eprintln!("error: {}", s.error.as_deref().unwrap_or(""));
+            eprintln!("hint: try another initial guess ([boundary] guess = \"trajectory.csv\"), more elements, or check that a solution exists");
+            ExitCode::from(NUMERICAL)
+        }
+        Ok(s) => {
+            if !quiet {
+                println!(
+                    "{}: {} elements ({}), action {:.15e}, residual {:.2e}, {} Newton iterations, {:.3} s",
+                    s.name,
+                    s.elements,
+                    s.scheme,
+                    s.action.unwrap_or(f64::NAN),
+                    s.residual_norm.unwrap_or(f64::NAN),
+                    s.newton_iterations,
+                    s.wall_seconds
+                );
+                println!("wrote {} and summary.json", dir.join("trajectory.csv").display());
+            }
+            ExitCode::SUCCESS
+        }
     }
 }
 

@@ -14,10 +14,11 @@ use std::path::{Path, PathBuf};
 pub struct ProblemFile {
     pub name: Option<String>,
     pub system: SystemTable,
-    pub initial: InitialTable,
+    pub initial: Option<InitialTable>,
     #[serde(default)]
     pub scheme: SchemeTable,
-    pub time: TimeTable,
+    pub time: Option<TimeTable>,
+    pub boundary: Option<BoundaryTable>,
     #[serde(default)]
     pub solver: SolverTable,
     #[serde(default)]
@@ -62,6 +63,21 @@ pub struct SystemTable {
     pub parameters: BTreeMap<String, f64>,
     pub lagrangian: Option<toml::Spanned<String>>,
     pub model: Option<String>,
+}
+
+/// The two-point boundary value problem of `femvi bvp`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryTable {
+    pub t0: f64,
+    pub q0: Vec<f64>,
+    pub t1: f64,
+    pub q1: Vec<f64>,
+    pub elements: usize,
+    /// A trajectory.csv to interpolate as the initial guess (default: the straight line).
+    pub guess: Option<String>,
+    #[serde(default)]
+    pub time_mode: Mode,
 }
 
 #[derive(Debug, Deserialize)]
@@ -232,8 +248,8 @@ pub struct Problem {
     pub model: Option<(String, Vec<f64>)>,
 }
 
-/// Reads and checks a problem file.
-pub fn load(path: &Path) -> Result<Problem, InputError> {
+/// Reads and parses a problem file.
+fn read(path: &Path) -> Result<(String, ProblemFile), InputError> {
     let bytes =
         std::fs::read(path).map_err(|e| bad(format!("{}: cannot read the problem file: {e}", path.display())))?;
     let text = String::from_utf8(bytes).map_err(|e| {
@@ -245,7 +261,7 @@ pub fn load(path: &Path) -> Result<Problem, InputError> {
     })?;
     if text.trim().is_empty() {
         return Err(bad(format!(
-            "{}: the problem file is empty (it needs [system], [initial] and [time])",
+            "{}: the problem file is empty (it needs [system], and [initial] and [time] or [boundary])",
             path.display()
         )));
     }
@@ -256,10 +272,48 @@ pub fn load(path: &Path) -> Result<Problem, InputError> {
             None => bad(format!("{}: {msg}", path.display())),
         }
     })?;
-    build(path, &text, file)
+    Ok((text, file))
 }
 
-fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputError> {
+/// Reads and checks an initial value problem (for `run`, `check`, `convergence`).
+pub fn load(path: &Path) -> Result<Problem, InputError> {
+    let (text, file) = read(path)?;
+    match build(path, &text, file, false)? {
+        Loaded::Ivp(p) => Ok(p),
+        Loaded::Bvp(_) => Err(bad(format!("{}: expected an initial value problem", path.display()))),
+    }
+}
+
+/// Reads and checks a boundary value problem (for `bvp`).
+pub fn load_bvp(path: &Path) -> Result<BvpProblem, InputError> {
+    let (text, file) = read(path)?;
+    match build(path, &text, file, true)? {
+        Loaded::Bvp(p) => Ok(p),
+        Loaded::Ivp(_) => Err(bad(format!("{}: expected a boundary value problem", path.display()))),
+    }
+}
+
+/// A boundary value problem read from a file with [boundary].
+pub struct BvpProblem {
+    pub name: String,
+    pub coordinates: Vec<String>,
+    pub system: System,
+    pub element: Element,
+    pub scheme_label: String,
+    pub options: SolverOptions,
+    pub directory: PathBuf,
+    pub boundary: femvi::bvp::BoundaryValues,
+    /// A trajectory file to interpolate as the initial guess.
+    pub guess: Option<PathBuf>,
+}
+
+/// What a problem file describes.
+enum Loaded {
+    Ivp(Problem),
+    Bvp(BvpProblem),
+}
+
+fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<Loaded, InputError> {
     let ctx = |msg: String| bad(format!("{}: {msg}", path.display()));
     let name = file.name.clone().unwrap_or_else(|| {
         path.file_stem()
@@ -389,84 +443,6 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
             (el, format!("galerkin degree {degree}, {:?} nodes, {rule:?}", sc.nodes))
         }
     };
-    // Time.
-    let t0 = file.initial.t.unwrap_or(0.0);
-    let tt = &file.time;
-    let energy = match tt.mode {
-        Mode::Fixed => {
-            if tt.min_step.is_some() || tt.max_step.is_some() || tt.on_degenerate.is_some() {
-                return Err(ctx(
-                    "[time] min_step, max_step and on_degenerate apply only to mode = \"energy\"".into(),
-                ));
-            }
-            None
-        }
-        Mode::Energy => {
-            let h = tt.step.ok_or_else(|| {
-                ctx("[time] mode = \"energy\" needs `step` (the first step; later steps are variables)".into())
-            })?;
-            if tt.steps.is_some() {
-                return Err(ctx(
-                    "[time] mode = \"energy\" takes `step`, not a list of `steps`".into()
-                ));
-            }
-            let d = femvi::EnergyOptions::from_step(h);
-            Some(femvi::EnergyOptions {
-                min_step: tt.min_step.unwrap_or(d.min_step),
-                max_step: tt.max_step.unwrap_or(d.max_step),
-                on_degenerate: match tt.on_degenerate {
-                    Some(OnDegenerate::Fixed) => femvi::Degenerate::Fixed,
-                    _ => femvi::Degenerate::Error,
-                },
-            })
-        }
-    };
-    let grid = match (&tt.step, &tt.steps) {
-        (Some(h), None) => TimeGrid::uniform(t0, *h, tt.end),
-        (None, Some(list)) => TimeGrid::steps(t0, list.clone(), tt.end),
-        _ => return Err(ctx("[time] needs exactly one of `step` or `steps`".into())),
-    }
-    .map_err(|e| ctx(format!("[time]: {e}")))?;
-    // Initial values.
-    let init = &file.initial;
-    let check = |what: &str, v: &Vec<f64>| -> Result<(), InputError> {
-        if v.len() != n {
-            return Err(ctx(format!(
-                "[initial] {what} has {} entries, but the system has {n} coordinates ({})",
-                v.len(),
-                coordinates.join(", ")
-            )));
-        }
-        if v.iter().any(|x| !x.is_finite()) {
-            return Err(ctx(format!("[initial] {what} has a non-finite entry")));
-        }
-        Ok(())
-    };
-    check("q", &init.q)?;
-    let start = match (&init.v, &init.p, &init.q1) {
-        (Some(v), None, None) => {
-            check("v", v)?;
-            Start::Velocity {
-                q: init.q.clone(),
-                v: v.clone(),
-            }
-        }
-        (None, Some(p), None) => {
-            check("p", p)?;
-            Start::Momentum {
-                q: init.q.clone(),
-                p: p.clone(),
-            }
-        }
-        (None, None, Some(q1)) => {
-            check("q1", q1)?;
-            Start::Positions {
-                q0: init.q.clone(),
-                q1: q1.clone(),
-            }
-        }
-        _ => return Err(ctx("[initial] needs exactly one of `v`, `p` or `q1`".into())),
-    };
     // Solver and output.
     let method = match file.solver.method {
         SolverMethod::Auto => Method::Auto,
@@ -513,7 +489,138 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
             _ => vec![],
         },
     };
-    Ok(Problem {
+    if want_bvp {
+        if file.initial.is_some() || file.time.is_some() {
+            return Err(ctx(
+                "a boundary value problem takes [boundary] instead of [initial] and [time]".into(),
+            ));
+        }
+        let b = file
+            .boundary
+            .as_ref()
+            .ok_or_else(|| ctx("`femvi bvp` needs a [boundary] table (t0, q0, t1, q1, elements)".into()))?;
+        if b.time_mode == Mode::Energy {
+            return Err(ctx(
+                "[boundary] time_mode = \"energy\" (a moving mesh) is not available yet; use \"fixed\"".into(),
+            ));
+        }
+        if b.elements > 50_000_000 {
+            return Err(ctx(format!(
+                "[boundary] elements = {} is too many (at most 5e7)",
+                b.elements
+            )));
+        }
+        let boundary = femvi::bvp::BoundaryValues {
+            t0: b.t0,
+            q0: b.q0.clone(),
+            t1: b.t1,
+            q1: b.q1.clone(),
+            elements: b.elements,
+        };
+        boundary.validate(n).map_err(|e| ctx(format!("[boundary]: {e}")))?;
+        let guess = b
+            .guess
+            .as_ref()
+            .map(|g| path.parent().unwrap_or(Path::new(".")).join(g));
+        return Ok(Loaded::Bvp(BvpProblem {
+            name,
+            coordinates,
+            system,
+            element,
+            scheme_label,
+            options,
+            directory,
+            boundary,
+            guess,
+        }));
+    }
+    if file.boundary.is_some() {
+        return Err(ctx(
+            "[boundary] describes a boundary value problem: solve it with `femvi bvp`".into(),
+        ));
+    }
+    let (Some(init), Some(tt)) = (file.initial.as_ref(), file.time.as_ref()) else {
+        return Err(ctx(
+            "an initial value problem needs [initial] and [time] (or [boundary] for `femvi bvp`)".into(),
+        ));
+    };
+    // Time.
+    let t0 = init.t.unwrap_or(0.0);
+    let energy = match tt.mode {
+        Mode::Fixed => {
+            if tt.min_step.is_some() || tt.max_step.is_some() || tt.on_degenerate.is_some() {
+                return Err(ctx(
+                    "[time] min_step, max_step and on_degenerate apply only to mode = \"energy\"".into(),
+                ));
+            }
+            None
+        }
+        Mode::Energy => {
+            let h = tt.step.ok_or_else(|| {
+                ctx("[time] mode = \"energy\" needs `step` (the first step; later steps are variables)".into())
+            })?;
+            if tt.steps.is_some() {
+                return Err(ctx(
+                    "[time] mode = \"energy\" takes `step`, not a list of `steps`".into()
+                ));
+            }
+            let d = femvi::EnergyOptions::from_step(h);
+            Some(femvi::EnergyOptions {
+                min_step: tt.min_step.unwrap_or(d.min_step),
+                max_step: tt.max_step.unwrap_or(d.max_step),
+                on_degenerate: match tt.on_degenerate {
+                    Some(OnDegenerate::Fixed) => femvi::Degenerate::Fixed,
+                    _ => femvi::Degenerate::Error,
+                },
+            })
+        }
+    };
+    let grid = match (&tt.step, &tt.steps) {
+        (Some(h), None) => TimeGrid::uniform(t0, *h, tt.end),
+        (None, Some(list)) => TimeGrid::steps(t0, list.clone(), tt.end),
+        _ => return Err(ctx("[time] needs exactly one of `step` or `steps`".into())),
+    }
+    .map_err(|e| ctx(format!("[time]: {e}")))?;
+    // Initial values.
+    let check = |what: &str, v: &Vec<f64>| -> Result<(), InputError> {
+        if v.len() != n {
+            return Err(ctx(format!(
+                "[initial] {what} has {} entries, but the system has {n} coordinates ({})",
+                v.len(),
+                coordinates.join(", ")
+            )));
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(ctx(format!("[initial] {what} has a non-finite entry")));
+        }
+        Ok(())
+    };
+    check("q", &init.q)?;
+    let start = match (&init.v, &init.p, &init.q1) {
+        (Some(v), None, None) => {
+            check("v", v)?;
+            Start::Velocity {
+                q: init.q.clone(),
+                v: v.clone(),
+            }
+        }
+        (None, Some(p), None) => {
+            check("p", p)?;
+            Start::Momentum {
+                q: init.q.clone(),
+                p: p.clone(),
+            }
+        }
+        (None, None, Some(q1)) => {
+            check("q1", q1)?;
+            Start::Positions {
+                q0: init.q.clone(),
+                q1: q1.clone(),
+            }
+        }
+        _ => return Err(ctx("[initial] needs exactly one of `v`, `p` or `q1`".into())),
+    };
+    Ok(Loaded::Ivp(Problem {
         name,
         coordinates,
         system,
@@ -527,7 +634,7 @@ fn build(path: &Path, text: &str, file: ProblemFile) -> Result<Problem, InputErr
         energy,
         symmetries,
         model: model_info,
-    })
+    }))
 }
 
 /// Maps an expression error to a position in the file where the string has no escapes.

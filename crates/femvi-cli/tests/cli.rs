@@ -22,8 +22,14 @@ fn every_example_runs() {
             continue;
         }
         let out = tempfile::tempdir().unwrap();
+        // Boundary value problems ([boundary]) are solved by `bvp`, the rest by `run`.
+        let command = if std::fs::read_to_string(&path).unwrap().contains("[boundary]") {
+            "bvp"
+        } else {
+            "run"
+        };
         let res = femvi()
-            .arg("run")
+            .arg(command)
             .arg(&path)
             .arg("--out")
             .arg(out.path())
@@ -41,6 +47,11 @@ fn every_example_runs() {
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
         assert!(summary["error"].is_null());
+        if command == "bvp" {
+            assert!(summary["residual_norm"].as_f64().unwrap() < 1e-12);
+            count += 1;
+            continue;
+        }
         let energy_error = summary["max_rel_energy_error"].as_f64().unwrap();
         // The forced oscillator's energy is not conserved; the autonomous examples' is.
         let forced = path.file_stem().is_some_and(|s| s == "variable-steps");
@@ -150,6 +161,8 @@ fn corpus() -> Vec<(&'static str, Vec<u8>, i32, &'static str)> {
         ("energy-bad-bounds", g("step = 0.1", "mode = \"energy\"\nstep = 0.1\nmax_step = 0.05"), 2, "max_step"),
         ("energy-bad-policy", g("step = 0.1", "mode = \"energy\"\nstep = 0.1\non_degenerate = \"skip\""), 2, "fixed"),
         ("inf-initial", g("q = [1.0]", "q = [inf]"), 2, "non-finite"),
+        ("no-initial", g("[initial]\nq = [1.0]\nv = [0.0]\n", ""), 2, "needs [initial] and [time]"),
+        ("boundary-in-run", format!("{GOOD}\n[boundary]\nt0 = 0.0\nq0 = [0.0]\nt1 = 1.0\nq1 = [0.0]\nelements = 4\n").into_bytes(), 2, "femvi bvp"),
     ]
 }
 
@@ -250,4 +263,84 @@ fn energy_mode_writes_the_discrete_energy() {
     assert!(summary["max_rel_discrete_energy_error"].as_f64().unwrap() < 1e-13);
     assert_eq!(summary["degenerate_steps"].as_u64(), Some(0));
     assert!(summary["min_step"].as_f64().unwrap() > 0.0);
+}
+
+const BVP: &str = r#"
+[system]
+model = "pendulum"
+
+[boundary]
+t0 = 0.0
+q0 = [0.1]
+t1 = 5.0
+q1 = [0.1]
+elements = 100
+
+[scheme]
+degree = 2
+"#;
+
+#[test]
+fn bvp_from_a_guess_file_and_its_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    // A guess file with a large swing: the second solution of the pendulum.
+    let mut guess = String::from("step,t,theta\n");
+    for k in 0..=50 {
+        let t = 0.1 * k as f64;
+        guess.push_str(&format!(
+            "{k},{t},{}\n",
+            0.1 + 2.5 * (std::f64::consts::PI * t / 5.0).sin()
+        ));
+    }
+    std::fs::write(dir.path().join("swing.csv"), guess).unwrap();
+    let straight = dir.path().join("straight.toml");
+    std::fs::write(&straight, BVP).unwrap();
+    let swing = dir.path().join("swing.toml");
+    std::fs::write(
+        &swing,
+        BVP.replace("elements = 100", "elements = 100\nguess = \"swing.csv\""),
+    )
+    .unwrap();
+    let mut actions = vec![];
+    for (name, path) in [("a", &straight), ("b", &swing)] {
+        let out = dir.path().join(name);
+        femvi().arg("bvp").arg(path).arg("--out").arg(&out).assert().success();
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        assert!(s["residual_norm"].as_f64().unwrap() <= 1e-12);
+        assert_eq!(s["elements"].as_u64(), Some(100));
+        let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 102, "header and t_0 … t_100");
+        actions.push(s["action"].as_f64().unwrap());
+    }
+    assert!((actions[0] - actions[1]).abs() > 1e-3, "two solutions: {actions:?}");
+    // Errors: a run-style file, a bad guess file, energy mode, no solution (exit 1).
+    let cases: Vec<(&str, String, i32, &str)> = vec![
+        ("ivp.toml", BVP.replace("[boundary]", "[initial]\nq = [0.1]\nv = [0.0]\n[time]\nstep = 0.1\nend = 1.0\n[boundary]"), 2, "instead of [initial]"),
+        ("noguess.toml", BVP.replace("elements = 100", "elements = 100\nguess = \"missing.csv\""), 2, "cannot read the guess"),
+        ("energy.toml", BVP.replace("elements = 100", "elements = 100\ntime_mode = \"energy\""), 2, "not available yet"),
+        ("zero.toml", BVP.replace("elements = 100", "elements = 0"), 2, "at least one element"),
+        ("length.toml", BVP.replace("q1 = [0.1]", "q1 = [0.1, 0.2]"), 2, "boundary q1"),
+        (
+            "bratu.toml",
+            "[system]\ncoordinates = [\"u\"]\nlagrangian = \"0.5*u_dot^2 - 5*exp(u)\"\n[boundary]\nt0 = 0.0\nq0 = [0.0]\nt1 = 1.0\nq1 = [0.0]\nelements = 50\n".to_string(),
+            1,
+            "Newton",
+        ),
+    ];
+    for (name, text, code, needle) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let res = femvi()
+            .arg("bvp")
+            .arg(&path)
+            .arg("--out")
+            .arg(dir.path().join("o"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&res.stderr);
+        assert_eq!(res.status.code(), Some(code), "{name}: {err}");
+        assert!(err.contains(needle), "{name}: {err}");
+        assert!(!err.contains("panicked"));
+    }
 }

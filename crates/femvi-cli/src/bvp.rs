@@ -1,0 +1,144 @@
+//! `femvi bvp`: solves a two-point boundary value problem by the discrete variational
+//! principle (the library's [`femvi::bvp::solve`]), from the straight line or from a
+//! trajectory file interpolated onto the mesh; writes trajectory.csv and summary.json.
+
+use crate::problem::BvpProblem;
+use femvi::bvp::{line_guess, node_times, solve, BvpOptions};
+use femvi::lagrangian::{hamiltonian, PointDerivatives};
+use femvi::Lagrangian;
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// What summary.json holds for a boundary value problem.
+#[derive(Debug, Serialize)]
+pub struct BvpSummary {
+    pub name: String,
+    pub scheme: String,
+    pub elements: usize,
+    pub action: Option<f64>,
+    pub residual_norm: Option<f64>,
+    pub newton_iterations: usize,
+    pub wall_seconds: f64,
+    pub error: Option<String>,
+}
+
+/// How a solve ended: Ok with the summary (also on numerical failure, with `error` set), or
+/// Err with a message and an exit code for bad input.
+pub fn run(problem: &BvpProblem, dir: &Path) -> Result<BvpSummary, (String, u8)> {
+    crate::with_system!(&problem.system, l => run_with(l, problem, dir))
+}
+
+/// Reads a trajectory.csv and interpolates q linearly at `times` (constant beyond its ends).
+fn guess_from_file(path: &Path, names: &[String], times: &[f64]) -> Result<Vec<f64>, String> {
+    let mut rdr = csv::Reader::from_path(path).map_err(|e| format!("cannot read the guess {}: {e}", path.display()))?;
+    let header = rdr.headers().map_err(|e| format!("{}: {e}", path.display()))?.clone();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| format!("the guess {} has no column '{name}'", path.display()))
+    };
+    let tc = col("t")?;
+    let qc: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
+    let (mut ts, mut qs) = (vec![], vec![]);
+    for (line, rec) in rdr.records().enumerate() {
+        let rec = rec.map_err(|e| format!("{}: {e}", path.display()))?;
+        let num = |i: usize| -> Result<f64, String> {
+            rec.get(i)
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "{}: row {}: column {} is not a finite number",
+                        path.display(),
+                        line + 2,
+                        i + 1
+                    )
+                })
+        };
+        let t = num(tc)?;
+        if ts.last().is_some_and(|&last| t <= last) {
+            return Err(format!("{}: row {}: times must increase", path.display(), line + 2));
+        }
+        ts.push(t);
+        qs.push(qc.iter().map(|&i| num(i)).collect::<Result<Vec<f64>, _>>()?);
+    }
+    if ts.is_empty() {
+        return Err(format!("the guess {} has no rows", path.display()));
+    }
+    let mut out = Vec::with_capacity(times.len() * names.len());
+    for &t in times {
+        let k = ts.partition_point(|&x| x <= t);
+        let row: Vec<f64> = if k == 0 {
+            qs[0].clone()
+        } else if k == ts.len() {
+            qs[k - 1].clone()
+        } else {
+            let a = (t - ts[k - 1]) / (ts[k] - ts[k - 1]);
+            qs[k - 1].iter().zip(&qs[k]).map(|(x, y)| x + a * (y - x)).collect()
+        };
+        out.extend(row);
+    }
+    Ok(out)
+}
+
+fn run_with<L: Lagrangian>(lag: &L, problem: &BvpProblem, dir: &Path) -> Result<BvpSummary, (String, u8)> {
+    let clock = Instant::now();
+    let (bv, el) = (&problem.boundary, &problem.element);
+    let guess = match &problem.guess {
+        None => line_guess(bv, el),
+        Some(file) => guess_from_file(file, &problem.coordinates, &node_times(bv, el)).map_err(|e| (e, 2))?,
+    };
+    let opts = BvpOptions {
+        tolerance: problem.options.tolerance,
+        max_iterations: problem.options.max_iterations,
+    };
+    let io = |e: std::io::Error| (format!("cannot write the output in {}: {e}", dir.display()), 2);
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let mut summary = BvpSummary {
+        name: problem.name.clone(),
+        scheme: problem.scheme_label.clone(),
+        elements: bv.elements,
+        action: None,
+        residual_norm: None,
+        newton_iterations: 0,
+        wall_seconds: 0.0,
+        error: None,
+    };
+    match solve(lag, el, bv, &guess, opts) {
+        Ok(sol) => {
+            let n = lag.dim();
+            let mut csv = csv::Writer::from_path(dir.join("trajectory.csv")).map_err(|e| (e.to_string(), 2))?;
+            let mut header = vec!["step".to_string(), "t".to_string()];
+            header.extend(problem.coordinates.iter().cloned());
+            header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+            header.push("energy".into());
+            csv.write_record(&header).map_err(|e| (e.to_string(), 2))?;
+            let mut work = PointDerivatives::new(n);
+            let mut v = vec![0.0; n];
+            for (k, t) in sol.times.iter().enumerate() {
+                let (q, p) = (&sol.q[k * n..(k + 1) * n], &sol.p[k * n..(k + 1) * n]);
+                let e = hamiltonian(lag, *t, q, p, &mut v, &mut work).unwrap_or(f64::NAN);
+                let mut row = vec![k.to_string(), format!("{t:?}")];
+                row.extend(q.iter().chain(p).map(|x| format!("{x:?}")));
+                row.push(format!("{e:?}"));
+                csv.write_record(&row).map_err(|e| (e.to_string(), 2))?;
+            }
+            csv.flush().map_err(io)?;
+            summary.action = Some(sol.action);
+            summary.residual_norm = Some(sol.residual_norm);
+            summary.newton_iterations = sol.newton_iterations;
+        }
+        Err(femvi::Error::Step(e)) => {
+            summary.error = Some(format!("Newton's method on the discrete action failed: {e}"));
+            summary.residual_norm = Some(e.residual);
+            summary.newton_iterations = e.iterations;
+        }
+        Err(e) => return Err((e.to_string(), 2)),
+    }
+    summary.wall_seconds = clock.elapsed().as_secs_f64();
+    let text = serde_json::to_string_pretty(&summary).map_err(|e| (e.to_string(), 2))?;
+    std::fs::write(dir.join("summary.json"), text + "\n").map_err(io)?;
+    Ok(summary)
+}
