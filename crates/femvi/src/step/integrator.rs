@@ -170,6 +170,10 @@ pub struct Integrator<'a, L: Lagrangian> {
     dp: Vec<f64>,
     force0_valid: bool,
     fsal_slot: usize,
+    lazy_valid: bool,
+    lazy_p: Vec<f64>,
+    lazy_cp: Vec<f64>,
+    lazy_pending: Vec<f64>,
     extrap_rho: f64,
     extrap: Vec<f64>,
     basis_buf: Vec<f64>,
@@ -254,6 +258,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             dp: vec![0.0; n],
             force0_valid: false,
             fsal_slot: 0,
+            lazy_valid: false,
+            lazy_p: vec![0.0; n],
+            lazy_cp: vec![0.0; n],
+            lazy_pending: vec![0.0; n],
             extrap_rho: f64::NAN,
             extrap: vec![0.0; s * (s + 1)],
             basis_buf: vec![0.0; s + 1],
@@ -457,6 +465,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         if self.energy.is_some() {
             return self.step_energy();
         }
+        if let Some(done) = self.fast_explicit(1) {
+            return done.map(|d| d > 0);
+        }
         let Some((h, t_next)) = self.grid.next(self.k, self.t) else {
             return Ok(false);
         };
@@ -528,17 +539,25 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// # Errors
     /// As [`Integrator::step`]; the steps before the failure are kept.
     pub fn advance(&mut self, max_steps: usize) -> Result<usize> {
-        if self.method == Resolved::Explicit && self.pending.is_none() {
-            return match self.n {
-                1 => self.advance_explicit::<1>(max_steps),
-                2 => self.advance_explicit::<2>(max_steps),
-                3 => self.advance_explicit::<3>(max_steps),
-                4 => self.advance_explicit::<4>(max_steps),
-                6 => self.advance_explicit::<6>(max_steps),
-                _ => self.advance_generic(max_steps),
-            };
+        if let Some(done) = self.fast_explicit(max_steps) {
+            return done;
         }
         self.advance_generic(max_steps)
+    }
+
+    /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).
+    fn fast_explicit(&mut self, max_steps: usize) -> Option<Result<usize>> {
+        if self.method != Resolved::Explicit || self.pending.is_some() || self.energy.is_some() {
+            return None;
+        }
+        Some(match self.n {
+            1 => self.advance_explicit::<1>(max_steps),
+            2 => self.advance_explicit::<2>(max_steps),
+            3 => self.advance_explicit::<3>(max_steps),
+            4 => self.advance_explicit::<4>(max_steps),
+            6 => self.advance_explicit::<6>(max_steps),
+            _ => return None,
+        })
     }
 
     fn advance_generic(&mut self, max_steps: usize) -> Result<usize> {
@@ -561,7 +580,16 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             a.copy_from_slice(&v[..N]);
             a
         };
-        let (mut q, mut p, mut cq, mut cp) = (load(&self.q), load(&self.p), load(&self.comp_q), load(&self.comp_p));
+        // The momentum is kept lazily: the compensated sum (p, cp) without the last increment,
+        // which is added off the critical path of the next step (the drift uses
+        // (p + cp) + pending directly). This state persists between calls, so that any split
+        // of a run into `advance` calls gives the same numbers.
+        let (mut q, mut cq) = (load(&self.q), load(&self.comp_q));
+        let (mut p, mut cp, mut pending) = if self.lazy_valid {
+            (load(&self.lazy_p), load(&self.lazy_cp), load(&self.lazy_pending))
+        } else {
+            (load(&self.p), load(&self.comp_p), [0.0; N])
+        };
         let (mut f0, mut f1, mut y, mut dq, mut dp) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N], [0.0; N]);
         let (mut u, mut w) = ([0.0; N], [0.0; N]);
         if self.force0_valid {
@@ -577,36 +605,44 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         while done < max_steps {
             let Some((h, t_next)) = self.grid.next(k, t) else { break };
             let half_h2 = 0.5 * h * h;
+            let prev = (q, p, cq, cp, pending);
             if identity {
                 for c in 0..N {
-                    dq[c] = h * p[c] + half_h2 * f0[c];
+                    dq[c] = h * ((p[c] + cp[c]) + pending[c]) + half_h2 * f0[c];
                     y[c] = q[c] + dq[c];
                 }
             } else {
-                mass.solve(&p, &mut u);
+                let mut pk = [0.0; N];
+                for c in 0..N {
+                    pk[c] = (p[c] + cp[c]) + pending[c];
+                }
+                mass.solve(&pk, &mut u);
                 mass.solve(&f0, &mut w);
                 for c in 0..N {
                     dq[c] = h * u[c] + half_h2 * w[c];
                     y[c] = q[c] + dq[c];
                 }
             }
+            // The pending increment joins the compensated sum off the critical path.
+            for c in 0..N {
+                let yp = pending[c] + cp[c];
+                let tp = p[c] + yp;
+                cp[c] = (p[c] - tp) + yp;
+                p[c] = tp;
+            }
             self.lag.force(t + h, &y, &mut f1);
             let mut finite = true;
-            let prev = (q, p, cq, cp);
             for c in 0..N {
                 dp[c] = 0.5 * h * (f0[c] + f1[c]);
                 let yq = dq[c] + cq[c];
                 let tq = q[c] + yq;
                 cq[c] = (q[c] - tq) + yq;
                 q[c] = tq;
-                let yp = dp[c] + cp[c];
-                let tp = p[c] + yp;
-                cp[c] = (p[c] - tp) + yp;
-                p[c] = tp;
-                finite &= tp.is_finite() && tq.is_finite();
+                pending[c] = dp[c];
+                finite &= dp[c].is_finite() && tq.is_finite();
             }
             if !finite {
-                (q, p, cq, cp) = prev;
+                (q, p, cq, cp, pending) = prev;
                 failed = true;
                 break;
             }
@@ -619,7 +655,17 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             t = t_next;
             done += 1;
         }
-        // Write the state back.
+        // Write the state back: the lazy momentum, and the node's momentum materialised.
+        self.lazy_p.copy_from_slice(&p);
+        self.lazy_cp.copy_from_slice(&cp);
+        self.lazy_pending.copy_from_slice(&pending);
+        self.lazy_valid = true;
+        for c in 0..N {
+            let yp = pending[c] + cp[c];
+            let tp = p[c] + yp;
+            cp[c] = (p[c] - tp) + yp;
+            p[c] = tp;
+        }
         self.q.copy_from_slice(&q);
         self.p.copy_from_slice(&p);
         self.comp_q.copy_from_slice(&cq);
