@@ -22,7 +22,19 @@ pub struct CheckReport {
     pub time_reversal_error: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_rel_discrete_energy_error: Option<f64>,
+    /// For n = 1 and the paper's Lagrangians: the two-form coefficient against (2.21), (2.31)
+    /// or the corrected (2.51).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub two_form: Option<TwoForm>,
     pub notes: Vec<String>,
+}
+
+/// The two-form comparison.
+#[derive(Debug, Serialize)]
+pub struct TwoForm {
+    pub formula: String,
+    pub max_rel_difference: f64,
+    pub samples: usize,
 }
 
 /// Runs the check; Err carries a message and an exit code (1 numerical, 2 input).
@@ -62,6 +74,11 @@ fn check_with<L: Lagrangian>(lag: &L, problem: &Problem) -> Result<CheckReport, 
             .collect(),
         time_reversal_error: r.time_reversal_error,
         max_rel_discrete_energy_error: r.max_rel_discrete_energy_error,
+        two_form: r.two_form.map(|t| TwoForm {
+            formula: t.formula,
+            max_rel_difference: t.max_rel_difference,
+            samples: t.samples,
+        }),
         notes: r.notes,
     })
 }

@@ -1,10 +1,11 @@
 //! `femvi convergence`: runs a problem's scheme at several step sizes over the same time span,
 //! measures the final nodal error in phase space, ‖(q, p) − (q, p)_ref‖₂, and fits observed
 //! orders. The reference is a closed form where the model has one (harmonic, kepler), or a
-//! run with a finer step and an element of degree s + 2.
+//! run with a finer step and an element of degree s + 2. With --l2 it also measures the L²
+//! error of the piecewise-polynomial trajectory over the whole span ((2.33), (2.56)).
 
 use crate::problem::Problem;
-use femvi::diagnostics::{exact, fit_order};
+use femvi::diagnostics::{exact, fit_order, PiecewiseTrajectory};
 use femvi::{Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, Start, TimeGrid};
 use serde::Serialize;
 
@@ -25,6 +26,9 @@ pub struct Run {
     pub step: f64,
     pub error: f64,
     pub order_from_previous: Option<f64>,
+    /// With --l2: the L² distance of the piecewise-polynomial q_h to the reference over [t0, T].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub l2_error: Option<f64>,
 }
 
 /// The study, printed as JSON with `--json`.
@@ -37,11 +41,14 @@ pub struct Study {
     /// What the errors were measured against.
     pub reference: String,
     pub t_end: f64,
+    /// With --l2: the least-squares order of the L² errors.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub l2_order: Option<f64>,
     pub runs: Vec<Run>,
 }
 
 /// Runs the study; Err carries a message and an exit code.
-pub fn study(problem: &Problem, steps: &[f64], reference: Option<Reference>) -> Result<Study, (String, u8)> {
+pub fn study(problem: &Problem, steps: &[f64], reference: Option<Reference>, l2: bool) -> Result<Study, (String, u8)> {
     if problem.energy.is_some() {
         return Err((
             "convergence studies use fixed steps: set [time] mode = \"fixed\"".into(),
@@ -54,7 +61,7 @@ pub fn study(problem: &Problem, steps: &[f64], reference: Option<Reference>) -> 
     if let Some(h) = steps.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
         return Err((format!("--steps: {h} is not a positive number"), 2));
     }
-    crate::with_system!(&problem.system, l => study_with(l, problem, steps, reference))
+    crate::with_system!(&problem.system, l => study_with(l, problem, steps, reference, l2))
 }
 
 fn fail(e: femvi::Error) -> (String, u8) {
@@ -62,16 +69,23 @@ fn fail(e: femvi::Error) -> (String, u8) {
     (e.to_string(), code)
 }
 
-fn final_state<L: Lagrangian>(lag: &L, el: &Element, problem: &Problem, h: f64) -> Result<Vec<f64>, (String, u8)> {
+/// Final state (q, p) of a run with step h, and its piecewise trajectory.
+fn run<L: Lagrangian>(
+    lag: &L,
+    el: &Element,
+    problem: &Problem,
+    h: f64,
+) -> Result<(Vec<f64>, PiecewiseTrajectory), (String, u8)> {
     let grid = TimeGrid::uniform(problem.grid.t0(), h, problem.grid.end()).map_err(fail)?;
     let mut it = Integrator::new(lag, el, grid, problem.start.clone(), problem.options).map_err(fail)?;
-    while it.step().map_err(fail)? {}
+    let trajectory = PiecewiseTrajectory::record(&mut it, &el.basis, lag.dim()).map_err(fail)?;
     let n = it.node();
-    Ok(n.q.iter().chain(n.p).cloned().collect())
+    Ok((n.q.iter().chain(n.p).cloned().collect(), trajectory))
 }
 
-/// The closed-form final state, if the model has one and the start gives (q0, p0).
-fn exact_final<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<Vec<f64>> {
+/// The closed-form state (q, p) as a function of t, if the model has one and the start gives
+/// (q0, p0).
+fn exact_state<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<Box<dyn Fn(f64) -> Option<Vec<f64>>>> {
     let (model, params) = problem.model.as_ref()?;
     let (q0, p0) = match &problem.start {
         Start::Momentum { q, p } => (q.clone(), p.clone()),
@@ -82,15 +96,20 @@ fn exact_final<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<Vec<f64>> {
         }
         Start::Positions { .. } => return None,
     };
-    let (t0, t1) = (problem.grid.t0(), problem.grid.end());
+    let t0 = problem.grid.t0();
+    let params = params.clone();
     match model.as_str() {
-        "harmonic" => {
-            let (q, p) = exact::harmonic(params[0], params[1], t0, q0[0], p0[0], t1);
+        "harmonic" => Some(Box::new(move |t| {
+            let (q, p) = exact::harmonic(params[0], params[1], t0, q0[0], p0[0], t);
             Some(vec![q, p])
-        }
+        })),
         "kepler" => {
-            let (q, p) = exact::kepler(params[0], t0, [q0[0], q0[1]], [p0[0], p0[1]], t1)?;
-            Some(vec![q[0], q[1], p[0], p[1]])
+            // Bound orbits only.
+            exact::kepler(params[0], t0, [q0[0], q0[1]], [p0[0], p0[1]], t0)?;
+            Some(Box::new(move |t| {
+                let (q, p) = exact::kepler(params[0], t0, [q0[0], q0[1]], [p0[0], p0[1]], t)?;
+                Some(vec![q[0], q[1], p[0], p[1]])
+            }))
         }
         _ => None,
     }
@@ -101,17 +120,27 @@ fn study_with<L: Lagrangian>(
     problem: &Problem,
     steps: &[f64],
     reference: Option<Reference>,
+    l2: bool,
 ) -> Result<Study, (String, u8)> {
-    let exact = exact_final(lag, problem);
+    let exact = exact_state(lag, problem);
     let reference = reference.unwrap_or(if exact.is_some() {
         Reference::Exact
     } else {
         Reference::Finest
     });
     let finest = steps.iter().cloned().fold(f64::INFINITY, f64::min);
-    let (reference_state, label) = match reference {
+    let t_end = problem.grid.end();
+    // The reference: its final state, and q_ref(t) for the L² errors.
+    let (reference_state, reference_path, label): (Vec<f64>, Box<dyn Fn(f64, &mut [f64])>, String) = match reference {
         Reference::Exact => match exact {
-            Some(s) => (s, "exact (closed form)".to_string()),
+            Some(f) => {
+                let end = f(t_end).ok_or_else(|| ("the closed form failed at the end time".to_string(), 1))?;
+                let path = move |t: f64, out: &mut [f64]| {
+                    let s = f(t).unwrap_or_else(|| vec![f64::NAN; 2 * out.len()]);
+                    out.copy_from_slice(&s[..out.len()]);
+                };
+                (end, Box::new(path), "exact (closed form)".to_string())
+            }
             None => {
                 return Err((
                     "no closed form for this problem (only the harmonic and kepler models, started from v or p, have one); use --reference finest or a step".into(),
@@ -126,12 +155,15 @@ fn study_with<L: Lagrangian>(
             };
             let s = problem.element.degree() + 2;
             let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).map_err(fail)?;
-            (final_state(lag, &el, problem, h)?, format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}"))
+            let (end, trajectory) = run(lag, &el, problem, h)?;
+            let label = format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}");
+            (end, Box::new(move |t: f64, out: &mut [f64]| trajectory.eval(t, out)), label)
         }
     };
+    let points = problem.element.degree() + 3;
     let mut runs: Vec<Run> = vec![];
     for &h in steps {
-        let state = final_state(lag, &problem.element, problem, h)?;
+        let (state, trajectory) = run(lag, &problem.element, problem, h)?;
         let error = state
             .iter()
             .zip(&reference_state)
@@ -139,20 +171,27 @@ fn study_with<L: Lagrangian>(
             .sum::<f64>()
             .sqrt();
         let order_from_previous = runs.last().map(|r: &Run| (error / r.error).ln() / (h / r.step).ln());
+        let l2_error = l2.then(|| trajectory.l2_distance(points, |t, out| reference_path(t, out)));
         runs.push(Run {
             step: h,
             error,
             order_from_previous,
+            l2_error,
         });
     }
     let hs: Vec<f64> = runs.iter().map(|r| r.step).collect();
     let es: Vec<f64> = runs.iter().map(|r| r.error).collect();
+    let l2_order = l2.then(|| {
+        let e2: Vec<f64> = runs.iter().map(|r| r.l2_error.unwrap_or(f64::NAN)).collect();
+        fit_order(&hs, &e2)
+    });
     Ok(Study {
         name: problem.name.clone(),
         scheme: problem.scheme_label.clone(),
         order: fit_order(&hs, &es),
         reference: label,
-        t_end: problem.grid.end(),
+        t_end,
+        l2_order,
         runs,
     })
 }

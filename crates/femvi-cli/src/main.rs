@@ -73,6 +73,9 @@ enum Command {
         /// Print one JSON object on standard output.
         #[arg(long)]
         json: bool,
+        /// Also measure the L² error of the piecewise-polynomial trajectory.
+        #[arg(long)]
+        l2: bool,
         /// Directory for convergence.csv (default: the problem's output directory).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -111,8 +114,9 @@ fn dispatch(cli: Cli) -> ExitCode {
             steps,
             reference,
             json,
+            l2,
             out,
-        } => cmd_convergence(&problem, &steps, reference.as_deref(), json, out),
+        } => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, out),
     }
 }
 
@@ -202,6 +206,12 @@ fn cmd_check(path: &std::path::Path, json: bool, out: Option<PathBuf>) -> ExitCo
         if let Some(r) = report.time_reversal_error {
             println!("  time reversal error    {r:.3e}");
         }
+        if let Some(t) = &report.two_form {
+            println!(
+                "  two-form vs {:<10} {:.3e} max relative difference ({} steps)",
+                t.formula, t.max_rel_difference, t.samples
+            );
+        }
         for note in &report.notes {
             println!("  note: {note}");
         }
@@ -214,6 +224,7 @@ fn cmd_convergence(
     steps: &[f64],
     reference: Option<&str>,
     json: bool,
+    l2: bool,
     out: Option<PathBuf>,
 ) -> ExitCode {
     let problem = match load(path) {
@@ -232,7 +243,7 @@ fn cmd_convergence(
             }
         },
     };
-    let study = match convergence::study(&problem, steps, reference) {
+    let study = match convergence::study(&problem, steps, reference, l2) {
         Ok(s) => s,
         Err((msg, code)) => {
             eprintln!("error: {}: {msg}", path.display());
@@ -240,10 +251,15 @@ fn cmd_convergence(
         }
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
-    let mut csv = String::from("step,error,order_from_previous\n");
+    let mut csv = String::from(if l2 {
+        "step,error,order_from_previous,l2_error\n"
+    } else {
+        "step,error,order_from_previous\n"
+    });
     for r in &study.runs {
         let o = r.order_from_previous.map(|o| format!("{o:?}")).unwrap_or_default();
-        csv.push_str(&format!("{:?},{:?},{o}\n", r.step, r.error));
+        let l2e = r.l2_error.map(|e| format!(",{e:?}")).unwrap_or_default();
+        csv.push_str(&format!("{:?},{:?},{o}{l2e}\n", r.step, r.error));
     }
     if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("convergence.csv"), csv)) {
         eprintln!("error: cannot write {}: {e}", dir.display());
@@ -257,6 +273,14 @@ fn cmd_convergence(
         for r in &study.runs {
             let o = r.order_from_previous.map(|o| format!("{o:.3}")).unwrap_or_default();
             println!("{:>14.6e} {:>14.6e} {:>8}", r.step, r.error, o);
+        }
+        if let Some(o) = study.l2_order {
+            let e: Vec<String> = study
+                .runs
+                .iter()
+                .map(|r| format!("{:.3e}", r.l2_error.unwrap_or(f64::NAN)))
+                .collect();
+            println!("L2 errors {}; fitted L2 order {o:.3}", e.join(" "));
         }
         println!(
             "fitted order {:.3}; wrote {}",

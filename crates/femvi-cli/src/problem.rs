@@ -293,7 +293,7 @@ pub fn load_bvp(path: &Path) -> Result<BvpProblem, InputError> {
     }
 }
 
-/// A boundary value problem read from a file with [boundary].
+/// A boundary value problem read from a file with a `[boundary]` table.
 pub struct BvpProblem {
     pub name: String,
     pub coordinates: Vec<String>,

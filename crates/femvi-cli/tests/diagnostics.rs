@@ -164,3 +164,61 @@ fn check_in_energy_mode_and_with_time_dependence() {
     assert!(v["time_reversal_error"].is_null(), "the forced oscillator depends on t");
     assert!(v["symplecticity_defect"].as_f64().unwrap() < 1e-12);
 }
+
+#[test]
+fn check_compares_the_two_form_with_the_paper() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = "[system]\nmodel = \"pendulum\"\n[initial]\nq = [1.0]\nv = [0.0]\n[time]\nstep = 0.1\nend = 20.0\n";
+    for (scheme, formula) in [
+        ("[scheme]\nkind = \"midpoint\"\n", "(2.21)"),
+        ("[scheme]\ndegree = 1\nquadrature = \"simpson\"\n", "(2.31)"),
+        ("[scheme]\ndegree = 2\npoints = 3\n", "(2.51) corrected"),
+    ] {
+        let path = write(dir.path(), "p.toml", &format!("{base}{scheme}"));
+        let v = json(femvi().arg("check").arg(&path).arg("--json"));
+        assert_eq!(v["two_form"]["formula"].as_str(), Some(formula), "{v}");
+        let d = v["two_form"]["max_rel_difference"].as_f64().unwrap();
+        eprintln!("{formula}: max relative difference {d:.2e}");
+        assert!(d < 1e-12, "{formula}: {d}");
+        assert_eq!(v["two_form"]["samples"].as_u64(), Some(200));
+    }
+    // Not the paper's form (a general Lagrangian): no comparison.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let v = json(
+        femvi()
+            .arg("check")
+            .arg(root.join("double-pendulum.toml"))
+            .arg("--json"),
+    );
+    assert!(v.get("two_form").is_none());
+}
+
+#[test]
+fn convergence_l2_orders_of_2_33_and_2_56() {
+    let dir = tempfile::tempdir().unwrap();
+    for (degree, want) in [(1, 2.0), (2, 3.0)] {
+        let text = format!("[system]\nmodel = \"harmonic\"\n[initial]\nq = [1.0]\nv = [0.0]\n[scheme]\ndegree = {degree}\n[time]\nstep = 0.1\nend = 4.0\n");
+        let path = write(dir.path(), "h.toml", &text);
+        for reference in ["exact", "finest"] {
+            let v = json(
+                femvi()
+                    .arg("convergence")
+                    .arg(&path)
+                    .args([
+                        "--steps",
+                        "0.2,0.1,0.05,0.025",
+                        "--l2",
+                        "--json",
+                        "--reference",
+                        reference,
+                        "--out",
+                    ])
+                    .arg(dir.path()),
+            );
+            let order = v["l2_order"].as_f64().unwrap();
+            eprintln!("degree {degree}, reference {reference}: L2 order {order:.3}");
+            assert!((order - want).abs() < 0.1, "{order}");
+            assert!(v["runs"][0]["l2_error"].as_f64().unwrap() > 0.0);
+        }
+    }
+}

@@ -40,6 +40,65 @@ impl Symmetry {
     }
 }
 
+/// The two-form coefficient of the paper's examples, computed and predicted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TwoFormCheck {
+    /// Which formula: "(2.21)", "(2.31)" or "(2.51) corrected".
+    pub formula: String,
+    /// max |computed − predicted| / |predicted| over the sampled steps.
+    pub max_rel_difference: f64,
+    /// Steps compared.
+    pub samples: usize,
+}
+
+/// Which of the paper's two-form formulas describes `element`, if any.
+fn paper_formula(element: &Element) -> Option<&'static str> {
+    use crate::fem::{NodeFamily, QuadratureKind};
+    match (element.degree(), element.basis.family, element.rule.kind) {
+        (1, _, QuadratureKind::Midpoint | QuadratureKind::GaussLegendre(1)) => Some("(2.21)"),
+        (1, _, _) => Some("(2.31)"),
+        (2, NodeFamily::Equispaced, _) => Some("(2.51) corrected"),
+        _ => None,
+    }
+}
+
+/// The paper's prediction of ∂²L_d/∂q_k∂q_{k+1} for a unit-mass 1-D Lagrangian ½v² − V(q),
+/// with V'' from `vpp` and integrals by the element's own quadrature. `nodes` are the element's
+/// nodal values (q_k, [q_m,] q_{k+1}).
+fn predicted(element: &Element, formula: &str, h: f64, nodes: &[f64], vpp: &dyn Fn(f64) -> f64) -> f64 {
+    let rule = &element.rule;
+    match formula {
+        // −(1/h + h/4 V''(q̄)) (the paper orients dq_{k+1}∧dq_k).
+        "(2.21)" => -(1.0 / h + h / 4.0 * vpp(0.5 * (nodes[0] + nodes[1]))),
+        // −(1/h + h F_12), F_12 = ∫ V''((1−c) q_k + c q_{k+1}) (1−c) c dc by the rule.
+        "(2.31)" => {
+            let f12: f64 = rule
+                .nodes
+                .iter()
+                .zip(&rule.weights)
+                .map(|(c, b)| b * vpp((1.0 - c) * nodes[0] + c * nodes[1]) * (1.0 - c) * c)
+                .sum();
+            -(1.0 / h + h * f12)
+        }
+        // 1/(3h) − h G_{k,k+1} − (8/(3h) + h G_{m,k})(8/(3h) + h G_{m,k+1}) / (16/(3h) − h G_{m,m}).
+        _ => {
+            let g = |a: usize, bb: usize| -> f64 {
+                rule.nodes
+                    .iter()
+                    .zip(&rule.weights)
+                    .map(|(t, b)| {
+                        let f = [(2.0 * t - 1.0) * (t - 1.0), 4.0 * t * (1.0 - t), t * (2.0 * t - 1.0)];
+                        b * vpp(nodes[0] * f[0] + nodes[1] * f[1] + nodes[2] * f[2]) * f[a] * f[bb]
+                    })
+                    .sum()
+            };
+            let m =
+                (8.0 / (3.0 * h) + h * g(1, 0)) * (8.0 / (3.0 * h) + h * g(1, 2)) / (16.0 / (3.0 * h) - h * g(1, 1));
+            1.0 / (3.0 * h) - h * g(0, 2) - m
+        }
+    }
+}
+
 /// The measured quantities of a run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CheckReport {
@@ -64,6 +123,9 @@ pub struct CheckReport {
     pub time_reversal_error: Option<f64>,
     /// Energy mode: the largest relative residual of the energy equations.
     pub max_rel_discrete_energy_error: Option<f64>,
+    /// For the paper's Lagrangians (n = 1, L = ½v² − V(q)): the preserved two-form coefficient
+    /// ∂²L_d/∂q_k∂q_{k+1} from the tangent map against the paper's formula for the element.
+    pub two_form: Option<TwoFormCheck>,
     /// Remarks on what was or was not measured.
     pub notes: Vec<String>,
 }
@@ -109,6 +171,12 @@ pub fn check<L: Lagrangian>(
     let (mut sn, mut st, mut se, mut stt, mut ste) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let mut steps_taken = vec![];
     let mut last_t = t0;
+    // The paper's two-form formulas: n = 1, unit mass, autonomous, steps as parameters.
+    let formula = match (n, lag.mass_matrix(), energy) {
+        (1, Some(mass), None) if mass.is_identity() && lag.is_autonomous() => paper_formula(element),
+        _ => None,
+    };
+    let (mut two_form_worst, mut two_form_samples) = (0.0f64, 0usize);
     while it.step()? {
         let k = it.node().k;
         // In energy mode the first element has its step as a parameter: no extended map there.
@@ -123,6 +191,20 @@ pub fn check<L: Lagrangian>(
             defect = defect.max(dev);
             defect_rel = defect_rel.max(dev / size.powi(2).max(1.0));
             samples += 1;
+            if let (Some(f), Some(e)) = (formula, it.last_element()) {
+                // dp_k = −D11 dq_k − D12 dq_{k+1}: at fixed q_k, ∂q_{k+1}/∂p_k = −1/D12.
+                let computed = -1.0 / m[1];
+                let nodes: Vec<f64> = e.incr.iter().map(|d| e.base[0] + d).collect();
+                let (h, t) = (e.h, e.t);
+                let vpp = |q: f64| {
+                    let mut pd = PointDerivatives::new(1);
+                    lag.second_derivatives(t, &[q], &[0.0], false, &mut pd);
+                    -pd.h(1, 1)
+                };
+                let want = predicted(element, f, h, &nodes, &vpp);
+                two_form_worst = two_form_worst.max(((computed - want) / want).abs());
+                two_form_samples += 1;
+            }
         }
         let node = it.node();
         steps_taken.push(node.t - last_t);
@@ -192,6 +274,11 @@ pub fn check<L: Lagrangian>(
         momentum_drift,
         time_reversal_error,
         max_rel_discrete_energy_error: it.energy_stats().map(|s| s.max_rel_residual),
+        two_form: formula.map(|f| TwoFormCheck {
+            formula: f.to_string(),
+            max_rel_difference: two_form_worst,
+            samples: two_form_samples,
+        }),
         notes,
     })
 }

@@ -5,8 +5,10 @@
 
 pub mod check;
 pub mod exact;
+pub mod trajectory;
 
-pub use check::{check, CheckReport, Symmetry};
+pub use check::{check, CheckReport, Symmetry, TwoFormCheck};
+pub use trajectory::PiecewiseTrajectory;
 
 /// max |MᵀJM − J| for a row-major 2n×2n tangent map M in variables (q, p), with
 /// J = [[0, I], [−I, 0]]. Zero for a symplectic map (up to round-off).
