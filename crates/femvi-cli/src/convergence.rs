@@ -9,6 +9,11 @@ use femvi::diagnostics::{exact, fit_order, PiecewiseTrajectory};
 use femvi::{Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, Start, TimeGrid};
 use serde::Serialize;
 
+/// A closed-form state (q, p) as a function of time.
+type ExactState = Box<dyn Fn(f64) -> Option<Vec<f64>>>;
+/// q_ref(t) written into a buffer.
+type Path = Box<dyn Fn(f64, &mut [f64])>;
+
 /// Which reference the errors are measured against.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Reference {
@@ -85,7 +90,7 @@ fn run<L: Lagrangian>(
 
 /// The closed-form state (q, p) as a function of t, if the model has one and the start gives
 /// (q0, p0).
-fn exact_state<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<Box<dyn Fn(f64) -> Option<Vec<f64>>>> {
+fn exact_state<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<ExactState> {
     let (model, params) = problem.model.as_ref()?;
     let (q0, p0) = match &problem.start {
         Start::Momentum { q, p } => (q.clone(), p.clone()),
@@ -131,7 +136,7 @@ fn study_with<L: Lagrangian>(
     let finest = steps.iter().cloned().fold(f64::INFINITY, f64::min);
     let t_end = problem.grid.end();
     // The reference: its final state, and q_ref(t) for the L² errors.
-    let (reference_state, reference_path, label): (Vec<f64>, Box<dyn Fn(f64, &mut [f64])>, String) = match reference {
+    let (reference_state, reference_path, label): (Vec<f64>, Path, String) = match reference {
         Reference::Exact => match exact {
             Some(f) => {
                 let end = f(t_end).ok_or_else(|| ("the closed form failed at the end time".to_string(), 1))?;
