@@ -60,6 +60,12 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// List the built-in models, or print a complete problem file for one
+    /// (`femvi models kepler > k.toml && femvi run k.toml`).
+    Models {
+        /// A model name.
+        name: Option<String>,
+    },
     /// Measure convergence orders over several step sizes.
     Convergence {
         /// The problem file (TOML).
@@ -109,6 +115,7 @@ fn dispatch(cli: Cli) -> ExitCode {
         Command::Run { problem, out, quiet } => cmd_run(&problem, out, quiet),
         Command::Check { problem, json, out } => cmd_check(&problem, json, out),
         Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
+        Command::Models { name } => cmd_models(name.as_deref()),
         Command::Convergence {
             problem,
             steps,
@@ -117,6 +124,79 @@ fn dispatch(cli: Cli) -> ExitCode {
             l2,
             out,
         } => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, out),
+    }
+}
+
+/// Complete problem files of the built-in models (also examples/models/, run by the tests).
+const MODEL_FILES: &[(&str, &str)] = &[
+    ("harmonic", include_str!("../../../examples/models/harmonic.toml")),
+    ("pendulum", include_str!("../../../examples/models/pendulum.toml")),
+    ("kepler", include_str!("../../../examples/models/kepler.toml")),
+    (
+        "henon-heiles",
+        include_str!("../../../examples/models/henon-heiles.toml"),
+    ),
+    (
+        "forced-oscillator",
+        include_str!("../../../examples/models/forced-oscillator.toml"),
+    ),
+    ("fpu", include_str!("../../../examples/models/fpu.toml")),
+    ("n-body", include_str!("../../../examples/models/n-body.toml")),
+    (
+        "outer-solar-system",
+        include_str!("../../../examples/models/outer-solar-system.toml"),
+    ),
+    (
+        "double-pendulum",
+        include_str!("../../../examples/models/double-pendulum.toml"),
+    ),
+];
+
+fn cmd_models(name: Option<&str>) -> ExitCode {
+    let Some(name) = name else {
+        for m in femvi::models::MODELS {
+            let params: Vec<String> = m.parameters.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+            let defaults = femvi::models::parameters(m.name, &[]).unwrap_or_default();
+            let coords = femvi::models::coordinates(m.name, &defaults);
+            let shown = if coords.len() > 6 {
+                format!("{}, … ({} in all)", coords[..6].join(", "), coords.len())
+            } else {
+                coords.join(", ")
+            };
+            let symmetries = match m.name {
+                "kepler" => "rotation(x,y)",
+                "n-body" | "outer-solar-system" => "total momentum, total angular momentum",
+                _ => "none",
+            };
+            println!("{:<20} {}", m.name, m.description);
+            println!(
+                "{:<20} parameters: {}",
+                "",
+                if params.is_empty() {
+                    "none".into()
+                } else {
+                    params.join(", ")
+                }
+            );
+            println!("{:<20} coordinates: {shown}; symmetries: {symmetries}", "");
+        }
+        println!("\n`femvi models NAME` prints a complete problem file for NAME.");
+        return ExitCode::SUCCESS;
+    };
+    match MODEL_FILES.iter().find(|(n, _)| *n == name) {
+        Some((_, text)) => {
+            print!("{text}");
+            ExitCode::SUCCESS
+        }
+        None => {
+            let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).collect();
+            eprintln!(
+                "error: unknown model '{name}'{}; built-in models: {}",
+                problem::did_you_mean(name, &names),
+                names.join(", ")
+            );
+            ExitCode::from(BAD_INPUT)
+        }
     }
 }
 

@@ -40,6 +40,29 @@ pub struct SymmetriesTable {
 
 pub use femvi::diagnostics::Symmetry;
 
+/// Total momentum along each axis and total angular momentum in each plane of the n-body
+/// problem.
+fn nbody_symmetries(bodies: usize, dim: usize) -> Vec<Symmetry> {
+    let axes = ["x", "y", "z"];
+    let mut out = vec![];
+    for a in 0..dim {
+        let d: Vec<f64> = (0..bodies * dim)
+            .map(|i| if i % dim == a { 1.0 } else { 0.0 })
+            .collect();
+        out.push(Symmetry::Translation(d));
+    }
+    for (a, b) in [(0usize, 1usize), (1, 2), (2, 0)] {
+        if a < dim && b < dim && !(dim == 2 && a != 0) {
+            let planes = (0..bodies).map(|k| (k * dim + a, k * dim + b)).collect();
+            out.push(Symmetry::Rotations(
+                planes,
+                format!("rotation({},{})", axes[a], axes[b]),
+            ));
+        }
+    }
+    out
+}
+
 /// Dispatches `$body` with `$l` bound to the concrete Lagrangian of a [`System`].
 #[macro_export]
 macro_rules! with_system {
@@ -51,6 +74,9 @@ macro_rules! with_system {
             $crate::problem::System::Kepler($l) => $body,
             $crate::problem::System::HenonHeiles($l) => $body,
             $crate::problem::System::DoublePendulum($l) => $body,
+            $crate::problem::System::Forced($l) => $body,
+            $crate::problem::System::Fpu($l) => $body,
+            $crate::problem::System::Gravity($l) => $body,
         }
     };
 }
@@ -226,6 +252,9 @@ pub enum System {
     Kepler(femvi::Mechanical<models::KeplerPotential>),
     HenonHeiles(femvi::Mechanical<models::HenonHeilesPotential>),
     DoublePendulum(models::DoublePendulum),
+    Forced(femvi::Mechanical<models::ForcedPotential>),
+    Fpu(femvi::Mechanical<models::FpuPotential>),
+    Gravity(femvi::Mechanical<models::GravityPotential>),
 }
 
 /// Everything a run needs, checked.
@@ -332,7 +361,7 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
             ))
         }
         (None, Some(model)) => {
-            let info = models::info(model).ok_or_else(|| {
+            models::info(model).ok_or_else(|| {
                 let names: Vec<&str> = models::MODELS.iter().map(|m| m.name).collect();
                 let hint = did_you_mean(model, &names);
                 ctx(format!(
@@ -340,7 +369,8 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
                     names.join(", ")
                 ))
             })?;
-            let coords: Vec<String> = info.coordinates.iter().map(|s| s.to_string()).collect();
+            let p = models::parameters(model, &params).map_err(|e| ctx(e.to_string()))?;
+            let coords = models::coordinates(model, &p);
             if let Some(given) = &sys.coordinates {
                 if *given != coords {
                     return Err(ctx(format!(
@@ -350,7 +380,6 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
                     )));
                 }
             }
-            let p = models::parameters(model, &params).map_err(|e| ctx(e.to_string()))?;
             model_info = Some((model.clone(), p.clone()));
             let system = match model.as_str() {
                 "harmonic" => {
@@ -361,6 +390,16 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
                 ),
                 "kepler" => System::Kepler(models::kepler(p[0])),
                 "henon-heiles" => System::HenonHeiles(models::henon_heiles()),
+                "forced-oscillator" => System::Forced(
+                    models::forced_oscillator(p[0], p[1], p[2], p[3])
+                        .map_err(|e| ctx(format!("model forced-oscillator: {e}")))?,
+                ),
+                "fpu" => System::Fpu(models::fpu(p[0] as usize, p[1], p[2])),
+                "n-body" => System::Gravity(
+                    models::n_body(p[2], p[3..].to_vec(), p[1] as usize)
+                        .map_err(|e| ctx(format!("model n-body: {e}")))?,
+                ),
+                "outer-solar-system" => System::Gravity(models::outer_solar_system()),
                 _ => System::DoublePendulum(models::DoublePendulum {
                     m1: p[0],
                     m2: p[1],
@@ -484,8 +523,16 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
             }
             out
         }
-        None => match model_info.as_ref().map(|(m, _)| m.as_str()) {
-            Some("kepler") => vec![Symmetry::Rotation(0, 1)],
+        None => match model_info.as_ref() {
+            Some((m, _)) if m == "kepler" => vec![Symmetry::Rotation(0, 1)],
+            Some((m, p)) if m == "n-body" || m == "outer-solar-system" => {
+                let (bodies, dim) = if m == "n-body" {
+                    (p[0] as usize, p[1] as usize)
+                } else {
+                    (6, 3)
+                };
+                nbody_symmetries(bodies, dim)
+            }
             _ => vec![],
         },
     };

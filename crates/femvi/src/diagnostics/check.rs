@@ -20,6 +20,9 @@ pub enum Symmetry {
     Translation(Vec<f64>),
     /// Invariance under rotations in the plane of coordinates (i, j): q_i p_j − q_j p_i.
     Rotation(usize, usize),
+    /// Invariance under simultaneous rotations of several planes (e.g. the same plane of every
+    /// body): Σ (q_i p_j − q_j p_i), with a label.
+    Rotations(Vec<(usize, usize)>, String),
 }
 
 impl Symmetry {
@@ -28,6 +31,7 @@ impl Symmetry {
         match self {
             Symmetry::Translation(d) => d.iter().zip(p).map(|(a, b)| a * b).sum(),
             Symmetry::Rotation(i, j) => q[*i] * p[*j] - q[*j] * p[*i],
+            Symmetry::Rotations(planes, _) => planes.iter().map(|(i, j)| q[*i] * p[*j] - q[*j] * p[*i]).sum(),
         }
     }
 
@@ -36,6 +40,7 @@ impl Symmetry {
         match self {
             Symmetry::Translation(d) => format!("translation{d:?}"),
             Symmetry::Rotation(i, j) => format!("rotation({},{})", names[*i], names[*j]),
+            Symmetry::Rotations(_, label) => label.clone(),
         }
     }
 }
