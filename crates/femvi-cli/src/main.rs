@@ -32,9 +32,12 @@ enum Command {
         /// Output directory (default: the `directory` of the output table, else out/NAME).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Print nothing but errors.
+        /// Print nothing but errors (and no progress bar).
         #[arg(long)]
         quiet: bool,
+        /// Output formats, comma-separated: csv, npy (trajectory.npy plus columns.txt).
+        #[arg(long, value_delimiter = ',', default_value = "csv")]
+        format: Vec<String>,
     },
     /// Run a problem and measure symplecticity, energy error and drift, Noether momenta and
     /// time reversal.
@@ -112,7 +115,12 @@ fn main() -> ExitCode {
 
 fn dispatch(cli: Cli) -> ExitCode {
     match cli.command {
-        Command::Run { problem, out, quiet } => cmd_run(&problem, out, quiet),
+        Command::Run {
+            problem,
+            out,
+            quiet,
+            format,
+        } => cmd_run(&problem, out, quiet, &format),
         Command::Check { problem, json, out } => cmd_check(&problem, json, out),
         Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
         Command::Models { name } => cmd_models(name.as_deref()),
@@ -371,13 +379,26 @@ fn cmd_convergence(
     ExitCode::SUCCESS
 }
 
-fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCode {
+fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool, format: &[String]) -> ExitCode {
+    use std::io::IsTerminal;
+    if let Some(f) = format.iter().find(|f| !matches!(f.as_str(), "csv" | "npy")) {
+        eprintln!(
+            "error: unknown --format '{f}'{}; use csv, npy or csv,npy",
+            problem::did_you_mean(f, &["csv", "npy"])
+        );
+        return ExitCode::from(BAD_INPUT);
+    }
     let problem = match load(path) {
         Ok(p) => p,
         Err(code) => return code,
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
-    match run::run(&problem, &dir) {
+    let output = run::RunOutput {
+        csv: format.iter().any(|f| f == "csv"),
+        npy: format.iter().any(|f| f == "npy"),
+        progress: !quiet && std::io::stderr().is_terminal(),
+    };
+    match run::run(&problem, &dir, output) {
         Err(e) => {
             eprintln!("error: cannot write the output in {}: {e}", dir.display());
             ExitCode::from(BAD_INPUT)

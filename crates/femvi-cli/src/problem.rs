@@ -295,7 +295,7 @@ fn read(path: &Path) -> Result<(String, ProblemFile), InputError> {
         )));
     }
     let file: ProblemFile = toml::from_str(&text).map_err(|e| {
-        let msg = e.message().to_string();
+        let msg = with_suggestion(e.message());
         match e.span() {
             Some(span) => bad(excerpt(path, &text, span.start, &msg)),
             None => bad(format!("{}: {msg}", path.display())),
@@ -706,6 +706,25 @@ fn expr_error(path: &Path, text: &str, expr: &toml::Spanned<String>, e: &femvi::
         ))
     } else {
         bad(format!("{}: in the lagrangian: {}", path.display(), e.render()))
+    }
+}
+
+/// serde's "unknown field `x`, expected one of `a`, `b`" (or "unknown variant …") with a
+/// "did you mean" for the closest expected name.
+fn with_suggestion(msg: &str) -> String {
+    let unknown = ["unknown field `", "unknown variant `"]
+        .iter()
+        .find_map(|p| msg.strip_prefix(p));
+    let Some(rest) = unknown else { return msg.to_string() };
+    let Some((word, tail)) = rest.split_once('`') else {
+        return msg.to_string();
+    };
+    let expected: Vec<&str> = tail.split('`').skip(1).step_by(2).collect();
+    let hint = did_you_mean(word, &expected);
+    if hint.is_empty() {
+        msg.to_string()
+    } else {
+        format!("{msg}{hint}")
     }
 }
 

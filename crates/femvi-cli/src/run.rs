@@ -47,9 +47,69 @@ pub enum Outcome {
     Rejected(String),
 }
 
+/// Output formats of a run and whether a progress bar may be shown.
+#[derive(Debug, Clone, Copy)]
+pub struct RunOutput {
+    pub csv: bool,
+    pub npy: bool,
+    pub progress: bool,
+}
+
 /// Runs a problem with output into `dir`.
-pub fn run(problem: &Problem, dir: &Path) -> std::io::Result<Outcome> {
-    crate::with_system!(&problem.system, l => run_with(l, problem, dir))
+pub fn run(problem: &Problem, dir: &Path, out: RunOutput) -> std::io::Result<Outcome> {
+    crate::with_system!(&problem.system, l => run_with(l, problem, dir, out))
+}
+
+/// Writes the buffered rows as one 2-D float64 array and the column names, one per line.
+fn write_npy(dir: &Path, header: &[String], rows: &[f64]) -> std::io::Result<()> {
+    let cols = header.len() as u64;
+    let file = std::io::BufWriter::new(std::fs::File::create(dir.join("trajectory.npy"))?);
+    use npyz::WriterBuilder;
+    let mut w = npyz::WriteOptions::<f64>::new()
+        .default_dtype()
+        .shape(&[rows.len() as u64 / cols, cols])
+        .writer(file)
+        .begin_nd()?;
+    w.extend(rows.iter().copied())?;
+    w.finish()?;
+    std::fs::write(dir.join("columns.txt"), header.join("\n") + "\n")
+}
+
+/// A progress bar that appears once a run has taken a second.
+struct Progress {
+    enabled: bool,
+    total: u64,
+    t_end: f64,
+    clock: Instant,
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    fn update(&mut self, steps: u64, t: f64) {
+        if !self.enabled || (steps & 255) != 0 {
+            return;
+        }
+        if self.bar.is_none() && self.clock.elapsed().as_secs_f64() > 1.0 {
+            let bar =
+                indicatif::ProgressBar::with_draw_target(Some(self.total), indicatif::ProgressDrawTarget::stderr());
+            let style =
+                indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} steps, t = {msg}, {per_sec}, ETA {eta}");
+            if let Ok(style) = style {
+                bar.set_style(style);
+            }
+            self.bar = Some(bar);
+        }
+        if let Some(bar) = &self.bar {
+            bar.set_position(steps.min(self.total));
+            bar.set_message(format!("{t:.6} of {}", self.t_end));
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
 }
 
 fn num(x: f64) -> String {
@@ -57,7 +117,7 @@ fn num(x: f64) -> String {
     format!("{x:?}")
 }
 
-fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::Result<Outcome> {
+fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutput) -> std::io::Result<Outcome> {
     let clock = Instant::now();
     let (grid, start) = (problem.grid.clone(), problem.start.clone());
     let made = match problem.energy {
@@ -76,7 +136,12 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
         Err(e) => return Ok(Outcome::Rejected(e.to_string())),
     };
     std::fs::create_dir_all(dir)?;
-    let mut csv = csv::Writer::from_path(dir.join("trajectory.csv"))?;
+    let mut csv = if out.csv {
+        Some(csv::Writer::from_path(dir.join("trajectory.csv"))?)
+    } else {
+        None
+    };
+    let mut npy_rows: Vec<f64> = vec![];
     let mut header = vec!["step".to_string(), "t".to_string()];
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
@@ -85,7 +150,9 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
     if energy_mode {
         header.push("discrete_energy".into());
     }
-    csv.write_record(&header)?;
+    if let Some(w) = csv.as_mut() {
+        w.write_record(&header)?;
+    }
     let n = lag.dim();
     let mut work = PointDerivatives::new(n);
     let mut v = match &problem.start {
@@ -98,7 +165,11 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
     let mut row = Vec::with_capacity(header.len());
     let mut last_written = usize::MAX;
     let mut steps = 0;
-    let mut record = |it: &Integrator<L>, csv: &mut csv::Writer<std::fs::File>, force: bool| -> Result<(), String> {
+    let mut record = |it: &Integrator<L>,
+                      csv: &mut Option<csv::Writer<std::fs::File>>,
+                      npy_rows: &mut Vec<f64>,
+                      force: bool|
+     -> Result<(), String> {
         let node = it.node();
         let h = hamiltonian(lag, node.t, node.q, node.p, &mut v, &mut work).map_err(|e| e.to_string())?;
         if e0.is_nan() {
@@ -121,27 +192,57 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path) -> std::io::R
             if let Some(st) = it.energy_stats() {
                 row.push(num(st.energy));
             }
-            csv.write_record(&row).map_err(|e| e.to_string())?;
+            if let Some(w) = csv.as_mut() {
+                w.write_record(&row).map_err(|e| e.to_string())?;
+            }
+            if out.npy {
+                npy_rows.push(node.k as f64);
+                npy_rows.push(node.t);
+                npy_rows.extend_from_slice(node.q);
+                npy_rows.extend_from_slice(node.p);
+                npy_rows.push(h);
+                if let Some(st) = it.energy_stats() {
+                    npy_rows.push(st.energy);
+                }
+            }
         }
         Ok(())
     };
-    if let Err(e) = record(&it, &mut csv, true) {
+    if let Err(e) = record(&it, &mut csv, &mut npy_rows, true) {
         error = Some(e);
     }
+    let total = match problem.energy {
+        None => problem.grid.count() as u64,
+        Some(_) => ((problem.grid.end() - problem.grid.t0()) / problem.grid.nominal(0)).ceil() as u64,
+    };
+    let mut progress = Progress {
+        enabled: out.progress,
+        total,
+        t_end: problem.grid.end(),
+        clock: Instant::now(),
+        bar: None,
+    };
     while error.is_none() {
         match it.step() {
             Ok(true) => {
                 steps += 1;
                 let last = it.finished();
-                if let Err(e) = record(&it, &mut csv, last) {
+                if let Err(e) = record(&it, &mut csv, &mut npy_rows, last) {
                     error = Some(e);
                 }
+                progress.update(steps as u64, it.node().t);
             }
             Ok(false) => break,
             Err(e) => error = Some(e.to_string()),
         }
     }
-    csv.flush()?;
+    progress.finish();
+    if let Some(w) = csv.as_mut() {
+        w.flush()?;
+    }
+    if out.npy {
+        write_npy(dir, &header, &npy_rows)?;
+    }
     let node = it.node();
     let summary = Summary {
         name: problem.name.clone(),

@@ -119,7 +119,7 @@ fn corpus() -> Vec<(&'static str, Vec<u8>, i32, &'static str)> {
         ("empty", b"".to_vec(), 2, "empty"),
         ("garbage", vec![0xff, 0xfe, 0x00, 0x13, 0x80], 2, "not UTF-8"),
         ("toml-syntax", g("step = 0.1", "step = = 0.1"), 2, "toml-syntax.toml:11:8:"),
-        ("unknown-top-key", format!("nmae = \"x\"\n{GOOD}").into_bytes(), 2, "unknown field `nmae`"),
+        ("unknown-top-key", format!("nmae = \"x\"\n{GOOD}").into_bytes(), 2, "did you mean 'name'"),
         ("unknown-system-key", g("coordinates", "coordinate"), 2, "unknown field `coordinate`"),
         ("unknown-time-key", g("end = 1.0", "ned = 1.0"), 2, "ned"),
         ("unknown-initial-key", g("v = [0.0]", "vel = [0.0]"), 2, "vel"),
@@ -382,4 +382,78 @@ fn models_lists_and_prints_runnable_problem_files() {
     let bad = femvi().args(["models", "keplr"]).output().unwrap();
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("did you mean 'kepler'"));
+}
+
+#[test]
+fn npy_output_equals_the_csv_bit_for_bit() {
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .arg("run")
+        .arg(examples().join("energy-henon-heiles.toml"))
+        .args(["--format", "csv,npy", "--quiet", "--out"])
+        .arg(out.path())
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.path().join("trajectory.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let values: Vec<f64> = lines
+        .flat_map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>())
+        .collect();
+    let columns = std::fs::read_to_string(out.path().join("columns.txt")).unwrap();
+    assert_eq!(columns.lines().collect::<Vec<_>>(), header);
+    let bytes = std::fs::read(out.path().join("trajectory.npy")).unwrap();
+    let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+    assert_eq!(
+        npy.shape(),
+        &[(values.len() / header.len()) as u64, header.len() as u64]
+    );
+    let data: Vec<f64> = npy.into_vec().unwrap();
+    assert_eq!(data.len(), values.len());
+    for (a, b) in data.iter().zip(&values) {
+        // Bit for bit (NaN, the discrete energy before the first element, compares by bits too).
+        assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b}");
+    }
+    // NPY alone: no CSV written.
+    let only = tempfile::tempdir().unwrap();
+    femvi()
+        .arg("run")
+        .arg(examples().join("kepler.toml"))
+        .args(["--format", "npy", "--out"])
+        .arg(only.path())
+        .assert()
+        .success();
+    assert!(only.path().join("trajectory.npy").exists() && !only.path().join("trajectory.csv").exists());
+}
+
+#[test]
+fn no_progress_bar_without_a_terminal_or_with_quiet() {
+    // A run of more than a second: stderr is a pipe here, so no bar may appear.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("long.toml");
+    std::fs::write(
+        &path,
+        "[system]\nmodel = \"double-pendulum\"\n[initial]\nq = [1.0, 0.5]\nv = [0.0, 0.0]\n[scheme]\ndegree = 3\n[time]\nstep = 0.001\nend = 100.0\n[output]\nevery = 1000\n",
+    )
+    .unwrap();
+    for quiet in [false, true] {
+        let mut cmd = femvi();
+        cmd.arg("run").arg(&path).arg("--out").arg(dir.path().join("o"));
+        if quiet {
+            cmd.arg("--quiet");
+        }
+        let start = std::time::Instant::now();
+        let res = cmd.output().unwrap();
+        assert!(res.status.success());
+        assert!(
+            start.elapsed().as_secs_f64() > 1.0,
+            "the run must be long enough to show a bar"
+        );
+        assert!(
+            res.stderr.is_empty(),
+            "stderr: {}",
+            String::from_utf8_lossy(&res.stderr)
+        );
+        assert_eq!(res.stdout.is_empty(), quiet);
+    }
 }
