@@ -101,7 +101,8 @@ impl Progress {
         }
         if let Some(bar) = &self.bar {
             bar.set_position(steps.min(self.total));
-            bar.set_message(format!("{t:.6} of {}", self.t_end));
+            let rate = steps as f64 / self.clock.elapsed().as_secs_f64().max(1e-9);
+            bar.set_message(format!("t = {t:.6} of {}, {rate:.0} steps/s", self.t_end));
         }
     }
 
