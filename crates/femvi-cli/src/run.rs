@@ -92,8 +92,7 @@ impl Progress {
         if self.bar.is_none() && self.clock.elapsed().as_secs_f64() > 1.0 {
             let bar =
                 indicatif::ProgressBar::with_draw_target(Some(self.total), indicatif::ProgressDrawTarget::stderr());
-            let style =
-                indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} steps, t = {msg}, {per_sec}, ETA {eta}");
+            let style = indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} steps, {msg}, ETA {eta}");
             if let Ok(style) = style {
                 bar.set_style(style);
             }
