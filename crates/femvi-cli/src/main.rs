@@ -5,6 +5,7 @@
 mod bvp;
 mod check;
 mod convergence;
+mod plot;
 mod problem;
 mod run;
 
@@ -38,6 +39,9 @@ enum Command {
         /// Output formats, comma-separated: csv, npy (trajectory.npy plus columns.txt).
         #[arg(long, value_delimiter = ',', default_value = "csv")]
         format: Vec<String>,
+        /// Draw plots (SVG) next to the trajectory: coordinates, phase portraits, energy error.
+        #[arg(long)]
+        plot: bool,
     },
     /// Run a problem and measure symplecticity, energy error and drift, Noether momenta and
     /// time reversal.
@@ -85,6 +89,9 @@ enum Command {
         /// Also measure the L² error of the piecewise-polynomial trajectory.
         #[arg(long)]
         l2: bool,
+        /// Draw convergence.svg: error against step on log-log axes with the fitted slopes.
+        #[arg(long)]
+        plot: bool,
         /// Directory for convergence.csv (default: the problem's output directory).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -120,7 +127,8 @@ fn dispatch(cli: Cli) -> ExitCode {
             out,
             quiet,
             format,
-        } => cmd_run(&problem, out, quiet, &format),
+            plot,
+        } => cmd_run(&problem, out, quiet, &format, plot),
         Command::Check { problem, json, out } => cmd_check(&problem, json, out),
         Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
         Command::Models { name } => cmd_models(name.as_deref()),
@@ -130,9 +138,59 @@ fn dispatch(cli: Cli) -> ExitCode {
             reference,
             json,
             l2,
+            plot,
             out,
-        } => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, out),
+        } => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, plot, out),
     }
+}
+
+/// Error against step on log-log axes, with the least-squares line of each fit.
+fn convergence_plot(dir: &std::path::Path, study: &convergence::Study) -> Result<(), String> {
+    use plot::Series;
+    let pts: Vec<(f64, f64)> = study.runs.iter().map(|r| (r.step, r.error)).collect();
+    let fit_line = |pts: &[(f64, f64)], order: f64| -> Vec<(f64, f64)> {
+        // Through the geometric mean of the points with the fitted slope.
+        let k = pts.len() as f64;
+        let (mx, my) = pts
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (x, y)| (a + x.ln() / k, b + y.ln() / k));
+        pts.iter()
+            .map(|(x, _)| (*x, (my + order * (x.ln() - mx)).exp()))
+            .collect()
+    };
+    let mut series = vec![
+        Series {
+            name: "final nodal error".into(),
+            points: pts.clone(),
+        },
+        Series {
+            name: format!("fit: order {:.2}", study.order),
+            points: fit_line(&pts, study.order),
+        },
+    ];
+    if let Some(o) = study.l2_order {
+        let l2: Vec<(f64, f64)> = study
+            .runs
+            .iter()
+            .map(|r| (r.step, r.l2_error.unwrap_or(f64::NAN)))
+            .collect();
+        series.push(Series {
+            name: "L2 error".into(),
+            points: l2.clone(),
+        });
+        series.push(Series {
+            name: format!("fit: L2 order {o:.2}"),
+            points: fit_line(&l2, o),
+        });
+    }
+    plot::log_lines(
+        &dir.join("convergence.svg"),
+        &format!("{}: convergence", study.name),
+        "step h",
+        "error",
+        &series,
+        true,
+    )
 }
 
 /// Complete problem files of the built-in models (also examples/models/, run by the tests).
@@ -313,6 +371,7 @@ fn cmd_convergence(
     reference: Option<&str>,
     json: bool,
     l2: bool,
+    plot: bool,
     out: Option<PathBuf>,
 ) -> ExitCode {
     let problem = match load(path) {
@@ -353,6 +412,12 @@ fn cmd_convergence(
         eprintln!("error: cannot write {}: {e}", dir.display());
         return ExitCode::from(BAD_INPUT);
     }
+    if plot {
+        if let Err(e) = convergence_plot(&dir, &study) {
+            eprintln!("error: {e}");
+            return ExitCode::from(BAD_INPUT);
+        }
+    }
     if json {
         println!("{}", serde_json::to_string_pretty(&study).unwrap_or_default());
     } else {
@@ -379,7 +444,7 @@ fn cmd_convergence(
     ExitCode::SUCCESS
 }
 
-fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool, format: &[String]) -> ExitCode {
+fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool, format: &[String], plot: bool) -> ExitCode {
     use std::io::IsTerminal;
     if let Some(f) = format.iter().find(|f| !matches!(f.as_str(), "csv" | "npy")) {
         eprintln!(
@@ -397,6 +462,7 @@ fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool, format: &[
         csv: format.iter().any(|f| f == "csv"),
         npy: format.iter().any(|f| f == "npy"),
         progress: !quiet && std::io::stderr().is_terminal(),
+        plots: plot,
     };
     match run::run(&problem, &dir, output) {
         Err(e) => {

@@ -208,6 +208,8 @@ pub struct SolverTable {
 pub struct OutputTable {
     pub directory: Option<String>,
     pub every: Option<usize>,
+    /// Draw plots (SVG) next to the trajectory.
+    pub plots: Option<bool>,
 }
 
 /// A bad problem file: the message is complete (file, position, excerpt).
@@ -275,6 +277,8 @@ pub struct Problem {
     pub symmetries: Vec<Symmetry>,
     /// Built-in model name, if any, and its resolved parameters.
     pub model: Option<(String, Vec<f64>)>,
+    /// [output] plots = true.
+    pub plots: bool,
 }
 
 /// Reads and parses a problem file.
@@ -681,6 +685,7 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
         energy,
         symmetries,
         model: model_info,
+        plots: file.output.plots.unwrap_or(false),
     }))
 }
 

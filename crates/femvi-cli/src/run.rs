@@ -53,6 +53,78 @@ pub struct RunOutput {
     pub csv: bool,
     pub npy: bool,
     pub progress: bool,
+    pub plots: bool,
+}
+
+/// What the plots need, gathered as the run goes.
+#[derive(Default)]
+struct PlotData {
+    t: Vec<f64>,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    rel_energy: Vec<f64>,
+    steps: Vec<(f64, f64)>,
+}
+
+/// Draws coordinates against time, phase portraits, the energy error and (energy mode) the
+/// step sizes into `dir`.
+fn draw_plots(dir: &Path, problem: &Problem, d: &PlotData) -> Result<(), String> {
+    use crate::plot::{lines, log_lines, Series};
+    let n = problem.coordinates.len();
+    let name = &problem.name;
+    let coords: Vec<Series> = (0..n)
+        .map(|c| Series {
+            name: problem.coordinates[c].clone(),
+            points: d.t.iter().enumerate().map(|(k, t)| (*t, d.q[k * n + c])).collect(),
+        })
+        .collect();
+    lines(
+        &dir.join("coordinates.svg"),
+        &format!("{name}: coordinates"),
+        "t",
+        "q",
+        &coords,
+    )?;
+    for (c, cname) in problem.coordinates.iter().enumerate() {
+        let pts = (0..d.t.len()).map(|k| (d.q[k * n + c], d.p[k * n + c])).collect();
+        let series = [Series {
+            name: cname.clone(),
+            points: pts,
+        }];
+        lines(
+            &dir.join(format!("phase_{cname}.svg")),
+            &format!("{name}: phase portrait of {cname}"),
+            cname,
+            &format!("p_{cname}"),
+            &series,
+        )?;
+    }
+    let energy = [Series {
+        name: "relative energy error".into(),
+        points: d.t.iter().zip(&d.rel_energy).map(|(t, e)| (*t, *e)).collect(),
+    }];
+    log_lines(
+        &dir.join("energy_error.svg"),
+        &format!("{name}: relative energy error"),
+        "t",
+        "|H - H0| / |H0|",
+        &energy,
+        false,
+    )?;
+    if problem.energy.is_some() {
+        let steps = [Series {
+            name: "step".into(),
+            points: d.steps.clone(),
+        }];
+        lines(
+            &dir.join("step_size.svg"),
+            &format!("{name}: step size (energy mode)"),
+            "t",
+            "h",
+            &steps,
+        )?;
+    }
+    Ok(())
 }
 
 /// Runs a problem with output into `dir`.
@@ -119,6 +191,10 @@ fn num(x: f64) -> String {
 
 fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutput) -> std::io::Result<Outcome> {
     let clock = Instant::now();
+    let out = RunOutput {
+        plots: out.plots || problem.plots,
+        ..out
+    };
     let (grid, start) = (problem.grid.clone(), problem.start.clone());
     let made = match problem.energy {
         None => Integrator::new(lag, &problem.element, grid, start, problem.options),
@@ -142,6 +218,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
         None
     };
     let mut npy_rows: Vec<f64> = vec![];
+    let mut plot_data = PlotData::default();
     let mut header = vec!["step".to_string(), "t".to_string()];
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
@@ -168,6 +245,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
     let mut record = |it: &Integrator<L>,
                       csv: &mut Option<csv::Writer<std::fs::File>>,
                       npy_rows: &mut Vec<f64>,
+                      plot_data: &mut PlotData,
                       force: bool|
      -> Result<(), String> {
         let node = it.node();
@@ -195,6 +273,15 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
             if let Some(w) = csv.as_mut() {
                 w.write_record(&row).map_err(|e| e.to_string())?;
             }
+            if out.plots {
+                if let Some(&last) = plot_data.t.last() {
+                    plot_data.steps.push((node.t, node.t - last));
+                }
+                plot_data.t.push(node.t);
+                plot_data.q.extend_from_slice(node.q);
+                plot_data.p.extend_from_slice(node.p);
+                plot_data.rel_energy.push(rel);
+            }
             if out.npy {
                 npy_rows.push(node.k as f64);
                 npy_rows.push(node.t);
@@ -208,7 +295,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
         }
         Ok(())
     };
-    if let Err(e) = record(&it, &mut csv, &mut npy_rows, true) {
+    if let Err(e) = record(&it, &mut csv, &mut npy_rows, &mut plot_data, true) {
         error = Some(e);
     }
     let total = match problem.energy {
@@ -227,7 +314,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
             Ok(true) => {
                 steps += 1;
                 let last = it.finished();
-                if let Err(e) = record(&it, &mut csv, &mut npy_rows, last) {
+                if let Err(e) = record(&it, &mut csv, &mut npy_rows, &mut plot_data, last) {
                     error = Some(e);
                 }
                 progress.update(steps as u64, it.node().t);
@@ -242,6 +329,11 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
     }
     if out.npy {
         write_npy(dir, &header, &npy_rows)?;
+    }
+    if out.plots {
+        if let Err(e) = draw_plots(dir, problem, &plot_data) {
+            error = error.or(Some(e));
+        }
     }
     let node = it.node();
     let summary = Summary {

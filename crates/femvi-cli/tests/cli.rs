@@ -31,14 +31,12 @@ fn every_example_runs() {
         } else {
             "run"
         };
-        let res = femvi()
-            .arg(command)
-            .arg(&path)
-            .arg("--out")
-            .arg(out.path())
-            .arg("--quiet")
-            .output()
-            .unwrap();
+        let mut cmd = femvi();
+        cmd.arg(command).arg(&path).arg("--out").arg(out.path()).arg("--quiet");
+        if command == "run" {
+            cmd.arg("--plot");
+        }
+        let res = cmd.output().unwrap();
         assert!(
             res.status.success(),
             "{}: {}",
@@ -54,6 +52,16 @@ fn every_example_runs() {
             assert!(summary["residual_norm"].as_f64().unwrap() < 1e-12);
             count += 1;
             continue;
+        }
+        // Plots: valid SVG with drawn lines.
+        let svgs: Vec<_> = std::fs::read_dir(out.path())
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "svg"))
+            .collect();
+        assert!(svgs.len() >= 3, "{}: {} plots", path.display(), svgs.len());
+        for svg in &svgs {
+            assert_svg_has_lines(svg);
         }
         let energy_error = summary["max_rel_energy_error"].as_f64().unwrap();
         // The forced oscillator's energy is not conserved; the autonomous examples' is.
@@ -456,4 +464,31 @@ fn no_progress_bar_without_a_terminal_or_with_quiet() {
         );
         assert_eq!(res.stdout.is_empty(), quiet);
     }
+}
+
+/// Parses an SVG file and checks that it draws at least one line of several points.
+fn assert_svg_has_lines(path: &Path) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(doc.root_element().tag_name().name(), "svg");
+    let longest = doc
+        .descendants()
+        .filter(|n| n.tag_name().name() == "polyline")
+        .map(|n| n.attribute("points").unwrap_or("").split_whitespace().count())
+        .max()
+        .unwrap_or(0);
+    assert!(longest >= 2, "{}: no drawn line", path.display());
+}
+
+#[test]
+fn convergence_plot_is_valid_svg() {
+    let dir = tempfile::tempdir().unwrap();
+    femvi()
+        .arg("convergence")
+        .arg(examples().join("models/harmonic.toml"))
+        .args(["--steps", "0.2,0.1,0.05", "--l2", "--plot", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success();
+    assert_svg_has_lines(&dir.path().join("convergence.svg"));
 }
