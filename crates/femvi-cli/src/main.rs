@@ -39,9 +39,12 @@ enum Command {
         /// Output formats, comma-separated: csv, npy (trajectory.npy plus columns.txt).
         #[arg(long, value_delimiter = ',', default_value = "csv")]
         format: Vec<String>,
-        /// Draw plots (SVG) next to the trajectory: coordinates, phase portraits, energy error.
+        /// Draw plots next to the trajectory: coordinates, phase portraits, energy error.
         #[arg(long)]
         plot: bool,
+        /// Image format of the plots: svg or png.
+        #[arg(long, default_value = "svg")]
+        plot_format: String,
     },
     /// Run a problem and measure symplecticity, energy error and drift, Noether momenta and
     /// time reversal.
@@ -92,6 +95,9 @@ enum Command {
         /// Draw convergence.svg: error against step on log-log axes with the fitted slopes.
         #[arg(long)]
         plot: bool,
+        /// Image format of the plot: svg or png.
+        #[arg(long, default_value = "svg")]
+        plot_format: String,
         /// Directory for convergence.csv (default: the problem's output directory).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -128,7 +134,11 @@ fn dispatch(cli: Cli) -> ExitCode {
             quiet,
             format,
             plot,
-        } => cmd_run(&problem, out, quiet, &format, plot),
+            plot_format,
+        } => match plot_format_of(&plot_format) {
+            Ok(f) => cmd_run(&problem, out, quiet, &format, plot, f),
+            Err(code) => code,
+        },
         Command::Check { problem, json, out } => cmd_check(&problem, json, out),
         Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
         Command::Models { name } => cmd_models(name.as_deref()),
@@ -139,13 +149,17 @@ fn dispatch(cli: Cli) -> ExitCode {
             json,
             l2,
             plot,
+            plot_format,
             out,
-        } => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, plot, out),
+        } => match plot_format_of(&plot_format) {
+            Ok(f) => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, plot.then_some(f), out),
+            Err(code) => code,
+        },
     }
 }
 
 /// Error against step on log-log axes, with the least-squares line of each fit.
-fn convergence_plot(dir: &std::path::Path, study: &convergence::Study) -> Result<(), String> {
+fn convergence_plot(dir: &std::path::Path, study: &convergence::Study, f: plot::Format) -> Result<(), String> {
     use plot::Series;
     let pts: Vec<(f64, f64)> = study.runs.iter().map(|r| (r.step, r.error)).collect();
     let fit_line = |pts: &[(f64, f64)], order: f64| -> Vec<(f64, f64)> {
@@ -183,9 +197,11 @@ fn convergence_plot(dir: &std::path::Path, study: &convergence::Study) -> Result
             points: fit_line(&l2, o),
         });
     }
+    let title = format!("{}: convergence", study.name);
     plot::log_lines(
-        &dir.join("convergence.svg"),
-        &format!("{}: convergence", study.name),
+        &plot::file(dir, "convergence", f),
+        f,
+        &title,
         "step h",
         "error",
         &series,
@@ -371,7 +387,7 @@ fn cmd_convergence(
     reference: Option<&str>,
     json: bool,
     l2: bool,
-    plot: bool,
+    plot: Option<plot::Format>,
     out: Option<PathBuf>,
 ) -> ExitCode {
     let problem = match load(path) {
@@ -412,8 +428,8 @@ fn cmd_convergence(
         eprintln!("error: cannot write {}: {e}", dir.display());
         return ExitCode::from(BAD_INPUT);
     }
-    if plot {
-        if let Err(e) = convergence_plot(&dir, &study) {
+    if let Some(f) = plot {
+        if let Err(e) = convergence_plot(&dir, &study, f) {
             eprintln!("error: {e}");
             return ExitCode::from(BAD_INPUT);
         }
@@ -444,7 +460,28 @@ fn cmd_convergence(
     ExitCode::SUCCESS
 }
 
-fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool, format: &[String], plot: bool) -> ExitCode {
+fn plot_format_of(name: &str) -> Result<plot::Format, ExitCode> {
+    match name {
+        "svg" => Ok(plot::Format::Svg),
+        "png" => Ok(plot::Format::Png),
+        other => {
+            eprintln!(
+                "error: unknown --plot-format '{other}'{}; use svg or png",
+                problem::did_you_mean(other, &["svg", "png"])
+            );
+            Err(ExitCode::from(BAD_INPUT))
+        }
+    }
+}
+
+fn cmd_run(
+    path: &std::path::Path,
+    out: Option<PathBuf>,
+    quiet: bool,
+    format: &[String],
+    plot: bool,
+    plot_format: plot::Format,
+) -> ExitCode {
     use std::io::IsTerminal;
     if let Some(f) = format.iter().find(|f| !matches!(f.as_str(), "csv" | "npy")) {
         eprintln!(
@@ -463,6 +500,7 @@ fn cmd_run(path: &std::path::Path, out: Option<PathBuf>, quiet: bool, format: &[
         npy: format.iter().any(|f| f == "npy"),
         progress: !quiet && std::io::stderr().is_terminal(),
         plots: plot,
+        plot_format,
     };
     match run::run(&problem, &dir, output) {
         Err(e) => {

@@ -1,9 +1,47 @@
-//! Plots with plotters (SVG): coordinates against time, phase portraits, the relative energy
-//! error on a log scale, step sizes in energy mode, and convergence studies on log–log axes.
-//! Axes carry the names from the problem file.
+//! Plots with plotters (SVG, or PNG): coordinates against time, phase portraits, the relative
+//! energy error on a log scale, step sizes in energy mode, and convergence studies on log–log
+//! axes. Axes carry the names from the problem file. Text is set in DejaVu Sans, bundled (its
+//! licence is in assets/), so that PNG output needs no fonts on the machine.
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+/// The image format of plots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Scalable vector graphics (the default).
+    Svg,
+    /// Portable network graphics.
+    Png,
+}
+
+impl Format {
+    /// The file extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Svg => "svg",
+            Format::Png => "png",
+        }
+    }
+}
+
+const SIZE: (u32, u32) = (900, 540);
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let font: &'static [u8] = include_bytes!("../assets/DejaVuSans.ttf");
+        // The bundled font is valid; if registration failed, text would be missing, not wrong.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, font);
+    });
+}
+
+/// `dir/stem.ext` for the format.
+pub fn file(dir: &Path, stem: &str, format: Format) -> PathBuf {
+    dir.join(format!("{stem}.{}", format.extension()))
+}
 
 /// One line of a plot.
 pub struct Series {
@@ -58,12 +96,44 @@ fn err(e: impl std::fmt::Display) -> String {
     format!("cannot draw the plot: {e}")
 }
 
-/// Lines on linear axes.
-pub fn lines(path: &Path, title: &str, xlabel: &str, ylabel: &str, series: &[Series]) -> Result<(), String> {
+/// Lines on linear axes, into `path` in `format`.
+pub fn lines(
+    path: &Path,
+    format: Format,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+) -> Result<(), String> {
+    register_font();
+    match format {
+        Format::Svg => lines_on(
+            SVGBackend::new(path, SIZE).into_drawing_area(),
+            title,
+            xlabel,
+            ylabel,
+            series,
+        ),
+        Format::Png => lines_on(
+            BitMapBackend::new(path, SIZE).into_drawing_area(),
+            title,
+            xlabel,
+            ylabel,
+            series,
+        ),
+    }
+}
+
+fn lines_on<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+) -> Result<(), String> {
     let data: Vec<Vec<(f64, f64)>> = series.iter().map(|s| thin(&s.points)).collect();
     let (x0, x1) = range(data.iter().flatten().map(|p| p.0));
     let (y0, y1) = range(data.iter().flatten().map(|p| p.1));
-    let root = SVGBackend::new(path, (900, 540)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 22))
@@ -100,6 +170,36 @@ pub fn lines(path: &Path, title: &str, xlabel: &str, ylabel: &str, series: &[Ser
 /// Lines with a logarithmic y axis (and optionally x axis); non-positive values are dropped.
 pub fn log_lines(
     path: &Path,
+    format: Format,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+    log_x: bool,
+) -> Result<(), String> {
+    register_font();
+    match format {
+        Format::Svg => log_lines_on(
+            SVGBackend::new(path, SIZE).into_drawing_area(),
+            title,
+            xlabel,
+            ylabel,
+            series,
+            log_x,
+        ),
+        Format::Png => log_lines_on(
+            BitMapBackend::new(path, SIZE).into_drawing_area(),
+            title,
+            xlabel,
+            ylabel,
+            series,
+            log_x,
+        ),
+    }
+}
+
+fn log_lines_on<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
     title: &str,
     xlabel: &str,
     ylabel: &str,
@@ -122,7 +222,6 @@ pub fn log_lines(
     } else {
         (1e-16, 1.0)
     };
-    let root = SVGBackend::new(path, (900, 540)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let mut builder = ChartBuilder::on(&root);
     builder

@@ -54,6 +54,7 @@ pub struct RunOutput {
     pub npy: bool,
     pub progress: bool,
     pub plots: bool,
+    pub plot_format: crate::plot::Format,
 }
 
 /// What the plots need, gathered as the run goes.
@@ -68,8 +69,8 @@ struct PlotData {
 
 /// Draws coordinates against time, phase portraits, the energy error and (energy mode) the
 /// step sizes into `dir`.
-fn draw_plots(dir: &Path, problem: &Problem, d: &PlotData) -> Result<(), String> {
-    use crate::plot::{lines, log_lines, Series};
+fn draw_plots(dir: &Path, problem: &Problem, d: &PlotData, f: crate::plot::Format) -> Result<(), String> {
+    use crate::plot::{file, lines, log_lines, Series};
     let n = problem.coordinates.len();
     let name = &problem.name;
     let coords: Vec<Series> = (0..n)
@@ -79,7 +80,8 @@ fn draw_plots(dir: &Path, problem: &Problem, d: &PlotData) -> Result<(), String>
         })
         .collect();
     lines(
-        &dir.join("coordinates.svg"),
+        &file(dir, "coordinates", f),
+        f,
         &format!("{name}: coordinates"),
         "t",
         "q",
@@ -91,9 +93,11 @@ fn draw_plots(dir: &Path, problem: &Problem, d: &PlotData) -> Result<(), String>
             name: cname.clone(),
             points: pts,
         }];
+        let title = format!("{name}: phase portrait of {cname}");
         lines(
-            &dir.join(format!("phase_{cname}.svg")),
-            &format!("{name}: phase portrait of {cname}"),
+            &file(dir, &format!("phase_{cname}"), f),
+            f,
+            &title,
             cname,
             &format!("p_{cname}"),
             &series,
@@ -103,9 +107,11 @@ fn draw_plots(dir: &Path, problem: &Problem, d: &PlotData) -> Result<(), String>
         name: "relative energy error".into(),
         points: d.t.iter().zip(&d.rel_energy).map(|(t, e)| (*t, *e)).collect(),
     }];
+    let title = format!("{name}: relative energy error");
     log_lines(
-        &dir.join("energy_error.svg"),
-        &format!("{name}: relative energy error"),
+        &file(dir, "energy_error", f),
+        f,
+        &title,
         "t",
         "|H - H0| / |H0|",
         &energy,
@@ -117,7 +123,8 @@ fn draw_plots(dir: &Path, problem: &Problem, d: &PlotData) -> Result<(), String>
             points: d.steps.clone(),
         }];
         lines(
-            &dir.join("step_size.svg"),
+            &file(dir, "step_size", f),
+            f,
             &format!("{name}: step size (energy mode)"),
             "t",
             "h",
@@ -331,7 +338,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
         write_npy(dir, &header, &npy_rows)?;
     }
     if out.plots {
-        if let Err(e) = draw_plots(dir, problem, &plot_data) {
+        if let Err(e) = draw_plots(dir, problem, &plot_data, out.plot_format) {
             error = error.or(Some(e));
         }
     }

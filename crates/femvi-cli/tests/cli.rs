@@ -492,3 +492,30 @@ fn convergence_plot_is_valid_svg() {
         .success();
     assert_svg_has_lines(&dir.path().join("convergence.svg"));
 }
+
+#[test]
+fn png_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    femvi()
+        .arg("run")
+        .arg(examples().join("models/pendulum.toml"))
+        .args(["--plot", "--plot-format", "png", "--quiet", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success();
+    for name in ["coordinates", "phase_theta", "energy_error"] {
+        let bytes = std::fs::read(dir.path().join(format!("{name}.png"))).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{name}");
+        let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+        let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+        assert_eq!((width, height), (900, 540));
+        assert!(bytes.len() > 10_000, "{name}: {} bytes", bytes.len());
+    }
+    let bad = femvi()
+        .arg("run")
+        .arg(examples().join("models/pendulum.toml"))
+        .args(["--plot-format", "jpg"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+}
