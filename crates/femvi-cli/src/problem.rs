@@ -148,6 +148,8 @@ pub enum Quadrature {
 pub struct SchemeTable {
     #[serde(default)]
     pub kind: Kind,
+    /// Requested order 2s: picks degree s with s-point Gauss-Legendre (femvi's default choice).
+    pub order: Option<usize>,
     pub degree: Option<usize>,
     #[serde(default)]
     pub nodes: Nodes,
@@ -447,13 +449,25 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
     let sc = &file.scheme;
     let (element, scheme_label) = match sc.kind {
         Kind::Midpoint => {
-            if sc.degree.is_some_and(|d| d != 1) || sc.points.is_some() {
+            if sc.degree.is_some_and(|d| d != 1) || sc.points.is_some() || sc.order.is_some() {
                 return Err(ctx("[scheme] kind = \"midpoint\" takes no degree or points".into()));
             }
             (Element::midpoint(), "midpoint (2.19)".to_string())
         }
         Kind::Galerkin => {
-            let degree = sc.degree.unwrap_or(2);
+            if let Some(order) = sc.order {
+                if sc.degree.is_some() || sc.points.is_some() || sc.quadrature != Quadrature::GaussLegendre {
+                    return Err(ctx(
+                        "[scheme] order chooses the element itself: give order, or degree/quadrature/points".into(),
+                    ));
+                }
+                if order < 2 || order % 2 != 0 || order > 128 {
+                    return Err(ctx(format!(
+                        "[scheme] order = {order} must be an even number from 2 to 128"
+                    )));
+                }
+            }
+            let degree = sc.order.map(|o| o / 2).or(sc.degree).unwrap_or(2);
             if degree == 0 || degree > 64 {
                 return Err(ctx(format!("[scheme] degree = {degree} is out of range (1 to 64)")));
             }

@@ -138,6 +138,8 @@ fn corpus() -> Vec<(&'static str, Vec<u8>, i32, &'static str)> {
         ("bad-quadrature", format!("{GOOD}\n[scheme]\nquadrature = \"gauss\"\n").into_bytes(), 2, "gauss-legendre"),
         ("bad-kind", format!("{GOOD}\n[scheme]\nkind = \"fem\"\n").into_bytes(), 2, "galerkin"),
         ("degree-zero", format!("{GOOD}\n[scheme]\ndegree = 0\n").into_bytes(), 2, "degree"),
+        ("odd-order", format!("{GOOD}\n[scheme]\norder = 7\n").into_bytes(), 2, "even number"),
+        ("order-and-degree", format!("{GOOD}\n[scheme]\norder = 8\ndegree = 4\n").into_bytes(), 2, "order chooses"),
         ("degenerate-rule", format!("{GOOD}\n[scheme]\ndegree = 3\nquadrature = \"midpoint\"\n").into_bytes(), 2, "degenerate"),
         ("expr-syntax", g("0.5*x^2\"", "0.5*x^2 +\""), 2, ":4:"),
         ("expr-unknown-symbol", g("0.5*x^2", "0.5*y^2"), 2, "unknown symbol 'y'"),
@@ -491,6 +493,27 @@ fn convergence_plot_is_valid_svg() {
         .assert()
         .success();
     assert_svg_has_lines(&dir.path().join("convergence.svg"));
+}
+
+#[test]
+fn scheme_order_picks_the_gauss_element() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("o.toml");
+    std::fs::write(&path, format!("{GOOD}\n[scheme]\norder = 8\n")).unwrap();
+    let out = femvi()
+        .arg("run")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        s["scheme"].as_str(),
+        Some("galerkin degree 4, Equispaced nodes, GaussLegendre(4)")
+    );
 }
 
 #[test]
