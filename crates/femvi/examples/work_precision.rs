@@ -1,0 +1,227 @@
+//! femvi's side of the work-precision benchmarks of benches/peers/ (problems P1, P2, P3 of
+//! ../shared/problems/README.md, copied into benches/peers/README.md): prints CSV rows
+//! `tool,problem,config,step,steps,cpu_seconds,error` for a sweep of elements and steps, with
+//! process CPU time. Run by benches/peers/run.sh; not part of `cargo test`.
+//!
+//! Usage: cargo run --release -p femvi --example work_precision -- p1|p2|p3|roundoff|reference
+
+use femvi::diagnostics::exact;
+use femvi::{models, Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+
+fn cpu() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes into the timespec we own.
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+fn element(s: usize) -> Element {
+    if s == 1 {
+        // Degree 1 with the trapezoid rule: Störmer–Verlet.
+        Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap()
+    } else {
+        Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).unwrap()
+    }
+}
+
+fn label(s: usize) -> String {
+    if s == 1 {
+        "verlet (degree 1 trapezoid)".into()
+    } else {
+        format!("degree {s} gauss {s} (order {})", 2 * s)
+    }
+}
+
+/// Runs to the end; (cpu seconds, final q, steps) or None if a step failed.
+fn run<L: Lagrangian>(lag: &L, el: &Element, start: Start, h: f64, t_end: f64) -> Option<(f64, Vec<f64>, usize)> {
+    let grid = TimeGrid::uniform(0.0, h, t_end).ok()?;
+    let opts = SolverOptions {
+        tolerance: 1e-15,
+        ..Default::default()
+    };
+    let t0 = cpu();
+    let mut it = Integrator::new(lag, el, grid, start, opts).ok()?;
+    let mut steps = 0;
+    loop {
+        match it.advance(usize::MAX) {
+            Ok(0) => break,
+            Ok(d) => steps += d,
+            Err(_) => return None,
+        }
+    }
+    Some((cpu() - t0, it.node().q.to_vec(), steps))
+}
+
+fn p1() {
+    let lag = models::kepler(1.0);
+    let t_end = 2.0 * std::f64::consts::PI * 1000.0;
+    let (qe, _) = exact::kepler(1.0, 0.0, [0.4, 0.0], [0.0, 2.0], t_end).unwrap();
+    let per_period: &[(usize, &[usize])] = &[
+        (1, &[250, 500, 1000, 2000, 4000, 8000, 16000, 32000]),
+        (2, &[100, 200, 400, 800, 1600, 3200]),
+        (3, &[50, 100, 200, 400, 800, 1600]),
+        (4, &[40, 60, 100, 150, 200, 300, 400, 600]),
+        (5, &[30, 50, 80, 120, 160, 240, 320]),
+        (6, &[25, 40, 60, 80, 120, 160, 240]),
+        (8, &[20, 30, 40, 60, 80, 120, 160]),
+    ];
+    for (s, ns) in per_period {
+        let el = element(*s);
+        for n in *ns {
+            let h = 2.0 * std::f64::consts::PI / *n as f64;
+            let start = Start::Momentum {
+                q: vec![0.4, 0.0],
+                p: vec![0.0, 2.0],
+            };
+            if let Some((t, q, steps)) = run(&lag, &el, start, h, t_end) {
+                let err = ((q[0] - qe[0]).powi(2) + (q[1] - qe[1]).powi(2)).sqrt();
+                println!("femvi,P1,{},{h:e},{steps},{t:e},{err:e}", label(*s));
+            }
+        }
+    }
+}
+
+fn p2_reference() -> Vec<f64> {
+    // Degree 8 with 8-point Gauss at h = 2 days, checked against h = 4 days.
+    let sys = models::outer_solar_system();
+    let start = || Start::Velocity {
+        q: models::outer_solar_system::X0.iter().flatten().cloned().collect(),
+        v: models::outer_solar_system::V0.iter().flatten().cloned().collect(),
+    };
+    let el = element(8);
+    let (_, a, _) = run(&sys, &el, start(), 2.0, 200000.0).unwrap();
+    let (_, b, _) = run(&sys, &el, start(), 4.0, 200000.0).unwrap();
+    let d = (0..3).map(|c| (a[3 + c] - b[3 + c]).powi(2)).sum::<f64>().sqrt();
+    eprintln!("P2 reference: Jupiter at T with h = 2 and h = 4 days differ by {d:e} AU");
+    a[3..6].to_vec()
+}
+
+fn p2() {
+    let jupiter = p2_reference();
+    println!(
+        "reference,P2,jupiter,{:e},{:e},{:e},0",
+        jupiter[0], jupiter[1], jupiter[2]
+    );
+    let sys = models::outer_solar_system();
+    let steps: &[(usize, &[f64])] = &[
+        (1, &[50.0, 20.0, 10.0, 5.0, 2.0, 1.0, 0.5]),
+        (2, &[100.0, 50.0, 20.0, 10.0, 5.0, 2.5]),
+        (3, &[200.0, 100.0, 50.0, 25.0, 12.5]),
+        (4, &[400.0, 200.0, 100.0, 50.0, 25.0]),
+        (5, &[400.0, 250.0, 150.0, 100.0, 60.0, 40.0]),
+        (6, &[500.0, 300.0, 200.0, 120.0, 80.0, 50.0]),
+    ];
+    for (s, hs) in steps {
+        let el = element(*s);
+        for h in *hs {
+            let start = Start::Velocity {
+                q: models::outer_solar_system::X0.iter().flatten().cloned().collect(),
+                v: models::outer_solar_system::V0.iter().flatten().cloned().collect(),
+            };
+            if let Some((t, q, n)) = run(&sys, &el, start, *h, 200000.0) {
+                let err = (0..3).map(|c| (q[3 + c] - jupiter[c]).powi(2)).sum::<f64>().sqrt();
+                println!("femvi,P2,{},{h:e},{n},{t:e},{err:e}", label(*s));
+            }
+        }
+    }
+}
+
+/// P3 with the energy checked at every node (inside the timing, as a user would).
+fn p3_run(el: &Element, h: f64) -> Option<(f64, f64, usize)> {
+    let lag = models::pendulum(1.0, 1.0, 1.0).unwrap();
+    let grid = TimeGrid::uniform(0.0, h, 1e5).ok()?;
+    let t0 = cpu();
+    let mut it = Integrator::new(
+        &lag,
+        el,
+        grid,
+        Start::Momentum {
+            q: vec![0.0],
+            p: vec![1.5],
+        },
+        SolverOptions::default(),
+    )
+    .ok()?;
+    let e0 = 0.5 * 1.5f64 * 1.5 - 1.0;
+    let mut worst = 0.0f64;
+    let mut steps = 0;
+    loop {
+        match it.step() {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(_) => return None,
+        }
+        steps += 1;
+        let n = it.node();
+        worst = worst.max(((0.5 * n.p[0] * n.p[0] - n.q[0].cos() - e0) / e0).abs());
+    }
+    Some((cpu() - t0, worst, steps))
+}
+
+fn p3() {
+    let steps: &[(usize, &[f64])] = &[
+        (1, &[0.2, 0.1, 0.05, 0.02, 0.01]),
+        (2, &[1.0, 0.5, 0.25, 0.1, 0.05]),
+        (3, &[1.0, 0.5, 0.25, 0.125]),
+        (4, &[1.0, 0.75, 0.5, 0.25]),
+        (5, &[1.0, 0.75, 0.5, 0.25]),
+        (6, &[1.0, 0.75, 0.5, 0.4]),
+    ];
+    for (s, hs) in steps {
+        let el = element(*s);
+        for h in *hs {
+            match p3_run(&el, *h) {
+                Some((t, e, n)) => println!("femvi,P3,{},{h:e},{n},{t:e},{e:e}", label(*s)),
+                None => eprintln!("P3 {} h = {h}: a step failed (typed error), not counted", label(*s)),
+            }
+        }
+    }
+}
+
+/// Energy error of P3 at machine-level accuracy over 10⁷ steps: the envelope of |ΔH| in
+/// doubling windows of steps, and the least-squares exponent of its growth.
+fn roundoff() {
+    let lag = models::pendulum(1.0, 1.0, 1.0).unwrap();
+    let el = element(6);
+    let h = 0.01;
+    let grid = TimeGrid::uniform(0.0, h, 1e5).unwrap();
+    let mut it = Integrator::new(
+        &lag,
+        &el,
+        grid,
+        Start::Momentum {
+            q: vec![0.0],
+            p: vec![1.5],
+        },
+        SolverOptions::default(),
+    )
+    .unwrap();
+    let e0 = 0.5 * 1.5f64 * 1.5 - 1.0;
+    let (mut k, mut window, mut worst) = (0usize, 1024usize, 0.0f64);
+    let (mut xs, mut ys) = (vec![], vec![]);
+    while it.step().unwrap() {
+        k += 1;
+        let n = it.node();
+        worst = worst.max((0.5 * n.p[0] * n.p[0] - n.q[0].cos() - e0).abs() / e0.abs());
+        if k == window {
+            println!("roundoff,P3,degree 6 gauss 6,{h:e},{k},0,{worst:e}");
+            xs.push((k as f64).ln());
+            ys.push(worst.ln());
+            window *= 2;
+        }
+    }
+    let slope = femvi::diagnostics::linear_slope(&xs, &ys);
+    eprintln!(
+        "P3 round-off: max relative energy error after {k} steps {worst:e}; growth exponent {slope:.3} (√steps is 0.5)"
+    );
+}
+
+fn main() {
+    match std::env::args().nth(1).as_deref() {
+        Some("p1") => p1(),
+        Some("p2") => p2(),
+        Some("p3") => p3(),
+        Some("roundoff") => roundoff(),
+        _ => eprintln!("usage: work_precision p1|p2|p3|roundoff"),
+    }
+}
