@@ -1,0 +1,48 @@
+"""Work-precision plots (error against CPU time, log-log) per problem from results.csv, and
+table.md: for each problem and accuracy level, the cheapest configuration of each tool, with
+its time as a multiple of the C Verlet loop's time per step measured in the same run."""
+import csv, collections, math, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+rows = [r for r in csv.reader(open(sys.argv[1])) if r and r[0] != "reference"]
+verlet = {r[1]: float(r[6]) for r in rows if r[0] == "verlet"}  # ns per step
+runs = [dict(tool=r[0], problem=r[1], config=r[2], step=r[3], steps=int(r[4]), cpu=float(r[5]), error=float(r[6]))
+        for r in rows if r[0] not in ("verlet", "roundoff")]
+targets = {"P1": "position error at T", "P2": "Jupiter's position error at T (AU)", "P3": "max relative energy error"}
+gni = {"P1": [(3.5e-8, 0.049, "GNI_IRK2 order 12"), (4.3e-11, 0.70, "GNI_IRK2 order 8"), (4.8e-12, 0.39, "IAS15 (brief)")],
+       "P2": [(1e-6, 6.7e-3, "GNI_IRK2 order 8"), (1e-10, 15e-3, "GNI_IRK2 order 8 / IAS15")],
+       "P3": [(1e-6, 0.11, "GNI_IRK2 order 12"), (1e-10, 0.12, "GNI_IRK2 order 12")]}
+lines = ["| problem | accuracy | tool | cheapest configuration | CPU s | error | in Verlet-steps of time |", "|---|---|---|---|---|---|---|"]
+for prob in ["P1", "P2", "P3"]:
+    fam = collections.defaultdict(list)
+    for r in runs:
+        if r["problem"] == prob:
+            fam[(r["tool"], r["config"] if r["tool"] != "rebound" or "ias15" not in r["config"] else "ias15")].append(r)
+    plt.figure(figsize=(8, 5.5))
+    for (tool, config), rs in sorted(fam.items()):
+        rs = sorted(rs, key=lambda r: r["cpu"])
+        style = "-o" if tool == "femvi" else "--s"
+        plt.loglog([r["cpu"] for r in rs], [max(r["error"], 1e-17) for r in rs], style, ms=4, label=f"{tool}: {config}")
+    for err, t, name in gni.get(prob, []):
+        plt.loglog([t], [err], "k*", ms=10)
+        plt.annotate(name, (t, err), fontsize=7, xytext=(4, 4), textcoords="offset points")
+    plt.xlabel("CPU time (s)"); plt.ylabel(targets[prob]); plt.title(f"{prob}: work-precision (stars: the brief's figures)")
+    plt.grid(True, which="both", alpha=0.3); plt.legend(fontsize=7); plt.tight_layout()
+    plt.savefig(f"{prob.lower()}.png", dpi=110); plt.close()
+    base = verlet.get(prob if prob in verlet else "P1", 30.0) * 1e-9  # seconds per Verlet step
+    probrows = [r for r in runs if r["problem"] == prob]
+    best = min((r["error"] for r in probrows), default=float("nan"))
+    for level, name in [(1e-6, "1e-6"), (1e-10, "1e-10"), (None, "best")]:
+        for tool in ["femvi", "rebound", "scipy"]:
+            cand = [r for r in probrows if r["tool"] == tool and (level is None or r["error"] <= level)]
+            if level is None:
+                cand = sorted(cand, key=lambda r: (r["error"], r["cpu"]))[:1]
+            if not cand:
+                lines.append(f"| {prob} | {name} | {tool} | not reached | | | |"); continue
+            r = min(cand, key=lambda r: r["cpu"]) if level is not None else cand[0]
+            lines.append(f"| {prob} | {name} | {tool} | {r['config']}, step {float(r['step']):g} | {r['cpu']:.3g} | {r['error']:.2e} | {r['cpu'] / base:.3g} |")
+open("table.md", "w").write("\n".join(lines) + "\n")
+print("\n".join(lines))
+print("Verlet C loop ns/step:", verlet)
