@@ -882,19 +882,24 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                     self.tmp[c] = self.q[c] + yl[c];
                 }
                 self.lag.force(self.t + self.element.rule.nodes[l] * h, &self.tmp, fl);
-                if identity {
-                    self.wforce[l * n..(l + 1) * n].copy_from_slice(fl);
-                } else {
+                if !identity {
                     mass.solve(fl, &mut self.wforce[l * n..(l + 1) * n]);
                 }
             }
+            // M⁻¹ f: the forces themselves for unit masses (no copy).
+            let w: &[f64] = if identity {
+                &self.force[..r * n]
+            } else {
+                &self.wforce[..r * n]
+            };
             let mut delta = 0.0f64;
             let mut ymax = 0.0f64;
             for l in 0..r {
+                let brow = &tab.b[l * r..(l + 1) * r];
                 for c in 0..n {
                     let mut acc = 0.0;
-                    for i in 0..r {
-                        acc += tab.b[l * r + i] * self.wforce[i * n + c];
+                    for (i, b) in brow.iter().enumerate() {
+                        acc += b * w[i * n + c];
                     }
                     let ynew = h * tab.a[l] * self.u[c] + h * h * acc;
                     let d = (ynew - self.y[l * n + c]).abs();
@@ -945,11 +950,16 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.iterations += iterations;
         // Node increments, end increment and momentum increment from the last forces.
         self.incr[..n].iter_mut().for_each(|x| *x = 0.0);
+        let w: &[f64] = if identity {
+            &self.force[..r * n]
+        } else {
+            &self.wforce[..r * n]
+        };
         for m in 0..s {
             for c in 0..n {
                 let mut acc = 0.0;
                 for i in 0..r {
-                    acc += tab.beta[m * r + i] * self.wforce[i * n + c];
+                    acc += tab.beta[m * r + i] * w[i * n + c];
                 }
                 self.incr[(m + 1) * n + c] = h * tab.alpha[m] * self.u[c] + h * h * acc;
             }
