@@ -399,8 +399,12 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         self.mass.apply(v, gv);
         let kin: f64 = 0.5 * v.iter().zip(gv.iter()).map(|(a, b)| a * b).sum::<f64>();
         let vt = if with_t && !self.potential.is_autonomous() {
-            let qd: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
-            let r = self.potential.value(Dual64::new(t, 1.0), &qd);
+            // ∂V/∂t by a dual number in t, in the scratch this struct owns (no allocation).
+            let qd = &mut out.d1[..n];
+            for (d, &x) in qd.iter_mut().zip(q) {
+                *d = Dual64::from(x);
+            }
+            let r = self.potential.value(Dual64::new(t, 1.0), qd);
             gt[0] = -r.eps;
             r.re
         } else {

@@ -117,6 +117,8 @@ where
         // round-off level, where the residual cannot decrease any more.
         let r2: f64 = work.r.iter().map(|v| v * v).sum();
         let mut lambda = 1.0;
+        // Whether `r_trial` holds the residual at the accepted trial point.
+        let mut trial_evaluated = true;
         loop {
             for i in 0..dim {
                 work.trial[i] = x[i] + lambda * work.rhs[i];
@@ -134,6 +136,7 @@ where
                     for i in 0..dim {
                         work.trial[i] = x[i] + work.rhs[i];
                     }
+                    trial_evaluated = false;
                     break;
                 }
                 return Err(fail(StepFailure::Stalled, rnorm, it));
@@ -141,7 +144,13 @@ where
         }
         x.copy_from_slice(&work.trial);
         if converged_step || lambda * dnorm <= tol * sc {
-            eval(x, &mut work.r, None);
+            // The caller reads what the last evaluation left (e.g. the derivatives at the
+            // quadrature points): it must be at x, which the line search already evaluated.
+            if trial_evaluated {
+                std::mem::swap(&mut work.r, &mut work.r_trial);
+            } else {
+                eval(x, &mut work.r, None);
+            }
             return Ok(NewtonReport {
                 iterations: it,
                 last_increment: lambda * dnorm,
