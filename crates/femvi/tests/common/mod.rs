@@ -26,16 +26,9 @@ pub fn run_final<L: Lagrangian>(lag: &L, el: &Element, grid: TimeGrid, start: St
     (n.t, n.q.to_vec(), n.p.to_vec())
 }
 
-/// Slope of the least-squares line through (ln h, ln err).
-pub fn fit_order(h: &[f64], err: &[f64]) -> f64 {
-    let x: Vec<f64> = h.iter().map(|v| v.ln()).collect();
-    let y: Vec<f64> = err.iter().map(|v| v.ln()).collect();
-    let n = x.len() as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxy: f64 = x.iter().zip(&y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    sxy / sxx
-}
+/// Least-squares order fits: the library's (unit-tested against an exact power law).
+#[allow(unused_imports)]
+pub use femvi::diagnostics::fit_order;
 
 /// Exact Kepler state (μ = 1) at time t from q0 = (a(1−e), 0), p0 = (0, √((1+e)/(a(1−e)))),
 /// by Newton's method on Kepler's equation E − e sin E = M.
