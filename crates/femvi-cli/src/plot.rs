@@ -96,6 +96,14 @@ fn err(e: impl std::fmt::Display) -> String {
     format!("cannot draw the plot: {e}")
 }
 
+/// The axes of a plot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Axes {
+    Linear,
+    LogY,
+    LogXY,
+}
+
 /// Lines on linear axes, into `path` in `format`.
 pub fn lines(
     path: &Path,
@@ -105,66 +113,7 @@ pub fn lines(
     ylabel: &str,
     series: &[Series],
 ) -> Result<(), String> {
-    register_font();
-    match format {
-        Format::Svg => lines_on(
-            SVGBackend::new(path, SIZE).into_drawing_area(),
-            title,
-            xlabel,
-            ylabel,
-            series,
-        ),
-        Format::Png => lines_on(
-            BitMapBackend::new(path, SIZE).into_drawing_area(),
-            title,
-            xlabel,
-            ylabel,
-            series,
-        ),
-    }
-}
-
-fn lines_on<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    title: &str,
-    xlabel: &str,
-    ylabel: &str,
-    series: &[Series],
-) -> Result<(), String> {
-    let data: Vec<Vec<(f64, f64)>> = series.iter().map(|s| thin(&s.points)).collect();
-    let (x0, x1) = range(data.iter().flatten().map(|p| p.0));
-    let (y0, y1) = range(data.iter().flatten().map(|p| p.1));
-    root.fill(&WHITE).map_err(err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(75)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc(xlabel)
-        .y_desc(ylabel)
-        .draw()
-        .map_err(err)?;
-    for (i, (s, pts)) in series.iter().zip(data).enumerate() {
-        let color = COLORS[i % COLORS.len()];
-        chart
-            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-            .map_err(err)?
-            .label(s.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-    }
-    if series.len() > 1 {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
-    }
-    root.present().map_err(err)
+    draw(path, format, title, xlabel, ylabel, series, Axes::Linear)
 }
 
 /// Lines with a logarithmic y axis (and optionally x axis); non-positive values are dropped.
@@ -177,69 +126,95 @@ pub fn log_lines(
     series: &[Series],
     log_x: bool,
 ) -> Result<(), String> {
+    let axes = if log_x { Axes::LogXY } else { Axes::LogY };
+    draw(path, format, title, xlabel, ylabel, series, axes)
+}
+
+fn draw(
+    path: &Path,
+    format: Format,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+    axes: Axes,
+) -> Result<(), String> {
     register_font();
     match format {
-        Format::Svg => log_lines_on(
+        Format::Svg => draw_on(
             SVGBackend::new(path, SIZE).into_drawing_area(),
             title,
             xlabel,
             ylabel,
             series,
-            log_x,
+            axes,
         ),
-        Format::Png => log_lines_on(
+        Format::Png => draw_on(
             BitMapBackend::new(path, SIZE).into_drawing_area(),
             title,
             xlabel,
             ylabel,
             series,
-            log_x,
+            axes,
         ),
     }
 }
 
-fn log_lines_on<DB: DrawingBackend>(
+/// Range of positive values on a log axis, widened by `pad` on both sides.
+fn log_range(values: impl Iterator<Item = f64>, pad: f64, fallback: (f64, f64)) -> (f64, f64) {
+    let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    if lo.is_finite() && hi > 0.0 {
+        (lo / pad, hi * pad)
+    } else {
+        fallback
+    }
+}
+
+fn draw_on<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     title: &str,
     xlabel: &str,
     ylabel: &str,
     series: &[Series],
-    log_x: bool,
+    axes: Axes,
 ) -> Result<(), String> {
     let data: Vec<Vec<(f64, f64)>> = series
         .iter()
         .map(|s| {
             thin(&s.points)
                 .into_iter()
-                .filter(|(x, y)| *y > 0.0 && (!log_x || *x > 0.0))
+                .filter(|(x, y)| match axes {
+                    Axes::Linear => true,
+                    Axes::LogY => *y > 0.0,
+                    Axes::LogXY => *y > 0.0 && *x > 0.0,
+                })
                 .collect()
         })
         .collect();
+    let xs = || data.iter().flatten().map(|p| p.0);
     let ys = || data.iter().flatten().map(|p| p.1);
-    let (ylo, yhi) = (ys().fold(f64::INFINITY, f64::min), ys().fold(0.0f64, f64::max));
-    let (ylo, yhi) = if ylo.is_finite() && yhi > 0.0 {
-        (ylo / 2.0, yhi * 2.0)
-    } else {
-        (1e-16, 1.0)
-    };
     root.fill(&WHITE).map_err(err)?;
     let mut builder = ChartBuilder::on(&root);
+    let y_area = if axes == Axes::Linear { 75 } else { 85 };
     builder
         .caption(title, ("sans-serif", 22))
         .margin(12)
         .x_label_area_size(45)
-        .y_label_area_size(85);
-    macro_rules! draw {
-        ($chart:expr) => {{
+        .y_label_area_size(y_area);
+    // The mesh, the lines and the legend, for each kind of coordinates.
+    macro_rules! finish {
+        ($chart:expr, $log_y:expr, $log_x:expr) => {{
             let mut chart = $chart;
-            chart
-                .configure_mesh()
-                .x_desc(xlabel)
-                .y_desc(ylabel)
-                .y_label_formatter(&|v| format!("{v:.0e}"))
-                .draw()
-                .map_err(err)?;
-            for (i, (s, pts)) in series.iter().zip(data.iter()).enumerate() {
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc(xlabel).y_desc(ylabel);
+            if $log_y {
+                mesh.y_label_formatter(&|v| format!("{v:.0e}"));
+            }
+            if $log_x {
+                mesh.x_label_formatter(&|v| format!("{v:.3}"));
+            }
+            mesh.draw().map_err(err)?;
+            for (i, (s, pts)) in series.iter().zip(&data).enumerate() {
                 let color = COLORS[i % COLORS.len()];
                 chart
                     .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))
@@ -257,22 +232,31 @@ fn log_lines_on<DB: DrawingBackend>(
             }
         }};
     }
-    if log_x {
-        let xs = || data.iter().flatten().map(|p| p.0);
-        let (xlo, xhi) = (xs().fold(f64::INFINITY, f64::min), xs().fold(0.0f64, f64::max));
-        let (xlo, xhi) = if xlo.is_finite() && xhi > 0.0 {
-            (xlo / 1.5, xhi * 1.5)
-        } else {
-            (1e-3, 1.0)
-        };
-        draw!(builder
-            .build_cartesian_2d((xlo..xhi).log_scale(), (ylo..yhi).log_scale())
-            .map_err(err)?);
-    } else {
-        let (x0, x1) = range(data.iter().flatten().map(|p| p.0));
-        draw!(builder
-            .build_cartesian_2d(x0..x1, (ylo..yhi).log_scale())
-            .map_err(err)?);
+    match axes {
+        Axes::Linear => {
+            let ((x0, x1), (y0, y1)) = (range(xs()), range(ys()));
+            finish!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?, false, false)
+        }
+        Axes::LogY => {
+            let (x0, x1) = range(xs());
+            let (y0, y1) = log_range(ys(), 2.0, (1e-16, 1.0));
+            finish!(
+                builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(err)?,
+                true,
+                false
+            )
+        }
+        Axes::LogXY => {
+            let (x0, x1) = log_range(xs(), 1.5, (1e-3, 1.0));
+            let (y0, y1) = log_range(ys(), 2.0, (1e-16, 1.0));
+            finish!(
+                builder
+                    .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                    .map_err(err)?,
+                true,
+                true
+            )
+        }
     }
     root.present().map_err(err)
 }
