@@ -245,10 +245,14 @@ fn cmd_models(name: Option<&str>) -> ExitCode {
             } else {
                 coords.join(", ")
             };
-            let symmetries = match m.name {
-                "kepler" => "rotation(x,y)",
-                "n-body" | "outer-solar-system" => "total momentum, total angular momentum",
-                _ => "none",
+            let labels: Vec<String> = problem::model_symmetries(m.name, &defaults)
+                .iter()
+                .map(|s| s.label(&coords))
+                .collect();
+            let symmetries = if labels.is_empty() {
+                "none".to_string()
+            } else {
+                labels.join(", ")
             };
             println!("{:<20} {}", m.name, m.description);
             println!(

@@ -40,6 +40,16 @@ pub struct SymmetriesTable {
 
 pub use femvi::diagnostics::Symmetry;
 
+/// The symmetries a built-in model declares, with its resolved parameters.
+pub fn model_symmetries(model: &str, p: &[f64]) -> Vec<Symmetry> {
+    match model {
+        "kepler" => vec![Symmetry::Rotation(0, 1)],
+        "n-body" => nbody_symmetries(p[0] as usize, p[1] as usize),
+        "outer-solar-system" => nbody_symmetries(6, 3),
+        _ => vec![],
+    }
+}
+
 /// Total momentum along each axis and total angular momentum in each plane of the n-body
 /// problem.
 fn nbody_symmetries(bodies: usize, dim: usize) -> Vec<Symmetry> {
@@ -542,16 +552,8 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
             out
         }
         None => match model_info.as_ref() {
-            Some((m, _)) if m == "kepler" => vec![Symmetry::Rotation(0, 1)],
-            Some((m, p)) if m == "n-body" || m == "outer-solar-system" => {
-                let (bodies, dim) = if m == "n-body" {
-                    (p[0] as usize, p[1] as usize)
-                } else {
-                    (6, 3)
-                };
-                nbody_symmetries(bodies, dim)
-            }
-            _ => vec![],
+            Some((m, p)) => model_symmetries(m, p),
+            None => vec![],
         },
     };
     if want_bvp {

@@ -35,10 +35,19 @@ impl Symmetry {
         }
     }
 
-    /// A label such as "rotation(x,y)" from coordinate names.
+    /// A label such as "rotation(x,y)" or "translation(x0,x1)" from coordinate names.
     pub fn label(&self, names: &[String]) -> String {
         match self {
-            Symmetry::Translation(d) => format!("translation{d:?}"),
+            Symmetry::Translation(d) => {
+                // The coordinates it moves, with their weights where these are not 1.
+                let parts: Vec<String> = d
+                    .iter()
+                    .zip(names)
+                    .filter(|(w, _)| **w != 0.0)
+                    .map(|(w, n)| if *w == 1.0 { n.clone() } else { format!("{w}*{n}") })
+                    .collect();
+                format!("translation({})", parts.join(","))
+            }
             Symmetry::Rotation(i, j) => format!("rotation({},{})", names[*i], names[*j]),
             Symmetry::Rotations(_, label) => label.clone(),
         }
