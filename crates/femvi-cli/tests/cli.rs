@@ -438,33 +438,42 @@ fn npy_output_equals_the_csv_bit_for_bit() {
 
 #[test]
 fn no_progress_bar_without_a_terminal_or_with_quiet() {
-    // A run of more than a second: stderr is a pipe here, so no bar may appear.
+    // stderr is a pipe here, so no bar may appear, even in a run long enough (over a second) that
+    // a terminal would show one. Machines differ in speed: the run is lengthened until it takes
+    // more than a second, so that the assertion on stderr could fail.
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("long.toml");
-    std::fs::write(
-        &path,
-        "[system]\nmodel = \"double-pendulum\"\n[initial]\nq = [1.0, 0.5]\nv = [0.0, 0.0]\n[scheme]\ndegree = 3\n[time]\nstep = 0.001\nend = 100.0\n[output]\nevery = 1000\n",
-    )
-    .unwrap();
+    let mut end = 100.0;
     for quiet in [false, true] {
-        let mut cmd = femvi();
-        cmd.arg("run").arg(&path).arg("--out").arg(dir.path().join("o"));
-        if quiet {
-            cmd.arg("--quiet");
+        loop {
+            std::fs::write(
+                &path,
+                format!(
+                    "[system]\nmodel = \"double-pendulum\"\n[initial]\nq = [1.0, 0.5]\nv = [0.0, 0.0]\n[scheme]\ndegree = 3\n[time]\nstep = 0.001\nend = {end:?}\n[output]\nevery = 1000\n"
+                ),
+            )
+            .unwrap();
+            let mut cmd = femvi();
+            cmd.arg("run").arg(&path).arg("--out").arg(dir.path().join("o"));
+            if quiet {
+                cmd.arg("--quiet");
+            }
+            let start = std::time::Instant::now();
+            let res = cmd.output().unwrap();
+            assert!(res.status.success());
+            if start.elapsed().as_secs_f64() <= 1.5 {
+                assert!(end < 1e5, "the run never took longer than a second");
+                end *= 4.0;
+                continue;
+            }
+            assert!(
+                res.stderr.is_empty(),
+                "stderr: {}",
+                String::from_utf8_lossy(&res.stderr)
+            );
+            assert_eq!(res.stdout.is_empty(), quiet);
+            break;
         }
-        let start = std::time::Instant::now();
-        let res = cmd.output().unwrap();
-        assert!(res.status.success());
-        assert!(
-            start.elapsed().as_secs_f64() > 1.0,
-            "the run must be long enough to show a bar"
-        );
-        assert!(
-            res.stderr.is_empty(),
-            "stderr: {}",
-            String::from_utf8_lossy(&res.stderr)
-        );
-        assert_eq!(res.stdout.is_empty(), quiet);
     }
 }
 
