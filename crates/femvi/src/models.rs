@@ -403,6 +403,9 @@ impl Potential for PendulumPotential {
     fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         out[0] = -self.mgl * q[0].sin();
     }
+    fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+        out[0] = -self.mgl * q[0].cos();
+    }
 }
 
 /// V = −μ/|q| in the plane.
@@ -428,6 +431,16 @@ impl Potential for KeplerPotential {
         let k = -self.mu / (r2 * r2.sqrt());
         out[0] = k * q[0];
         out[1] = k * q[1];
+    }
+    fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+        // f = −μ q / r³: ∂f_i/∂q_j = −μ (δ_ij − 3 q_i q_j / r²) / r³.
+        let r2 = q[0] * q[0] + q[1] * q[1];
+        let k = -self.mu / (r2 * r2.sqrt());
+        let c = -3.0 / r2;
+        out[0] = k * (1.0 + c * q[0] * q[0]);
+        out[1] = k * c * q[0] * q[1];
+        out[2] = out[1];
+        out[3] = k * (1.0 + c * q[1] * q[1]);
     }
 }
 
@@ -535,6 +548,20 @@ mod tests {
                     (hand[i] - ad[i]).abs() < 1e-14 * (1.0 + ad[i].abs()),
                     "{hand:?} vs {ad:?}"
                 );
+            }
+            // The force Jacobian (hand-coded or not) against the AD Hessian of L.
+            let mut jac = vec![0.0; n * n];
+            l.potential.force_jacobian(0.0, q, &mut jac);
+            d.second_by_ad(&l, 0.0, q, &vec![0.0; n], false);
+            for i in 0..n {
+                for j in 0..n {
+                    let want = d.h(1 + i, 1 + j);
+                    assert!(
+                        (jac[i * n + j] - want).abs() < 1e-13 * (1.0 + want.abs()),
+                        "({i},{j}): {} vs {want}",
+                        jac[i * n + j]
+                    );
+                }
             }
         }
         check(HarmonicPotential { k: 2.5 }, &[0.7]);
