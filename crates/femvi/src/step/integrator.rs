@@ -1058,6 +1058,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 // Polish: the error left by a truncated iteration has the same sign every
                 // step and would drift conserved quantities linearly, so iterate on while the
                 // increments still decrease (as GNI_IRK2 does), at most three more times.
+                // Stopping earlier on the estimate δ²/δ_prev is wrong: the momentum update
+                // h Σ b_i f_i carries the stages' error δ times h|∂f/∂q|, not times the
+                // contraction (measured: P3's energy error, degree 6, h = 0.5, doubled from
+                // 9.3e-12 to 2.0e-11).
                 if delta == 0.0 || delta >= prev || polish >= 3 || delta <= f64::EPSILON * scale {
                     break;
                 }
