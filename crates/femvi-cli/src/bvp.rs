@@ -16,6 +16,8 @@ pub struct BvpSummary {
     pub name: String,
     pub scheme: String,
     pub elements: usize,
+    /// "fixed" (uniform mesh) or "energy" (moving mesh).
+    pub time_mode: &'static str,
     pub action: Option<f64>,
     pub residual_norm: Option<f64>,
     pub newton_iterations: usize,
@@ -93,6 +95,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &BvpProblem, dir: &Path) -> Result<
     let opts = BvpOptions {
         tolerance: problem.options.tolerance,
         max_iterations: problem.options.max_iterations,
+        moving_mesh: problem.moving_mesh,
     };
     let io = |e: std::io::Error| (format!("cannot write the output in {}: {e}", dir.display()), 2);
     std::fs::create_dir_all(dir).map_err(io)?;
@@ -100,6 +103,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &BvpProblem, dir: &Path) -> Result<
         name: problem.name.clone(),
         scheme: problem.scheme_label.clone(),
         elements: bv.elements,
+        time_mode: if problem.moving_mesh { "energy" } else { "fixed" },
         action: None,
         residual_norm: None,
         newton_iterations: 0,

@@ -302,7 +302,11 @@ fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCod
         }
         Ok(s) if s.error.is_some() => {
             eprintln!("error: {}", s.error.as_deref().unwrap_or(""));
-            eprintln!("hint: try another initial guess ([boundary] guess = \"trajectory.csv\"), more elements, or check that a solution exists");
+            if s.time_mode == "energy" {
+                eprintln!("hint: with a moving mesh the energy equations depend on the steps only at O(h^(2s)): use the midpoint rule or degree 1, fewer elements, or time_mode = \"fixed\"");
+            } else {
+                eprintln!("hint: try another initial guess ([boundary] guess = \"trajectory.csv\"), more elements, or check that a solution exists");
+            }
             ExitCode::from(NUMERICAL)
         }
         Ok(s) => {

@@ -350,6 +350,8 @@ pub struct BvpProblem {
     pub boundary: femvi::bvp::BoundaryValues,
     /// A trajectory file to interpolate as the initial guess.
     pub guess: Option<PathBuf>,
+    /// `time_mode = "energy"`: the interior element end times are unknowns (a moving mesh).
+    pub moving_mesh: bool,
 }
 
 /// What a problem file describes.
@@ -566,11 +568,6 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
             .boundary
             .as_ref()
             .ok_or_else(|| ctx("`femvi bvp` needs a [boundary] table (t0, q0, t1, q1, elements)".into()))?;
-        if b.time_mode == Mode::Energy {
-            return Err(ctx(
-                "[boundary] time_mode = \"energy\" (a moving mesh) is not available yet; use \"fixed\"".into(),
-            ));
-        }
         if b.elements > 50_000_000 {
             return Err(ctx(format!(
                 "[boundary] elements = {} is too many (at most 5e7)",
@@ -599,6 +596,7 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
             directory,
             boundary,
             guess,
+            moving_mesh: b.time_mode == Mode::Energy,
         }));
     }
     if file.boundary.is_some() {

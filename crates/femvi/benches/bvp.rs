@@ -25,6 +25,7 @@ fn bench(c: &mut Criterion) {
         let opts = BvpOptions {
             tolerance: 1e-14,
             max_iterations: 1,
+            ..Default::default()
         };
         g.bench_with_input(BenchmarkId::from_parameter(n), &guess, |b, guess| {
             b.iter(|| {

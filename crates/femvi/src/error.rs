@@ -17,6 +17,8 @@ pub enum StepFailure {
     Singular,
     /// No admissible (positive, bounded) time step solves the discrete energy equation.
     NoAdmissibleStep,
+    /// A moving mesh folded: an element's step became zero or negative.
+    MeshFolded,
 }
 
 impl std::fmt::Display for StepFailure {
@@ -27,6 +29,7 @@ impl std::fmt::Display for StepFailure {
             StepFailure::NonFinite => "met a non-finite value",
             StepFailure::Singular => "met a singular linear system",
             StepFailure::NoAdmissibleStep => "found no admissible time step for the energy equation",
+            StepFailure::MeshFolded => "moved the mesh until it folded (an element's step is not positive)",
         })
     }
 }

@@ -1,6 +1,7 @@
 //! Two-point boundary value problems by the discrete variational principle: order 2s against
 //! the closed form of the harmonic oscillator, consistency with the initial value integrator,
-//! two pendulum solutions from two guesses, and a problem with no solution.
+//! two pendulum solutions from two guesses, a problem with no solution, and the moving mesh
+//! (discrete energy conserved, action stationary in the times, folding reported).
 
 mod common;
 use common::{fit_order, Errs};
@@ -198,4 +199,112 @@ fn no_solution_gives_the_typed_error() {
         BvpOptions::default()
     )
     .is_err());
+}
+
+/// The discrete action of a solved mesh with the node times `times` and all nodal values
+/// `nodes`, recomputed element by element through the public element API; with `energies`,
+/// also each element's discrete energies (E⁻, E⁺).
+fn action_and_energies<L: femvi::Lagrangian>(
+    lag: &L,
+    el: &Element,
+    times: &[f64],
+    nodes: &[f64],
+) -> (f64, Vec<(f64, f64)>) {
+    let s = el.degree();
+    let mut work = femvi::ElementWork::new(el, 1);
+    let mut grad = vec![0.0; s + 1];
+    let (mut action, mut energies) = (0.0, vec![]);
+    for k in 0..times.len() - 1 {
+        let base = [nodes[k * s]];
+        let incr: Vec<f64> = (0..=s).map(|j| nodes[k * s + j] - base[0]).collect();
+        let h = times[k + 1] - times[k];
+        action += el.gradient_in_place(lag, times[k], h, &base, &incr, true, &mut work, &mut grad);
+        energies.push(el.energies(h, &work));
+    }
+    (action, energies)
+}
+
+/// T. D. Lee's discrete mechanics: with the interior element end times unknown, the solution
+/// conserves the discrete energy from element to element (E⁺ of element k − 1 equals E⁻ of
+/// element k, recomputed here from the public element API), the mesh really moves, and the
+/// action is stationary with respect to each time, which it is not on the uniform mesh.
+#[test]
+fn moving_mesh_conserves_the_discrete_energy_where_the_action_is_stationary_in_time() {
+    let lag = models::pendulum(1.0, 1.0, 1.0).unwrap();
+    let bv = BoundaryValues {
+        t0: 0.0,
+        q0: vec![1.0],
+        t1: 3.0,
+        q1: vec![-0.5],
+        elements: 20,
+    };
+    for el in [
+        Element::midpoint(),
+        Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap(),
+    ] {
+        let guess = line_guess(&bv, &el);
+        let fixed = solve(&lag, &el, &bv, &guess, BvpOptions::default()).unwrap();
+        let opts = BvpOptions {
+            moving_mesh: true,
+            ..Default::default()
+        };
+        let moving = solve(&lag, &el, &bv, &guess, opts).unwrap();
+        assert!(moving.residual_norm <= 1e-12, "residual {:e}", moving.residual_norm);
+        let t = &moving.times;
+        assert_eq!((t[0], t[20]), (0.0, 3.0));
+        assert!(t.windows(2).all(|w| w[1] > w[0]), "times must increase: {t:?}");
+        let spread = t.windows(2).map(|w| (w[1] - w[0] - 0.15).abs()).fold(0.0, f64::max);
+        assert!(spread > 1e-3, "the mesh did not move: {spread:e}");
+        let (action, energies) = action_and_energies(&lag, &el, t, &moving.nodes);
+        assert!((action - moving.action).abs() < 1e-12 * action.abs().max(1.0));
+        let jump = energies.windows(2).map(|w| (w[0].1 - w[1].0).abs()).fold(0.0, f64::max);
+        assert!(jump < 1e-12, "discrete energy jumps by {jump:e} at a node");
+        // ∂S/∂t_k by central differences (nodal values held): zero on the moving mesh, not on
+        // the uniform one.
+        let slope = |times: &[f64], nodes: &[f64], k: usize| {
+            let d = 1e-5;
+            let (mut up, mut down) = (times.to_vec(), times.to_vec());
+            up[k] += d;
+            down[k] -= d;
+            (action_and_energies(&lag, &el, &up, nodes).0 - action_and_energies(&lag, &el, &down, nodes).0) / (2.0 * d)
+        };
+        let on_moving = (1..20).map(|k| slope(t, &moving.nodes, k).abs()).fold(0.0, f64::max);
+        let on_fixed = (1..20)
+            .map(|k| slope(&fixed.times, &fixed.nodes, k).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "degree 1, {kind:?}: moving mesh, steps {:.4}..{:.4}, action {:.12} (uniform {:.12}), max dS/dt_k {on_moving:.1e} (uniform {on_fixed:.1e})",
+            t.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min),
+            t.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max),
+            moving.action,
+            fixed.action,
+            kind = el.rule.kind
+        );
+        assert!(on_moving < 1e-8 && on_fixed > 5e-5, "{on_moving:e} vs {on_fixed:e}");
+    }
+}
+
+/// A moving mesh that would fold (a pendulum asked to climb to q = 3 over a long time with
+/// three elements) ends in the typed error, naming the element.
+#[test]
+fn a_folding_mesh_is_a_typed_error() {
+    let lag = models::pendulum(1.0, 1.0, 1.0).unwrap();
+    let el = Element::midpoint();
+    let bv = BoundaryValues {
+        t0: 0.0,
+        q0: vec![1.0],
+        t1: 10.0,
+        q1: vec![3.0],
+        elements: 3,
+    };
+    let opts = BvpOptions {
+        moving_mesh: true,
+        ..Default::default()
+    };
+    let err = solve(&lag, &el, &bv, &line_guess(&bv, &el), opts).unwrap_err();
+    let femvi::Error::Step(e) = err else { panic!("{err}") };
+    assert_eq!(e.failure, StepFailure::MeshFolded, "{e}");
+    assert!(e.step < 3);
+    // The same problem on the fixed mesh solves.
+    assert!(solve(&lag, &el, &bv, &line_guess(&bv, &el), BvpOptions::default()).is_ok());
 }

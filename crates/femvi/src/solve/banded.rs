@@ -44,6 +44,15 @@ impl BandMatrix {
         self.data.iter_mut().for_each(|x| *x = 0.0);
     }
 
+    /// Entry (i, j) before factorisation (zero outside the band).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        if j + self.kl >= i && j <= i + self.ku {
+            self.data[self.idx(i, j)]
+        } else {
+            0.0
+        }
+    }
+
     /// Adds `v` to entry (i, j), which must lie in the band (|i − j| within kl, ku).
     #[inline]
     pub fn add(&mut self, i: usize, j: usize, v: f64) {
