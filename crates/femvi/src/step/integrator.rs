@@ -34,15 +34,12 @@ pub enum Method {
 /// The fixed-point solver starts from the last step's stage forces extrapolated in time when
 /// the rule has at most this many points; beyond, the extrapolation amplifies round-off too
 /// much (the Lebesgue constant of extrapolating one step ahead grows like (3 + √8)^r) and the
-/// solver starts from the last element's polynomial instead.
+/// solver starts from the last element's polynomial instead. Only the last step is used:
+/// extrapolating from two (2r points) was measured no better on P3 (pendulum, degree 6, best
+/// of 3: 5.11 sweeps per step at h = 0.5 and 8.37 at h = 1.25, against 5.21 and 8.09; near the
+/// pendulum's complex singularities degree 11 missed the last stage's force by 0.036 where
+/// degree 5 missed by 0.025).
 const FORCE_EXTRAPOLATION_MAX_POINTS: usize = 8;
-
-/// How many past steps' stage forces the fixed-point solver's starting values extrapolate.
-/// Measured on P3 (pendulum, degree 6, best of 3): one step, 5.21 sweeps per step at h = 0.5
-/// and 8.09 at h = 1.25; two steps, 5.11 and 8.37 and no faster. Near the pendulum's complex
-/// singularities more points extrapolate no better (degree 11 missed the last stage's force by
-/// 0.036 where degree 5 missed by 0.025).
-const FORCE_HISTORY: usize = 1;
 
 /// Tolerance, iteration cap and method of the step solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -188,15 +185,14 @@ pub struct Integrator<'a, L: Lagrangian> {
     lazy_pending: Vec<f64>,
     extrap_rho: f64,
     extrap: Vec<f64>,
-    /// M⁻¹f at the stages of the last accepted fixed-point steps (the latest first, r·n each).
-    hist_w: Vec<f64>,
-    /// Steps of that history and how many are stored.
-    hist_h: [f64; FORCE_HISTORY],
-    hist_len: usize,
-    /// E: Lagrange extrapolation of the stage forces from the stored steps' stage times to
-    /// this step's (r × r·history), for the steps `force_key`, and scratch for its nodes.
+    /// M⁻¹f at the stages of the last accepted fixed-point step, and whether it is valid.
+    last_w: Vec<f64>,
+    have_last_w: bool,
+    /// E: Lagrange extrapolation of the stage forces from the last step's stage times to this
+    /// step's (r × r), for the step ratio `force_key` = h_{k−1}/h_k, and scratch for its nodes
+    /// and barycentric weights.
     force_extrap: Vec<f64>,
-    force_key: [f64; FORCE_HISTORY],
+    force_key: f64,
     extrap_nodes: Vec<f64>,
     extrap_weights: Vec<f64>,
     /// h a_l, h² B_li for the step `fp_h`, and the stage times of the current step.
@@ -291,13 +287,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             lazy_pending: vec![0.0; n],
             extrap_rho: f64::NAN,
             extrap: vec![0.0; s * (s + 1)],
-            hist_w: vec![0.0; FORCE_HISTORY * r * n],
-            hist_h: [f64::NAN; FORCE_HISTORY],
-            hist_len: 0,
-            force_extrap: vec![0.0; FORCE_HISTORY * r * r],
-            force_key: [f64::NAN; FORCE_HISTORY],
-            extrap_nodes: vec![0.0; FORCE_HISTORY * r],
-            extrap_weights: vec![0.0; FORCE_HISTORY * r],
+            last_w: vec![0.0; r * n],
+            have_last_w: false,
+            force_extrap: vec![0.0; r * r],
+            force_key: f64::NAN,
+            extrap_nodes: vec![0.0; r],
+            extrap_weights: vec![0.0; r],
             fp_h: f64::NAN,
             ha: vec![0.0; r],
             h2b: vec![0.0; r * r],
@@ -544,12 +539,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             let identity = self.lag.mass_matrix().is_some_and(|m| m.is_identity());
             let r = self.element.points();
             let w = if identity { &self.force } else { &self.wforce };
-            let rn = r * self.n;
-            self.hist_w.copy_within(..(FORCE_HISTORY - 1) * rn, rn);
-            self.hist_w[..rn].copy_from_slice(&w[..rn]);
-            self.hist_h.copy_within(..FORCE_HISTORY - 1, 1);
-            self.hist_h[0] = h;
-            self.hist_len = (self.hist_len + 1).min(FORCE_HISTORY);
+            self.last_w.copy_from_slice(&w[..r * self.n]);
+            self.have_last_w = true;
         }
         let mut finite = true;
         for c in 0..self.n {
@@ -901,20 +892,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let n = self.n;
         let s = self.element.degree();
         let r = self.element.points();
-        // How many stored steps the force extrapolation uses: none after a jump in the step
-        // by more than 2 (or for large r), and one step for rules with end points (their
-        // stages would repeat between steps).
-        let interior = self.element.rule.nodes.iter().all(|&c| c > 0.0 && c < 1.0);
-        let mut hist = 0;
-        let mut h_next = h;
-        while hist < self.hist_len && r <= FORCE_EXTRAPOLATION_MAX_POINTS && (hist == 0 || interior) {
-            if !(0.5..=2.0).contains(&(h_next / self.hist_h[hist])) {
-                break;
-            }
-            h_next = self.hist_h[hist];
-            hist += 1;
-        }
-        let force_guess = hist > 0;
+        let rho = if self.have_last_w { h / self.last_h } else { f64::NAN };
+        let force_guess = r <= FORCE_EXTRAPOLATION_MAX_POINTS && (0.5..=2.0).contains(&rho);
         if !force_guess {
             self.guess(h);
         }
@@ -941,36 +920,26 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         // Starting stage values: from the last step's stage forces extrapolated in time,
         // Y_l = h a_l u + h² Σ_i B_li Σ_j E_ij w_j, or from the node guess.
         if force_guess {
-            let mut key = [f64::NAN; FORCE_HISTORY];
-            for (k, hk) in key.iter_mut().zip(&self.hist_h).take(hist) {
-                *k = hk / h;
-            }
-            if key.iter().zip(&self.force_key).any(|(a, b)| a.to_bits() != b.to_bits()) {
-                // E_lj = ℓ_j(c_l): the Lagrange basis on the stored steps' stage times (in
-                // units of this step, relative to t_k: the last step's are (c_j − 1) h_1/h,
-                // the one before's (c_j − 1) h_2/h − h_1/h), in barycentric form. O((r·m)²)
-                // for m stored steps, once per new pattern of step ratios.
+            let key = self.last_h / h;
+            if key.to_bits() != self.force_key.to_bits() {
+                // E_lj = ℓ_j(c_l): the Lagrange basis on the last step's stage times
+                // τ_j = (c_j − 1) h_{k−1}/h (in units of this step, relative to t_k), in
+                // barycentric form: O(r²) per new step ratio.
                 self.force_key = key;
                 let c = &self.element.rule.nodes;
-                let m = hist * r;
-                let mut offset = 0.0;
-                for b in 0..hist {
-                    for j in 0..r {
-                        self.extrap_nodes[b * r + j] = offset + (c[j] - 1.0) * key[b];
-                    }
-                    offset -= key[b];
+                for j in 0..r {
+                    self.extrap_nodes[j] = (c[j] - 1.0) * key;
                 }
-                let nodes = &self.extrap_nodes[..m];
-                for j in 0..m {
-                    self.extrap_weights[j] =
-                        1.0 / (0..m).filter(|&k| k != j).map(|k| nodes[j] - nodes[k]).product::<f64>();
+                let tau = &self.extrap_nodes;
+                for j in 0..r {
+                    self.extrap_weights[j] = 1.0 / (0..r).filter(|&k| k != j).map(|k| tau[j] - tau[k]).product::<f64>();
                 }
                 for l in 0..r {
-                    let row = &mut self.force_extrap[l * m..(l + 1) * m];
+                    let row = &mut self.force_extrap[l * r..(l + 1) * r];
                     let mut sum = 0.0;
                     let mut hit = None;
-                    for j in 0..m {
-                        let d = c[l] - nodes[j];
+                    for j in 0..r {
+                        let d = c[l] - tau[j];
                         if d == 0.0 {
                             // A stage at t_k in both steps (rules with an end point).
                             hit = Some(j);
@@ -980,17 +949,16 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                         sum += row[j];
                     }
                     match hit {
-                        Some(j) => row.iter_mut().enumerate().for_each(|(k, e)| *e = f64::from(k == j)),
+                        Some(j) => row.iter_mut().enumerate().for_each(|(m, e)| *e = f64::from(m == j)),
                         None => row.iter_mut().for_each(|e| *e /= sum),
                     }
                 }
             }
-            let m = hist * r;
             let w_ext = &mut self.force[..r * n];
             for l in 0..r {
-                let row = &self.force_extrap[l * m..(l + 1) * m];
+                let row = &self.force_extrap[l * r..(l + 1) * r];
                 for c in 0..n {
-                    w_ext[l * n + c] = row.iter().enumerate().map(|(j, e)| e * self.hist_w[j * n + c]).sum();
+                    w_ext[l * n + c] = row.iter().enumerate().map(|(j, e)| e * self.last_w[j * n + c]).sum();
                 }
             }
             for l in 0..r {
