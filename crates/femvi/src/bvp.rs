@@ -273,7 +273,8 @@ impl<L: Lagrangian> Assembly<'_, L> {
             };
             match band.as_deref_mut() {
                 Some(b) if moving => {
-                    let (grad, hess) = self.element.full_hessian(self.lag, tk, h, &self.base, &self.incr);
+                    let (value, grad, hess) = self.element.full_hessian(self.lag, tk, h, &self.base, &self.incr);
+                    action += value;
                     for a in 0..m {
                         let Some(row) = index(a) else { continue };
                         r[row] += grad[a];
@@ -283,17 +284,6 @@ impl<L: Lagrangian> Assembly<'_, L> {
                             }
                         }
                     }
-                    // The value, for the action.
-                    action += self.element.gradient_in_place(
-                        self.lag,
-                        tk,
-                        h,
-                        &self.base,
-                        &self.incr,
-                        false,
-                        &mut self.work,
-                        &mut self.grad,
-                    );
                 }
                 Some(b) => {
                     action += self.element.hessian_in_place(
@@ -542,8 +532,15 @@ pub fn solve<L: Lagrangian>(
         asm.layout = moving;
         let tscale = bv.t0.abs().max(bv.t1.abs()).max(bv.t1 - bv.t0);
         let rel = |x: &[f64], dx: &[f64]| {
-            let q: Vec<f64> = x.iter().zip(&is_time).filter(|(_, t)| !**t).map(|(v, _)| *v).collect();
-            let qs = qscale(&q);
+            // The nodal values' scale, as for the fixed mesh, over the entries that are not times.
+            let qmax = x.iter().zip(&is_time).filter(|(_, t)| !**t).fold(0.0f64, |m, (v, _)| {
+                if v.is_nan() {
+                    f64::NAN
+                } else {
+                    m.max(v.abs())
+                }
+            });
+            let qs = qscale(&[qmax]);
             dx.iter()
                 .zip(&is_time)
                 .map(|(d, &t)| d.abs() / if t { tscale } else { qs })

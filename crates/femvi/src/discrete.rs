@@ -257,9 +257,9 @@ impl Element {
         sum * h
     }
 
-    /// Gradient and Hessian of L_d with respect to z = (t_k, t_{k+1}, Q^0 … Q^s), by hyper-dual
-    /// numbers (one pass per pair of variables): the derivatives that the energy equations
-    /// and the extended tangent map need. Row-major, m = 2 + (s+1)n.
+    /// Value, gradient and Hessian of L_d with respect to z = (t_k, t_{k+1}, Q^0 … Q^s), by
+    /// hyper-dual numbers (one pass per pair of variables): the derivatives that the energy
+    /// equations, the extended tangent map and the moving mesh need. Row-major, m = 2 + (s+1)n.
     pub fn full_hessian<L: Lagrangian>(
         &self,
         lag: &L,
@@ -267,7 +267,7 @@ impl Element {
         h: f64,
         base: &[f64],
         incr: &[f64],
-    ) -> (Vec<f64>, Vec<f64>) {
+    ) -> (f64, Vec<f64>, Vec<f64>) {
         let t1 = t0 + h;
         use num_dual::HyperDual64;
         let n = base.len();
@@ -282,6 +282,7 @@ impl Element {
         }
         let mut grad = vec![0.0; m];
         let mut hess = vec![0.0; m * m];
+        let mut value = 0.0;
         for a in 0..m {
             for b in a..m {
                 z[a].eps1 = 1.0;
@@ -293,12 +294,13 @@ impl Element {
                 z[b].eps2 = 0.0;
                 if a == b {
                     grad[a] = r.eps1;
+                    value = r.re;
                 }
                 hess[a * m + b] = r.eps1eps2;
                 hess[b * m + a] = r.eps1eps2;
             }
         }
-        (grad, hess)
+        (value, grad, hess)
     }
 
     /// Checks that the element is usable for a Lagrangian whose kinetic part is quadratic:

@@ -153,7 +153,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let n = self.n;
         let s = self.element.degree();
         let (t0, h) = (self.last_t, self.last_h);
-        let (_, f) = self
+        let (_, _, f) = self
             .element
             .full_hessian(self.lag, t0, h, &self.last_base, &self.last_incr);
         let m = 2 + (s + 1) * n;
