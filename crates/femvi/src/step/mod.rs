@@ -6,6 +6,7 @@
 pub mod fixed_point;
 pub mod grid;
 pub mod integrator;
+mod start;
 
 pub use grid::TimeGrid;
 pub use integrator::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start};
