@@ -38,6 +38,8 @@ pub(super) struct StageStart {
     /// Data points before the predictor in the current tables: the r stage forces, then (when
     /// the rule has no end points) the force at t_k and, once known, the force at t_{k−1}.
     m1: usize,
+    /// Whether the current tables include the predicted force.
+    predict: bool,
     key_bits: u64,
     h_bits: u64,
     /// The step (node index) at which `data[r]` (the force at the node) was taken.
@@ -72,6 +74,7 @@ impl StageStart {
             n,
             end_point,
             m1: 0,
+            predict: false,
             key_bits: f64::NAN.to_bits(),
             h_bits: f64::NAN.to_bits(),
             node_force_k: None,
@@ -87,15 +90,16 @@ impl StageStart {
     }
 
     /// Recomputes the tables for step h after a step `last_h` with m1 data points before the
-    /// predictor.
-    fn tables(&mut self, element: &Element, tab: &FixedPointTables, h: f64, last_h: f64, m1: usize) {
+    /// predictor (`predict`) or without one.
+    fn tables(&mut self, element: &Element, tab: &FixedPointTables, h: f64, last_h: f64, m1: usize, predict: bool) {
         let key = last_h / h;
-        if key.to_bits() == self.key_bits && h.to_bits() == self.h_bits && m1 == self.m1 {
+        if key.to_bits() == self.key_bits && h.to_bits() == self.h_bits && m1 == self.m1 && predict == self.predict {
             return;
         }
         self.key_bits = key.to_bits();
         self.h_bits = h.to_bits();
         self.m1 = m1;
+        self.predict = predict;
         let (r, s) = (self.r, element.degree());
         let c = &element.rule.nodes;
         for j in 0..r {
@@ -107,8 +111,8 @@ impl StageStart {
         if m1 > r + 1 {
             self.nodes[r + 1] = -key;
         }
-        self.nodes[m1] = PREDICTOR_THETA;
-        // a(θ), B(θ): the element polynomial at θ, Σ_m φ_m(θ) (α_m, β_m·).
+        self.nodes[m1] = PREDICTOR_THETA; // unused without the predictor
+                                          // a(θ), B(θ): the element polynomial at θ, Σ_m φ_m(θ) (α_m, β_m·).
         element.basis.values_in_place(PREDICTOR_THETA, &mut self.basis);
         let a_theta: f64 = (1..=s).map(|m| self.basis[m] * tab.alpha[m - 1]).sum();
         self.pred_a = h * a_theta;
@@ -122,7 +126,7 @@ impl StageStart {
             }
         }
         // mat_lj = h² Σ_i B_li E₂(c_i)_j.
-        let w = m1 + 1;
+        let w = m1 + usize::from(predict);
         self.mat[..r * w].iter_mut().for_each(|x| *x = 0.0);
         for i in 0..r {
             lagrange_row(&self.nodes[..w], c[i], &mut self.row[..w]);
@@ -136,8 +140,9 @@ impl StageStart {
     }
 
     /// Starting stage values y (r × n) for the step h from node k with u = M⁻¹p_k, after a
-    /// step `last_h` whose stage forces are in `data[..r n]`.
-    /// `eval(θ, y, w)` sets w = M⁻¹f(t_k + θh, q_k + y).
+    /// step `last_h` whose stage forces are in `data[..r n]`. `rich`: with the node forces and
+    /// the predicted force (one or two evaluations); otherwise the stage forces alone,
+    /// extrapolated (none). `eval(θ, y, w)` sets w = M⁻¹f(t_k + θh, q_k + y).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn start(
         &mut self,
@@ -146,13 +151,14 @@ impl StageStart {
         k: usize,
         h: f64,
         last_h: f64,
+        rich: bool,
         ha: &[f64],
         u: &[f64],
         y: &mut [f64],
         mut eval: impl FnMut(f64, &[f64], &mut [f64]),
     ) {
         let (r, n) = (self.r, self.n);
-        let m1 = if self.end_point {
+        let m1 = if self.end_point || !rich {
             r
         } else {
             // The node force of the last start is the force at t_{k−1} now, if it was taken
@@ -170,16 +176,18 @@ impl StageStart {
                 r + 1
             }
         };
-        self.tables(element, tab, h, last_h, m1);
-        for c in 0..n {
-            let mut acc = self.pred_a * u[c];
-            for j in 0..m1 {
-                acc += self.pred[j] * self.data[j * n + c];
+        self.tables(element, tab, h, last_h, m1, rich);
+        if rich {
+            for c in 0..n {
+                let mut acc = self.pred_a * u[c];
+                for j in 0..m1 {
+                    acc += self.pred[j] * self.data[j * n + c];
+                }
+                self.y_theta[c] = acc;
             }
-            self.y_theta[c] = acc;
+            eval(PREDICTOR_THETA, &self.y_theta, &mut self.data[m1 * n..(m1 + 1) * n]);
         }
-        eval(PREDICTOR_THETA, &self.y_theta, &mut self.data[m1 * n..(m1 + 1) * n]);
-        let w = m1 + 1;
+        let w = m1 + usize::from(rich);
         for l in 0..r {
             let row = &self.mat[l * w..(l + 1) * w];
             for c in 0..n {
@@ -241,7 +249,7 @@ mod tests {
                 }
                 let ha: Vec<f64> = tab.a.iter().map(|a| 0.3 * a).collect();
                 let mut y = vec![0.0; r];
-                st.start(&el, &tab, k - 1, 0.3, 0.2, &ha, &[0.0], &mut y, |th, _, w| {
+                st.start(&el, &tab, k - 1, 0.3, 0.2, true, &ha, &[0.0], &mut y, |th, _, w| {
                     w[0] = g(deg, t_prev + th * 0.3)
                 });
             } else {
@@ -254,7 +262,7 @@ mod tests {
             let u = 0.7;
             let ha: Vec<f64> = tab.a.iter().map(|a| h * a).collect();
             let mut y = vec![0.0; r];
-            st.start(&el, &tab, k, h, h_last, &ha, &[u], &mut y, |th, _, w| {
+            st.start(&el, &tab, k, h, h_last, true, &ha, &[u], &mut y, |th, _, w| {
                 w[0] = g(deg, t_k + th * h)
             });
             (0..r)
