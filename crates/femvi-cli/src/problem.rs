@@ -213,6 +213,7 @@ pub struct SolverTable {
     pub max_iterations: Option<usize>,
     #[serde(default)]
     pub method: SolverMethod,
+    pub polish: Option<bool>,
 }
 
 #[derive(Debug, Deserialize, Default)]
@@ -524,6 +525,7 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
         tolerance: file.solver.tolerance.unwrap_or(defaults.tolerance),
         max_iterations: file.solver.max_iterations.unwrap_or(defaults.max_iterations),
         method,
+        polish: file.solver.polish.unwrap_or(defaults.polish),
     };
     options.validate().map_err(|e| ctx(format!("[solver]: {e}")))?;
     let every = file.output.every.unwrap_or(1);

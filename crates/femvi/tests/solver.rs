@@ -140,3 +140,46 @@ fn fixed_point_agrees_with_newton_on_every_rule_and_grid() {
         vec![0.0, 0.5, 0.0],
     );
 }
+
+/// `polish = false` stops the fixed-point iteration at the tolerance: fewer sweeps, and the
+/// truncation it leaves (one-signed, ≲ h·|∂f/∂q|·tolerance·max|q| per step, here |∂f/∂q| ≤ 1
+/// and max|q| < 2) adds at most N·h·tolerance·2 to the energy error of the polished run.
+#[test]
+fn without_polish_the_iteration_stops_at_the_tolerance() {
+    let lag = models::pendulum(1.0, 1.0, 1.0).unwrap();
+    let el = Element::galerkin(6, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(6)).unwrap();
+    let (h, steps) = (1.25, 4000usize);
+    let tolerance = 1e-10;
+    let run = |polish: bool| {
+        let grid = TimeGrid::uniform(0.0, h, h * steps as f64).unwrap();
+        let opts = SolverOptions {
+            tolerance,
+            polish,
+            ..Default::default()
+        };
+        let start = Start::Momentum {
+            q: vec![0.0],
+            p: vec![1.5],
+        };
+        let mut it = Integrator::new(&lag, &el, grid, start, opts).unwrap();
+        let e0 = 0.5 * 1.5f64 * 1.5 - 1.0;
+        let mut worst = 0.0f64;
+        while it.step().unwrap() {
+            let n = it.node();
+            worst = worst.max((0.5 * n.p[0] * n.p[0] - n.q[0].cos() - e0).abs());
+        }
+        (it.mean_iterations(), worst)
+    };
+    let (sweeps_polished, err_polished) = run(true);
+    let (sweeps, err) = run(false);
+    assert!(
+        sweeps < sweeps_polished - 1.0,
+        "{sweeps:.2} sweeps per step without the polish, {sweeps_polished:.2} with"
+    );
+    let bound = steps as f64 * h * tolerance * 2.0;
+    assert!(
+        err <= err_polished + bound,
+        "energy error {err:e} without the polish, {err_polished:e} with (bound {bound:e})"
+    );
+    eprintln!("sweeps {sweeps:.2} vs {sweeps_polished:.2}; energy error {err:e} vs {err_polished:e}");
+}

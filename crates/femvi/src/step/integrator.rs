@@ -73,6 +73,15 @@ pub struct SolverOptions {
     pub max_iterations: usize,
     /// The solver.
     pub method: Method,
+    /// Fixed-point iteration only: once the tolerance is met, iterate on while the increments
+    /// still decrease (at most three more sweeps) until the stages are correct to round-off.
+    /// The error a truncated iteration leaves has the same sign every step, so without the
+    /// polish it accumulates like a drift of about h·|∂f/∂q|·tolerance·max|q| per step; with
+    /// it, only round-off remains. Off, the solver stops at the tolerance: fewer force
+    /// evaluations (P3 with degree 6 at h = 1.25 and tolerance 1e-10: 4.6 sweeps per step
+    /// against 7.1) for problems whose accuracy target is far above round-off.
+    /// Default: true.
+    pub polish: bool,
 }
 
 impl Default for SolverOptions {
@@ -81,6 +90,7 @@ impl Default for SolverOptions {
             tolerance: 1e-14,
             max_iterations: 50,
             method: Method::Auto,
+            polish: true,
         }
     }
 }
@@ -1029,7 +1039,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 // h Σ b_i f_i carries the stages' error δ times h|∂f/∂q|, not times the
                 // contraction (measured: P3's energy error, degree 6, h = 0.5, doubled from
                 // 9.3e-12 to 2.0e-11).
-                if delta == 0.0 || delta >= prev || polish >= 3 || delta <= ROUNDOFF_ULPS * f64::EPSILON * scale {
+                if !self.opts.polish
+                    || delta == 0.0
+                    || delta >= prev
+                    || polish >= 3
+                    || delta <= ROUNDOFF_ULPS * f64::EPSILON * scale
+                {
                     break;
                 }
                 polish += 1;

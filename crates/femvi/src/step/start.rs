@@ -35,13 +35,11 @@ pub(super) struct StageStart {
     /// force at t_k or t_{k−1}, and the node forces are left out (a repeated time would make
     /// the interpolation singular).
     end_point: bool,
-    /// Data points before the predictor in the current tables: the r stage forces, then (when
-    /// the rule has no end points) the force at t_k and, once known, the force at t_{k−1}.
-    m1: usize,
-    /// Whether the current tables include the predicted force.
-    predict: bool,
-    key_bits: u64,
-    h_bits: u64,
+    /// Tables for the three ways of starting — the stage forces alone; with the node force at
+    /// t_k and the predicted force; with the node forces at t_k and t_{k−1} and the predicted
+    /// force — each kept for its own step and step ratio, so that alternating between them
+    /// (as the choice per step may) recomputes nothing on a uniform grid.
+    sets: [Tables; 3],
     /// The step (node index) at which `data[r]` (the force at the node) was taken.
     node_force_k: Option<usize>,
     /// Times of the data in units of the new step relative to t_k: (c_j − 1) h_{k−1}/h, 0,
@@ -49,17 +47,24 @@ pub(super) struct StageStart {
     nodes: Vec<f64>,
     /// Lagrange basis row scratch.
     row: Vec<f64>,
-    /// h a(θ) and h² B(θ) E₁ (length m1): the predicted position from the first m1 data.
-    pred_a: f64,
-    pred: Vec<f64>,
-    /// h² B E₂ (r × (m1 + 1)): the stage values from all data.
-    mat: Vec<f64>,
     basis: Vec<f64>,
     /// Forces at the data points, up to (r + 3) × n; the first r × n are the last step's stage
     /// forces (written by the integrator when it accepts a step).
     pub(super) data: Vec<f64>,
     /// Predicted displacement at θ.
     y_theta: Vec<f64>,
+}
+
+/// The tables of one way of starting, for the step `h_bits` after a step ratio `key_bits`.
+#[derive(Debug, Clone)]
+struct Tables {
+    key_bits: u64,
+    h_bits: u64,
+    /// h a(θ) and h² B(θ) E₁ (length m1): the predicted position from the first m1 data.
+    pred_a: f64,
+    pred: Vec<f64>,
+    /// h² B E₂ (r × w, w = m1 + 1 with the predictor, m1 without): the stages from all data.
+    mat: Vec<f64>,
 }
 
 impl StageStart {
@@ -73,34 +78,49 @@ impl StageStart {
             r,
             n,
             end_point,
-            m1: 0,
-            predict: false,
-            key_bits: f64::NAN.to_bits(),
-            h_bits: f64::NAN.to_bits(),
+            sets: std::array::from_fn(|_| Tables {
+                key_bits: f64::NAN.to_bits(),
+                h_bits: f64::NAN.to_bits(),
+                pred_a: 0.0,
+                pred: vec![0.0; most],
+                mat: vec![0.0; r * most],
+            }),
             node_force_k: None,
             nodes: vec![0.0; most],
             row: vec![0.0; most],
-            pred_a: 0.0,
-            pred: vec![0.0; most],
-            mat: vec![0.0; r * most],
             basis: vec![0.0; element.degree() + 1],
             data: vec![0.0; most * n],
             y_theta: vec![0.0; n],
         }
     }
 
-    /// Recomputes the tables for step h after a step `last_h` with m1 data points before the
-    /// predictor (`predict`) or without one.
-    fn tables(&mut self, element: &Element, tab: &FixedPointTables, h: f64, last_h: f64, m1: usize, predict: bool) {
+    /// The tables for step h after a step `last_h` with m1 data points before the predictor
+    /// (`predict`) or without one, recomputed if the step or the ratio changed.
+    fn tables(
+        &mut self,
+        element: &Element,
+        tab: &FixedPointTables,
+        h: f64,
+        last_h: f64,
+        m1: usize,
+        predict: bool,
+    ) -> usize {
+        let r = self.r;
+        // With the predictor, m1 is r (rules with end points) or r + 1 for one element, r + 2
+        // for the other: three sets suffice.
+        let set = match (predict, m1 > r + 1) {
+            (false, _) => 0,
+            (true, false) => 1,
+            (true, true) => 2,
+        };
         let key = last_h / h;
-        if key.to_bits() == self.key_bits && h.to_bits() == self.h_bits && m1 == self.m1 && predict == self.predict {
-            return;
+        let t = &mut self.sets[set];
+        if key.to_bits() == t.key_bits && h.to_bits() == t.h_bits {
+            return set;
         }
-        self.key_bits = key.to_bits();
-        self.h_bits = h.to_bits();
-        self.m1 = m1;
-        self.predict = predict;
-        let (r, s) = (self.r, element.degree());
+        t.key_bits = key.to_bits();
+        t.h_bits = h.to_bits();
+        let s = element.degree();
         let c = &element.rule.nodes;
         for j in 0..r {
             self.nodes[j] = (c[j] - 1.0) * key;
@@ -111,32 +131,35 @@ impl StageStart {
         if m1 > r + 1 {
             self.nodes[r + 1] = -key;
         }
-        self.nodes[m1] = PREDICTOR_THETA; // unused without the predictor
-                                          // a(θ), B(θ): the element polynomial at θ, Σ_m φ_m(θ) (α_m, β_m·).
-        element.basis.values_in_place(PREDICTOR_THETA, &mut self.basis);
-        let a_theta: f64 = (1..=s).map(|m| self.basis[m] * tab.alpha[m - 1]).sum();
-        self.pred_a = h * a_theta;
-        // pred_j = h² Σ_i B(θ)_i E₁(c_i)_j.
-        self.pred[..m1].iter_mut().for_each(|p| *p = 0.0);
-        for i in 0..r {
-            let b_theta: f64 = (1..=s).map(|m| self.basis[m] * tab.beta[(m - 1) * r + i]).sum();
-            lagrange_row(&self.nodes[..m1], c[i], &mut self.row[..m1]);
-            for j in 0..m1 {
-                self.pred[j] += h * h * b_theta * self.row[j];
+        let w = m1 + usize::from(predict);
+        if predict {
+            self.nodes[m1] = PREDICTOR_THETA;
+            // a(θ), B(θ): the element polynomial at θ, Σ_m φ_m(θ) (α_m, β_m·).
+            element.basis.values_in_place(PREDICTOR_THETA, &mut self.basis);
+            let a_theta: f64 = (1..=s).map(|m| self.basis[m] * tab.alpha[m - 1]).sum();
+            t.pred_a = h * a_theta;
+            // pred_j = h² Σ_i B(θ)_i E₁(c_i)_j.
+            t.pred[..m1].iter_mut().for_each(|p| *p = 0.0);
+            for i in 0..r {
+                let b_theta: f64 = (1..=s).map(|m| self.basis[m] * tab.beta[(m - 1) * r + i]).sum();
+                lagrange_row(&self.nodes[..m1], c[i], &mut self.row[..m1]);
+                for j in 0..m1 {
+                    t.pred[j] += h * h * b_theta * self.row[j];
+                }
             }
         }
         // mat_lj = h² Σ_i B_li E₂(c_i)_j.
-        let w = m1 + usize::from(predict);
-        self.mat[..r * w].iter_mut().for_each(|x| *x = 0.0);
+        t.mat[..r * w].iter_mut().for_each(|x| *x = 0.0);
         for i in 0..r {
             lagrange_row(&self.nodes[..w], c[i], &mut self.row[..w]);
             for l in 0..r {
                 let b = h * h * tab.b[l * r + i];
                 for j in 0..w {
-                    self.mat[l * w + j] += b * self.row[j];
+                    t.mat[l * w + j] += b * self.row[j];
                 }
             }
         }
+        set
     }
 
     /// Starting stage values y (r × n) for the step h from node k with u = M⁻¹p_k, after a
@@ -176,12 +199,13 @@ impl StageStart {
                 r + 1
             }
         };
-        self.tables(element, tab, h, last_h, m1, rich);
+        let set = self.tables(element, tab, h, last_h, m1, rich);
+        let t = &self.sets[set];
         if rich {
             for c in 0..n {
-                let mut acc = self.pred_a * u[c];
+                let mut acc = t.pred_a * u[c];
                 for j in 0..m1 {
-                    acc += self.pred[j] * self.data[j * n + c];
+                    acc += t.pred[j] * self.data[j * n + c];
                 }
                 self.y_theta[c] = acc;
             }
@@ -189,7 +213,7 @@ impl StageStart {
         }
         let w = m1 + usize::from(rich);
         for l in 0..r {
-            let row = &self.mat[l * w..(l + 1) * w];
+            let row = &t.mat[l * w..(l + 1) * w];
             for c in 0..n {
                 let mut acc = ha[l] * u[c];
                 for (j, m) in row.iter().enumerate() {
