@@ -24,6 +24,14 @@ pub struct FixedPointTables {
     pub a: Vec<f64>,
     /// B_li, row-major r×r.
     pub b: Vec<f64>,
+    /// The rounding errors of the four tables above (exact value − table), same layouts.
+    pub alpha_lo: Vec<f64>,
+    /// See `alpha_lo`.
+    pub beta_lo: Vec<f64>,
+    /// See `alpha_lo`.
+    pub a_lo: Vec<f64>,
+    /// See `alpha_lo`.
+    pub b_lo: Vec<f64>,
 }
 
 impl FixedPointTables {
@@ -68,18 +76,23 @@ impl FixedPointTables {
         }
         let mut a = vec![0.0; r];
         let mut b = vec![0.0; r * r];
+        let mut a_lo = vec![0.0; r];
+        let mut b_lo = vec![0.0; r * r];
+        let lo = |x: Dd| x.sub(Dd::new(x.round())).round();
         for l in 0..r {
             let mut acc = Dd::new(0.0);
             for m in 0..s {
                 acc = acc.add(phi[l * w + m + 1].mul(alpha_dd[m]));
             }
             a[l] = acc.round();
+            a_lo[l] = lo(acc);
             for i in 0..r {
                 let mut acc = Dd::new(0.0);
                 for m in 0..s {
                     acc = acc.add(phi[l * w + m + 1].mul(beta_dd[m * r + i]));
                 }
                 b[l * r + i] = acc.round();
+                b_lo[l * r + i] = lo(acc);
             }
         }
         Ok(Self {
@@ -87,6 +100,10 @@ impl FixedPointTables {
             beta: beta_dd.iter().map(|x| x.round()).collect(),
             a,
             b,
+            alpha_lo: alpha_dd.iter().map(|&x| lo(x)).collect(),
+            beta_lo: beta_dd.iter().map(|&x| lo(x)).collect(),
+            a_lo,
+            b_lo,
         })
     }
 }
@@ -171,6 +188,40 @@ mod tests {
             for (l, c) in e.rule.nodes.iter().enumerate() {
                 assert!((t.a[l] - c).abs() < 1e-12);
             }
+        }
+    }
+
+    /// The `_lo` tables are the rounding errors of the f64 tables: zero where the exact value
+    /// is a binary fraction (the midpoint rule's 1/2, 1/4, 1), and otherwise at most half an
+    /// ulp of the value and not all zero (so the value is the correctly rounded one).
+    #[test]
+    fn low_parts_are_the_rounding_errors() {
+        let t = FixedPointTables::new(&Element::midpoint()).unwrap();
+        assert!(t
+            .a_lo
+            .iter()
+            .chain(&t.b_lo)
+            .chain(&t.alpha_lo)
+            .chain(&t.beta_lo)
+            .all(|&x| x == 0.0));
+        for s in 2..=8 {
+            let e = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).unwrap();
+            let t = FixedPointTables::new(&e).unwrap();
+            let pairs = [
+                (&t.a, &t.a_lo),
+                (&t.b, &t.b_lo),
+                (&t.alpha, &t.alpha_lo),
+                (&t.beta, &t.beta_lo),
+            ];
+            let mut nonzero = 0;
+            for (hi, lo) in pairs {
+                for (&h, &l) in hi.iter().zip(lo) {
+                    let half_ulp = (h.abs() * f64::EPSILON * 0.5).max(f64::MIN_POSITIVE);
+                    assert!(l.abs() <= half_ulp * 1.000001, "s = {s}: {h:e} + {l:e}");
+                    nonzero += usize::from(l != 0.0);
+                }
+            }
+            assert!(nonzero > 0, "s = {s}: no rounding error recorded");
         }
     }
 
