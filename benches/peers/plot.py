@@ -22,11 +22,17 @@ for prob in ["P1", "P2", "P3"]:
             fam[(r["tool"], r["config"] if r["tool"] != "rebound" or "ias15" not in r["config"] else "ias15")].append(r)
     plt.figure(figsize=(8, 5.5))
     colors = plt.get_cmap("tab20").colors
-    for i, ((tool, config), rs) in enumerate(sorted(fam.items())):
+    # One color per element (or peer method); femvi's unpolished solver variants (" / tol ...")
+    # dotted in their element's color, labelled once in the legend.
+    bases = sorted({(tool, config.split(" / ")[0]) for tool, config in fam})
+    for (tool, config), rs in sorted(fam.items()):
         rs = sorted(rs, key=lambda r: r["cpu"])
-        style = "-o" if tool == "femvi" else "--s"
+        base, _, variant = config.partition(" / ")
+        style = ("-o" if not variant else ":.") if tool == "femvi" else "--s"
         plt.loglog([r["cpu"] for r in rs], [max(r["error"], 1e-17) for r in rs], style, ms=4,
-                   color=colors[i % len(colors)], label=f"{tool}: {config}")
+                   color=colors[bases.index((tool, base)) % len(colors)],
+                   label=f"{tool}: {config}" if not variant else None)
+    plt.plot([], [], ":.", color="gray", label="femvi, dotted: solver stopped at tolerance 1e-10 or 1e-14 (unpolished)")
     # The brief's figures, scaled to this machine by the C Verlet loops (brief: 29.5 ns on P1
     # and P2's scale, 34 ns on P3).
     scale = verlet.get("P3" if prob == "P3" else "P1", 30.0) / (34.0 if prob == "P3" else 29.5)
