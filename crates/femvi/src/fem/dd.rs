@@ -45,6 +45,29 @@ impl Dd {
         let e = self.hi.mul_add(o.hi, -p);
         Dd::quick(p, e + (self.hi * o.lo + self.lo * o.hi))
     }
+    /// The exact product a·b as hi + lo by Dekker's splitting: plain f64 arithmetic, no fused
+    /// multiply-add (which the baseline x86-64 target lacks and emulates in software), for
+    /// products taken in a step loop. Exact unless a·b over- or underflows.
+    pub(crate) fn two_prod(a: f64, b: f64) -> Dd {
+        const SPLIT: f64 = 134_217_729.0; // 2^27 + 1
+        let split = |x: f64| {
+            let c = SPLIT * x;
+            let hi = c - (c - x);
+            (hi, x - hi)
+        };
+        let p = a * b;
+        let (ah, al) = split(a);
+        let (bh, bl) = split(b);
+        Dd {
+            hi: p,
+            lo: ((ah * bh - p) + ah * bl + al * bh) + al * bl,
+        }
+    }
+    /// The double-double product by [`Dd::two_prod`] (no fused multiply-add).
+    pub(crate) fn mul_split(self, o: Dd) -> Dd {
+        let p = Dd::two_prod(self.hi, o.hi);
+        Dd::quick(p.hi, p.lo + (self.hi * o.lo + self.lo * o.hi))
+    }
     pub(crate) fn mulf(self, f: f64) -> Dd {
         self.mul(Dd::new(f))
     }
@@ -62,5 +85,24 @@ impl Dd {
     /// Rounds to the nearest f64.
     pub(crate) fn round(self) -> f64 {
         self.hi + self.lo
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn dekker_product_is_exact() {
+        // (1 + 2^-30)(1 + 2^-29) = 1 + 3·2^-30 + 2^-59: the last term is the rounding error.
+        let a = 1.0 + 2f64.powi(-30);
+        let b = 1.0 + 2f64.powi(-29);
+        let p = super::Dd::two_prod(a, b);
+        assert_eq!(p.hi, 1.0 + 3.0 * 2f64.powi(-30));
+        assert_eq!(p.lo, 2f64.powi(-59));
+        // Against the fused multiply-add product on awkward values.
+        for (x, y) in [(0.1, 0.7), (1.0 / 3.0, 3.0e10), (-2.5e-8, 1.2345678901234567)] {
+            let q = super::Dd::two_prod(x, y);
+            assert_eq!(q.hi, x * y);
+            assert_eq!(q.lo, x.mul_add(y, -(x * y)));
+        }
     }
 }

@@ -108,6 +108,78 @@ impl FixedPointTables {
     }
 }
 
+/// The tables of one element scaled by one step h, from the exact (double-double) values: for
+/// the stages h a_l and h² B_li correctly rounded (B stored by columns, i major), for the update
+/// h α_m, h² β_mi and h b_i each as the rounded value and its rounding error (applied as a
+/// second, small sum, so that the update's coefficients are exact: see the integrator's
+/// `COEFFICIENT_ROUNDING`). Built with Dekker products (plain f64 arithmetic), since on a
+/// variable grid this runs every step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepTables {
+    /// h as bits (NaN: not built).
+    pub h_bits: u64,
+    /// h a_l.
+    pub ha: Vec<f64>,
+    /// h² B_li by columns: entry i r + l.
+    pub h2bt: Vec<f64>,
+    /// h α_m and its rounding error.
+    pub h_alpha: Vec<f64>,
+    /// See `h_alpha`.
+    pub h_alpha_lo: Vec<f64>,
+    /// h² β_mi (row-major s×r) and its rounding error.
+    pub h2_beta: Vec<f64>,
+    /// See `h2_beta`.
+    pub h2_beta_lo: Vec<f64>,
+    /// h b_i (quadrature weights) and its rounding error.
+    pub hw: Vec<f64>,
+    /// See `hw`.
+    pub hw_lo: Vec<f64>,
+}
+
+impl StepTables {
+    /// Empty tables for an element of degree s with r points.
+    pub fn new(s: usize, r: usize) -> Self {
+        Self {
+            h_bits: f64::NAN.to_bits(),
+            ha: vec![0.0; r],
+            h2bt: vec![0.0; r * r],
+            h_alpha: vec![0.0; s],
+            h_alpha_lo: vec![0.0; s],
+            h2_beta: vec![0.0; s * r],
+            h2_beta_lo: vec![0.0; s * r],
+            hw: vec![0.0; r],
+            hw_lo: vec![0.0; r],
+        }
+    }
+
+    /// Fills the tables for step h from `tab` and the quadrature weights.
+    pub fn build(&mut self, tab: &FixedPointTables, weights: &[f64], h: f64) {
+        let (s, r) = (tab.alpha.len(), tab.a.len());
+        self.h_bits = h.to_bits();
+        let hd = Dd::new(h);
+        let h2 = Dd::two_prod(h, h);
+        let split = |x: Dd| {
+            let hi = x.round();
+            (hi, x.sub(Dd::new(hi)).round())
+        };
+        let dd = |hi: f64, lo: f64| Dd { hi, lo };
+        for l in 0..r {
+            self.ha[l] = hd.mul_split(dd(tab.a[l], tab.a_lo[l])).round();
+            for i in 0..r {
+                self.h2bt[i * r + l] = h2.mul_split(dd(tab.b[l * r + i], tab.b_lo[l * r + i])).round();
+            }
+            (self.hw[l], self.hw_lo[l]) = split(Dd::two_prod(h, weights[l]));
+        }
+        for m in 0..s {
+            (self.h_alpha[m], self.h_alpha_lo[m]) = split(hd.mul_split(dd(tab.alpha[m], tab.alpha_lo[m])));
+            for i in 0..r {
+                (self.h2_beta[m * r + i], self.h2_beta_lo[m * r + i]) =
+                    split(h2.mul_split(dd(tab.beta[m * r + i], tab.beta_lo[m * r + i])));
+            }
+        }
+    }
+}
+
 /// Lagrange basis values ℓ_j(c_i) and derivatives ℓ_j'(c_i) on nodes `tau`, row-major by point.
 fn basis_dd(tau: &[Dd], c: &[f64]) -> (Vec<Dd>, Vec<Dd>) {
     let w = tau.len();

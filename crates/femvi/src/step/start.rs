@@ -37,9 +37,14 @@ pub(super) struct StageStart {
     end_point: bool,
     /// Tables for the three ways of starting — the stage forces alone; with the node force at
     /// t_k and the predicted force; with the node forces at t_k and t_{k−1} and the predicted
-    /// force — each kept for its own step and step ratio, so that alternating between them
-    /// (as the choice per step may) recomputes nothing on a uniform grid.
-    sets: [Tables; 3],
+    /// force — each kept for the last `CACHED` pairs of step and step ratio, so that
+    /// alternating between the ways (as the choice per step may) or cycling through a list of
+    /// steps recomputes nothing.
+    sets: [Vec<Tables>; 3],
+    /// The entry of each set to be replaced next.
+    next: [usize; 3],
+    /// Barycentric weights scratch.
+    bary: Vec<f64>,
     /// The step (node index) at which `data[r]` (the force at the node) was taken.
     node_force_k: Option<usize>,
     /// Times of the data in units of the new step relative to t_k: (c_j − 1) h_{k−1}/h, 0,
@@ -67,6 +72,12 @@ struct Tables {
     mat: Vec<f64>,
 }
 
+/// Table entries kept per way of starting: a cycle of up to this many distinct steps (a
+/// `[time] steps` list) finds its tables. (A grid whose steps never repeat rebuilds them every
+/// step: measured on P3, degree 8, 0.65 µs per step on the uniform grid against 2.35 µs with 997
+/// distinct steps, together with the integrator's step tables.)
+const CACHED: usize = 4;
+
 impl StageStart {
     /// Workspace for `element` in dimension n.
     pub(super) fn new(element: &Element, n: usize) -> Self {
@@ -78,13 +89,19 @@ impl StageStart {
             r,
             n,
             end_point,
-            sets: std::array::from_fn(|_| Tables {
-                key_bits: f64::NAN.to_bits(),
-                h_bits: f64::NAN.to_bits(),
-                pred_a: 0.0,
-                pred: vec![0.0; most],
-                mat: vec![0.0; r * most],
+            sets: std::array::from_fn(|_| {
+                (0..CACHED)
+                    .map(|_| Tables {
+                        key_bits: f64::NAN.to_bits(),
+                        h_bits: f64::NAN.to_bits(),
+                        pred_a: 0.0,
+                        pred: vec![0.0; most],
+                        mat: vec![0.0; r * most],
+                    })
+                    .collect()
             }),
+            next: [0; 3],
+            bary: vec![0.0; most],
             node_force_k: None,
             nodes: vec![0.0; most],
             row: vec![0.0; most],
@@ -104,7 +121,7 @@ impl StageStart {
         last_h: f64,
         m1: usize,
         predict: bool,
-    ) -> usize {
+    ) -> (usize, usize) {
         let r = self.r;
         // With the predictor, m1 is r (rules with end points) or r + 1 for one element, r + 2
         // for the other: three sets suffice.
@@ -114,10 +131,15 @@ impl StageStart {
             (true, true) => 2,
         };
         let key = last_h / h;
-        let t = &mut self.sets[set];
-        if key.to_bits() == t.key_bits && h.to_bits() == t.h_bits {
-            return set;
+        let found = self.sets[set]
+            .iter()
+            .position(|t| key.to_bits() == t.key_bits && h.to_bits() == t.h_bits);
+        if let Some(e) = found {
+            return (set, e);
         }
+        let e = self.next[set];
+        self.next[set] = (e + 1) % CACHED;
+        let t = &mut self.sets[set][e];
         t.key_bits = key.to_bits();
         t.h_bits = h.to_bits();
         let s = element.degree();
@@ -140,9 +162,10 @@ impl StageStart {
             t.pred_a = h * a_theta;
             // pred_j = h² Σ_i B(θ)_i E₁(c_i)_j.
             t.pred[..m1].iter_mut().for_each(|p| *p = 0.0);
+            barycentric_weights(&self.nodes[..m1], &mut self.bary[..m1]);
             for i in 0..r {
                 let b_theta: f64 = (1..=s).map(|m| self.basis[m] * tab.beta[(m - 1) * r + i]).sum();
-                lagrange_row(&self.nodes[..m1], c[i], &mut self.row[..m1]);
+                lagrange_row(&self.nodes[..m1], &self.bary[..m1], c[i], &mut self.row[..m1]);
                 for j in 0..m1 {
                     t.pred[j] += h * h * b_theta * self.row[j];
                 }
@@ -150,8 +173,9 @@ impl StageStart {
         }
         // mat_lj = h² Σ_i B_li E₂(c_i)_j.
         t.mat[..r * w].iter_mut().for_each(|x| *x = 0.0);
+        barycentric_weights(&self.nodes[..w], &mut self.bary[..w]);
         for i in 0..r {
-            lagrange_row(&self.nodes[..w], c[i], &mut self.row[..w]);
+            lagrange_row(&self.nodes[..w], &self.bary[..w], c[i], &mut self.row[..w]);
             for l in 0..r {
                 let b = h * h * tab.b[l * r + i];
                 for j in 0..w {
@@ -159,7 +183,7 @@ impl StageStart {
                 }
             }
         }
-        set
+        (set, e)
     }
 
     /// Starting stage values y (r × n) for the step h from node k with u = M⁻¹p_k, after a
@@ -199,8 +223,8 @@ impl StageStart {
                 r + 1
             }
         };
-        let set = self.tables(element, tab, h, last_h, m1, rich);
-        let t = &self.sets[set];
+        let (set, e) = self.tables(element, tab, h, last_h, m1, rich);
+        let t = &self.sets[set][e];
         if rich {
             for c in 0..n {
                 let mut acc = t.pred_a * u[c];
@@ -225,19 +249,28 @@ impl StageStart {
     }
 }
 
-/// The Lagrange basis on `nodes` at x (barycentric form; a node hit exactly gives its unit
-/// row).
-fn lagrange_row(nodes: &[f64], x: f64, out: &mut [f64]) {
-    let m = nodes.len();
+/// Barycentric weights 1/Π_{k≠j}(τ_j − τ_k) of `nodes`.
+fn barycentric_weights(nodes: &[f64], out: &mut [f64]) {
+    for (j, o) in out.iter_mut().enumerate() {
+        *o = 1.0
+            / (0..nodes.len())
+                .filter(|&k| k != j)
+                .map(|k| nodes[j] - nodes[k])
+                .product::<f64>();
+    }
+}
+
+/// The Lagrange basis on `nodes` (with barycentric weights `bary`) at x; a node hit exactly
+/// gives its unit row.
+fn lagrange_row(nodes: &[f64], bary: &[f64], x: f64, out: &mut [f64]) {
     if let Some(j) = nodes.iter().position(|&t| t == x) {
         out.iter_mut().enumerate().for_each(|(k, e)| *e = f64::from(k == j));
         return;
     }
     let mut sum = 0.0;
-    for j in 0..m {
-        let wj = 1.0 / (0..m).filter(|&k| k != j).map(|k| nodes[j] - nodes[k]).product::<f64>();
-        out[j] = wj / (x - nodes[j]);
-        sum += out[j];
+    for ((o, &t), &w) in out.iter_mut().zip(nodes).zip(bary) {
+        *o = w / (x - t);
+        sum += *o;
     }
     out.iter_mut().for_each(|e| *e /= sum);
 }
