@@ -1,10 +1,11 @@
 //! Double-double arithmetic (≈ 106-bit significands) for the few tables that must be correct
 //! to the last bit of f64: Gauss rules and the fixed-point tables of high-degree elements.
 //! Hand-written because the `twofloat` crate's division was measured to lose ~1e-16 relative;
-//! these error-free transformations (Knuth's two-sum, an FMA two-product) are exact to ~1e-32.
+//! these error-free transformations (Knuth's two-sum, Dekker's two-product) are exact to
+//! ~1e-32.
 
 /// A double-double number hi + lo (|lo| ≤ ulp(hi)/2), with error-free transformations
-/// (Knuth's two-sum, a fused multiply-add two-product). Only what the tables need.
+/// (Knuth's two-sum, Dekker's two-product). Only what the tables need.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Dd {
     pub(crate) hi: f64,
@@ -40,14 +41,10 @@ impl Dd {
     pub(crate) fn sub(self, o: Dd) -> Dd {
         self.add(o.neg())
     }
-    pub(crate) fn mul(self, o: Dd) -> Dd {
-        let p = self.hi * o.hi;
-        let e = self.hi.mul_add(o.hi, -p);
-        Dd::quick(p, e + (self.hi * o.lo + self.lo * o.hi))
-    }
     /// The exact product a·b as hi + lo by Dekker's splitting: plain f64 arithmetic, no fused
-    /// multiply-add (which the baseline x86-64 target lacks and emulates in software), for
-    /// products taken in a step loop. Exact unless a·b over- or underflows.
+    /// multiply-add (which the baseline x86-64 target lacks and emulates in software; the
+    /// step-scaled tables are built every step on a variable grid). Exact unless a·b over- or
+    /// underflows.
     pub(crate) fn two_prod(a: f64, b: f64) -> Dd {
         const SPLIT: f64 = 134_217_729.0; // 2^27 + 1
         let split = |x: f64| {
@@ -63,8 +60,8 @@ impl Dd {
             lo: ((ah * bh - p) + ah * bl + al * bh) + al * bl,
         }
     }
-    /// The double-double product by [`Dd::two_prod`] (no fused multiply-add).
-    pub(crate) fn mul_split(self, o: Dd) -> Dd {
+    /// The double-double product, by [`Dd::two_prod`].
+    pub(crate) fn mul(self, o: Dd) -> Dd {
         let p = Dd::two_prod(self.hi, o.hi);
         Dd::quick(p.hi, p.lo + (self.hi * o.lo + self.lo * o.hi))
     }

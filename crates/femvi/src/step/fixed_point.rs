@@ -164,17 +164,17 @@ impl StepTables {
         };
         let dd = |hi: f64, lo: f64| Dd { hi, lo };
         for l in 0..r {
-            self.ha[l] = hd.mul_split(dd(tab.a[l], tab.a_lo[l])).round();
+            self.ha[l] = hd.mul(dd(tab.a[l], tab.a_lo[l])).round();
             for i in 0..r {
-                self.h2bt[i * r + l] = h2.mul_split(dd(tab.b[l * r + i], tab.b_lo[l * r + i])).round();
+                self.h2bt[i * r + l] = h2.mul(dd(tab.b[l * r + i], tab.b_lo[l * r + i])).round();
             }
             (self.hw[l], self.hw_lo[l]) = split(Dd::two_prod(h, weights[l]));
         }
         for m in 0..s {
-            (self.h_alpha[m], self.h_alpha_lo[m]) = split(hd.mul_split(dd(tab.alpha[m], tab.alpha_lo[m])));
+            (self.h_alpha[m], self.h_alpha_lo[m]) = split(hd.mul(dd(tab.alpha[m], tab.alpha_lo[m])));
             for i in 0..r {
                 (self.h2_beta[m * r + i], self.h2_beta_lo[m * r + i]) =
-                    split(h2.mul_split(dd(tab.beta[m * r + i], tab.beta_lo[m * r + i])));
+                    split(h2.mul(dd(tab.beta[m * r + i], tab.beta_lo[m * r + i])));
             }
         }
     }
