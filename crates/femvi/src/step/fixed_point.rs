@@ -109,7 +109,7 @@ impl FixedPointTables {
 }
 
 /// The tables of one element scaled by one step h, from the exact (double-double) values: for
-/// the stages h a_l and h² B_li correctly rounded (B stored by columns, i major), for the update
+/// the stages h a_l and h² B_li correctly rounded (B row-major), for the update
 /// h α_m, h² β_mi and h b_i each as the rounded value and its rounding error (applied as a
 /// second, small sum, so that the update's coefficients are exact: see the integrator's
 /// `COEFFICIENT_ROUNDING`). Built with Dekker products (plain f64 arithmetic), since on a
@@ -120,8 +120,8 @@ pub struct StepTables {
     pub h_bits: u64,
     /// h a_l.
     pub ha: Vec<f64>,
-    /// h² B_li by columns: entry i r + l.
-    pub h2bt: Vec<f64>,
+    /// h² B_li, row-major r×r.
+    pub h2b: Vec<f64>,
     /// h α_m and its rounding error.
     pub h_alpha: Vec<f64>,
     /// See `h_alpha`.
@@ -142,7 +142,7 @@ impl StepTables {
         Self {
             h_bits: f64::NAN.to_bits(),
             ha: vec![0.0; r],
-            h2bt: vec![0.0; r * r],
+            h2b: vec![0.0; r * r],
             h_alpha: vec![0.0; s],
             h_alpha_lo: vec![0.0; s],
             h2_beta: vec![0.0; s * r],
@@ -166,7 +166,7 @@ impl StepTables {
         for l in 0..r {
             self.ha[l] = hd.mul(dd(tab.a[l], tab.a_lo[l])).round();
             for i in 0..r {
-                self.h2bt[i * r + l] = h2.mul(dd(tab.b[l * r + i], tab.b_lo[l * r + i])).round();
+                self.h2b[l * r + i] = h2.mul(dd(tab.b[l * r + i], tab.b_lo[l * r + i])).round();
             }
             (self.hw[l], self.hw_lo[l]) = split(Dd::two_prod(h, weights[l]));
         }

@@ -42,7 +42,7 @@ pub enum Method {
 /// the last step alone left a starting error of 2e-4 … 1e-3 on P3 at h = 0.5 (degree 6), the
 /// interpolation 1e-7 … 2e-6 there (5e-4 … 3e-3 at h = 1.25); two steps of stage forces (2r
 /// points) were no better than one.
-const FORCE_EXTRAPOLATION_MAX_POINTS: usize = 12;
+const START_MAX_POINTS: usize = 12;
 
 /// Step-scaled tables kept by the fixed-point solver (see `Integrator::step_tables`).
 /// Measured on P3 (degree 8) with steps cycling through 0.45/0.55: 1.35 µs per step when they
@@ -244,12 +244,10 @@ pub struct Integrator<'a, L: Lagrangian> {
     last_sweeps: usize,
     /// The element's tables scaled by the last few distinct steps (a cycle of up to
     /// `CACHED_STEPS` steps builds them once), the entry of the current step and the one to
-    /// be replaced next; the stage times of the current step, and the new stage values of a
-    /// sweep.
+    /// be replaced next; and the stage times of the current step.
     step_tables: Vec<StepTables>,
     cur_tables: usize,
     next_tables: usize,
-    ynew: Vec<f64>,
     stage_t: Vec<f64>,
     basis_buf: Vec<f64>,
     iterations: usize,
@@ -349,7 +347,6 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             },
             cur_tables: 0,
             next_tables: 0,
-            ynew: vec![0.0; r * n],
             stage_t: vec![0.0; r],
             basis_buf: vec![0.0; s + 1],
             iterations: 0,
@@ -947,7 +944,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let s = self.element.degree();
         let r = self.element.points();
         let rho = if self.have_last_w { h / self.last_h } else { f64::NAN };
-        let force_guess = r <= FORCE_EXTRAPOLATION_MAX_POINTS && (0.5..=2.0).contains(&rho);
+        let force_guess = r <= START_MAX_POINTS && (0.5..=2.0).contains(&rho);
         if !force_guess {
             self.guess(h);
         }
@@ -1028,9 +1025,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                         &self.q,
                         &self.u,
                         &st.ha,
-                        &st.h2bt,
+                        &st.h2b,
                         &mut self.y,
-                        &mut self.ynew,
                         &mut self.force,
                         &mut self.wforce,
                         &mut self.tmp,
@@ -1105,22 +1101,33 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         for m in 0..s {
             for c in 0..n {
                 let mut hi = st.h_alpha[m] * self.u[c];
-                let mut lo = st.h_alpha_lo[m] * self.u[c];
                 for i in 0..r {
                     hi += st.h2_beta[m * r + i] * w[i * n + c];
-                    lo += st.h2_beta_lo[m * r + i] * w[i * n + c];
                 }
-                self.incr[(m + 1) * n + c] = if exact { hi + lo } else { hi };
+                if exact {
+                    let mut lo = st.h_alpha_lo[m] * self.u[c];
+                    for i in 0..r {
+                        lo += st.h2_beta_lo[m * r + i] * w[i * n + c];
+                    }
+                    hi += lo;
+                }
+                self.incr[(m + 1) * n + c] = hi;
             }
         }
         self.dq.copy_from_slice(&self.incr[s * n..]);
         for c in 0..n {
-            let (mut hi, mut lo) = (0.0, 0.0);
+            let mut hi = 0.0;
             for i in 0..r {
                 hi += st.hw[i] * self.force[i * n + c];
-                lo += st.hw_lo[i] * self.force[i * n + c];
             }
-            self.dp[c] = if exact { hi + lo } else { hi };
+            if exact {
+                let mut lo = 0.0;
+                for i in 0..r {
+                    lo += st.hw_lo[i] * self.force[i * n + c];
+                }
+                hi += lo;
+            }
+            self.dp[c] = hi;
         }
         Ok(())
     }
@@ -1180,13 +1187,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 }
 
 /// One sweep of the fixed-point map of the stage values: the forces at q + Y_l, then
-/// Y_l ← h a_l u + h² Σ_i B_li M⁻¹f_i (`h2bt` holds h² B by columns). Returns
-/// (max |ΔY|, max |Y|), NaN if a value is not finite. `N` is the dimension when known at
-/// compile time (0: use `n`), which lets the compiler unroll the component loops. The sum runs
-/// column by column (i outer) so that for n = 1 the stage loop is a contiguous axpy the
-/// compiler vectorises; each Y_l is still summed in the order i = 0, 1, …, as before. (A
-/// Gauss–Seidel order, each stage updated with the newest forces, was measured too: no fewer
-/// sweeps on the pendulum, and slower.)
+/// Y_l ← h a_l u + h² Σ_i B_li M⁻¹f_i in place (`h2b` row-major). Returns (max |ΔY|, max |Y|),
+/// NaN if a value is not finite. `N` is the dimension when known at compile time (0: use
+/// `n`), which lets the compiler unroll the component loops. (Measured and not kept: a
+/// Gauss–Seidel order, each stage updated with the newest forces — no fewer sweeps on the
+/// pendulum, and slower; summing column by column into a second buffer so that the stage
+/// loop vectorises — no faster.)
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn fixed_point_sweep<L: Lagrangian, const N: usize>(
@@ -1197,9 +1203,8 @@ fn fixed_point_sweep<L: Lagrangian, const N: usize>(
     q: &[f64],
     u: &[f64],
     ha: &[f64],
-    h2bt: &[f64],
+    h2b: &[f64],
     y: &mut [f64],
-    ynew: &mut [f64],
     force: &mut [f64],
     wforce: &mut [f64],
     tmp: &mut [f64],
@@ -1208,7 +1213,6 @@ fn fixed_point_sweep<L: Lagrangian, const N: usize>(
     let r = stage_t.len();
     let rn = r * n;
     let (q, u, tmp) = (&q[..n], &u[..n], &mut tmp[..n]);
-    let (y, ynew) = (&mut y[..rn], &mut ynew[..rn]);
     let identity = mass.is_identity();
     for ((yl, fl), &tl) in y.chunks_exact(n).zip(force.chunks_exact_mut(n)).zip(stage_t) {
         for c in 0..n {
@@ -1225,34 +1229,26 @@ fn fixed_point_sweep<L: Lagrangian, const N: usize>(
         }
         &wforce[..rn]
     };
-    for (yl, &hal) in ynew.chunks_exact_mut(n).zip(ha) {
-        for c in 0..n {
-            yl[c] = hal * u[c];
-        }
-    }
-    for (col, wi) in h2bt.chunks_exact(r).zip(w.chunks_exact(n)) {
-        let wi = &wi[..n];
-        for (yl, b) in ynew.chunks_exact_mut(n).zip(col) {
-            for c in 0..n {
-                yl[c] += b * wi[c];
-            }
-        }
-    }
     let mut delta = 0.0f64;
     let mut ymax = 0.0f64;
     // x·0 is NaN exactly when x is not finite: one add per value instead of a branch.
     let mut probe = 0.0f64;
-    for (yo, &yn) in y.iter_mut().zip(ynew.iter()) {
-        let d = (yn - *yo).abs();
-        if d > delta {
-            delta = d;
+    for ((yl, row), &hal) in y[..rn].chunks_exact_mut(n).zip(h2b.chunks_exact(r)).zip(ha) {
+        for c in 0..n {
+            let mut acc = hal * u[c];
+            for (b, wi) in row.iter().zip(w.chunks_exact(n)) {
+                acc += b * wi[c];
+            }
+            let d = (acc - yl[c]).abs();
+            if d > delta {
+                delta = d;
+            }
+            if acc.abs() > ymax {
+                ymax = acc.abs();
+            }
+            probe += acc * 0.0;
+            yl[c] = acc;
         }
-        let a = yn.abs();
-        if a > ymax {
-            ymax = a;
-        }
-        probe += yn * 0.0;
-        *yo = yn;
     }
     if probe.is_nan() {
         return (f64::NAN, f64::NAN);
