@@ -158,23 +158,32 @@ fn p2() {
     }
 }
 
+/// P3's pendulum and initial data, its energy and the integrator from its start.
+const P3_E0: f64 = 0.5 * 1.5 * 1.5 - 1.0;
+
+fn p3_energy(q: f64, p: f64) -> f64 {
+    0.5 * p * p - q.cos()
+}
+
+fn p3_integrator<'a, L: Lagrangian>(
+    lag: &'a L,
+    el: &'a Element,
+    grid: TimeGrid,
+    opts: SolverOptions,
+) -> femvi::Result<Integrator<'a, L>> {
+    let start = Start::Momentum {
+        q: vec![0.0],
+        p: vec![1.5],
+    };
+    Integrator::new(lag, el, grid, start, opts)
+}
+
 /// P3 with the energy checked at every node (inside the timing, as a user would).
 fn p3_run(el: &Element, h: f64, opts: SolverOptions) -> Option<(f64, f64, usize)> {
     let lag = models::pendulum(1.0, 1.0, 1.0).unwrap();
     let grid = TimeGrid::uniform(0.0, h, 1e5).ok()?;
     let t0 = cpu();
-    let mut it = Integrator::new(
-        &lag,
-        el,
-        grid,
-        Start::Momentum {
-            q: vec![0.0],
-            p: vec![1.5],
-        },
-        opts,
-    )
-    .ok()?;
-    let e0 = 0.5 * 1.5f64 * 1.5 - 1.0;
+    let mut it = p3_integrator(&lag, el, grid, opts).ok()?;
     let mut worst = 0.0f64;
     let mut steps = 0;
     loop {
@@ -185,7 +194,7 @@ fn p3_run(el: &Element, h: f64, opts: SolverOptions) -> Option<(f64, f64, usize)
         }
         steps += 1;
         let n = it.node();
-        worst = worst.max(((0.5 * n.p[0] * n.p[0] - n.q[0].cos() - e0) / e0).abs());
+        worst = worst.max(((p3_energy(n.q[0], n.p[0]) - P3_E0) / P3_E0).abs());
     }
     Some((cpu() - t0, worst, steps))
 }
@@ -227,24 +236,13 @@ fn roundoff() {
     let el = element(6);
     let h = 0.01;
     let grid = TimeGrid::uniform(0.0, h, 1e5).unwrap();
-    let mut it = Integrator::new(
-        &lag,
-        &el,
-        grid,
-        Start::Momentum {
-            q: vec![0.0],
-            p: vec![1.5],
-        },
-        SolverOptions::default(),
-    )
-    .unwrap();
-    let e0 = 0.5 * 1.5f64 * 1.5 - 1.0;
+    let mut it = p3_integrator(&lag, &el, grid, SolverOptions::default()).unwrap();
     let (mut k, mut window, mut worst) = (0usize, 1024usize, 0.0f64);
     let (mut xs, mut ys) = (vec![], vec![]);
     while it.step().unwrap() {
         k += 1;
         let n = it.node();
-        worst = worst.max((0.5 * n.p[0] * n.p[0] - n.q[0].cos() - e0).abs() / e0.abs());
+        worst = worst.max((p3_energy(n.q[0], n.p[0]) - P3_E0).abs() / P3_E0.abs());
         if k == window {
             println!("roundoff,P3,degree 6 gauss 6,{h:e},{k},0,{worst:e}");
             xs.push((k as f64).ln());

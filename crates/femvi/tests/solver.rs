@@ -4,8 +4,23 @@
 //! stopping threshold).
 
 use femvi::{
-    models, Element, Integrator, Method, NodeFamily, QuadratureKind, SolverOptions, Start, StepFailure, TimeGrid,
+    models, Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, SolverOptions, Start, StepFailure,
+    TimeGrid,
 };
+
+/// An integrator from P3's initial data (q0 = 0, p0 = 1.5).
+fn from_p3_start<'a, L: Lagrangian>(
+    lag: &'a L,
+    el: &'a Element,
+    grid: TimeGrid,
+    opts: SolverOptions,
+) -> Integrator<'a, L> {
+    let start = Start::Momentum {
+        q: vec![0.0],
+        p: vec![1.5],
+    };
+    Integrator::new(lag, el, grid, start, opts).unwrap()
+}
 
 #[test]
 fn a_step_too_large_to_converge_is_a_typed_error_not_a_hang() {
@@ -19,17 +34,7 @@ fn a_step_too_large_to_converge_is_a_typed_error_not_a_hang() {
                 max_iterations: 50,
                 ..Default::default()
             };
-            let mut it = Integrator::new(
-                &lag,
-                &el,
-                grid,
-                Start::Momentum {
-                    q: vec![0.0],
-                    p: vec![1.5],
-                },
-                opts,
-            )
-            .unwrap();
+            let mut it = from_p3_start(&lag, &el, grid, opts);
             let started = std::time::Instant::now();
             let err = loop {
                 match it.step() {
@@ -51,17 +56,7 @@ fn a_step_too_large_to_converge_is_a_typed_error_not_a_hang() {
     // P3 itself at h = 1 (where GNI_IRK2 hangs) converges here.
     let el = Element::galerkin(6, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(6)).unwrap();
     let grid = TimeGrid::uniform(0.0, 1.0, 1000.0).unwrap();
-    let mut it = Integrator::new(
-        &lag,
-        &el,
-        grid,
-        Start::Momentum {
-            q: vec![0.0],
-            p: vec![1.5],
-        },
-        SolverOptions::default(),
-    )
-    .unwrap();
+    let mut it = from_p3_start(&lag, &el, grid, SolverOptions::default());
     while it.step().unwrap() {}
     assert!(it.mean_iterations() < 20.0, "{}", it.mean_iterations());
 }
@@ -157,11 +152,7 @@ fn without_polish_the_iteration_stops_at_the_tolerance() {
             polish,
             ..Default::default()
         };
-        let start = Start::Momentum {
-            q: vec![0.0],
-            p: vec![1.5],
-        };
-        let mut it = Integrator::new(&lag, &el, grid, start, opts).unwrap();
+        let mut it = from_p3_start(&lag, &el, grid, opts);
         let e0 = 0.5 * 1.5f64 * 1.5 - 1.0;
         let mut worst = 0.0f64;
         while it.step().unwrap() {
