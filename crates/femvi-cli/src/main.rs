@@ -530,6 +530,12 @@ fn cmd_run(
         }
         Ok(run::Outcome::Done(s)) => {
             if !quiet {
+                if let Some(a) = &s.auto_step {
+                    println!(
+                        "accuracy {:.1e}: degree {}, step {} (estimated relative position error at the end {:.1e}; {} pilot steps)",
+                        a.accuracy, a.degree, a.step, a.estimated_error, a.pilot_steps
+                    );
+                }
                 println!(
                     "{}: {} steps to t = {} ({}), max relative energy error {:.3e}, {:.2} solver iterations per step, {:.3} s",
                     s.name, s.steps, s.final_t, s.scheme, s.max_rel_energy_error, s.mean_solver_iterations, s.wall_seconds

@@ -183,6 +183,9 @@ pub struct TimeTable {
     pub mode: Mode,
     pub step: Option<f64>,
     pub steps: Option<Vec<f64>>,
+    /// Relative position error wanted at `end`: femvi chooses the step (and, without
+    /// [scheme] order or degree, the degree) by pilot runs (femvi::step::auto).
+    pub accuracy: Option<f64>,
     pub end: f64,
     pub min_step: Option<f64>,
     pub max_step: Option<f64>,
@@ -292,6 +295,8 @@ pub struct Problem {
     pub model: Option<(String, Vec<f64>)>,
     /// [output] plots = true.
     pub plots: bool,
+    /// `[time] accuracy`: the step femvi chose and what it rests on.
+    pub auto_step: Option<femvi::step::auto::StepChoice>,
 }
 
 /// Reads and parses a problem file.
@@ -480,7 +485,15 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
                     )));
                 }
             }
-            let degree = sc.order.map(|o| o / 2).or(sc.degree).unwrap_or(2);
+            let accuracy = file.time.as_ref().and_then(|t| t.accuracy);
+            let degree = sc
+                .order
+                .map(|o| o / 2)
+                .or(sc.degree)
+                .or(accuracy
+                    .filter(|a| a.is_finite() && *a > 0.0)
+                    .map(femvi::step::auto::degree_for_accuracy))
+                .unwrap_or(2);
             if degree == 0 || degree > 64 {
                 return Err(ctx(format!("[scheme] degree = {degree} is out of range (1 to 64)")));
             }
@@ -623,6 +636,11 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
             None
         }
         Mode::Energy => {
+            if tt.accuracy.is_some() {
+                return Err(ctx(
+                    "[time] accuracy chooses a uniform step; mode = \"energy\" takes the first `step` instead".into(),
+                ));
+            }
             let h = tt.step.ok_or_else(|| {
                 ctx("[time] mode = \"energy\" needs `step` (the first step; later steps are variables)".into())
             })?;
@@ -642,10 +660,12 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
             })
         }
     };
-    let grid = match (&tt.step, &tt.steps) {
-        (Some(h), None) => TimeGrid::uniform(t0, *h, tt.end),
-        (None, Some(list)) => TimeGrid::steps(t0, list.clone(), tt.end),
-        _ => return Err(ctx("[time] needs exactly one of `step` or `steps`".into())),
+    let grid = match (&tt.step, &tt.steps, &tt.accuracy) {
+        (Some(h), None, None) => TimeGrid::uniform(t0, *h, tt.end),
+        (None, Some(list), None) => TimeGrid::steps(t0, list.clone(), tt.end),
+        // A placeholder until the step is chosen below (after the initial values).
+        (None, None, Some(_)) => TimeGrid::uniform(t0, (tt.end - t0).abs().max(1.0), tt.end),
+        _ => return Err(ctx("[time] needs exactly one of `step`, `steps` or `accuracy`".into())),
     }
     .map_err(|e| ctx(format!("[time]: {e}")))?;
     // Initial values.
@@ -687,6 +707,18 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
         }
         _ => return Err(ctx("[initial] needs exactly one of `v`, `p` or `q1`".into())),
     };
+    // `[time] accuracy`: pilot runs choose the step (femvi::step::auto).
+    let (grid, auto_step) = match tt.accuracy {
+        None => (grid, None),
+        Some(accuracy) => {
+            let choice = crate::with_system!(&system, l => femvi::step::auto::choose_step(
+                l, &element, &start, t0, tt.end, accuracy, options
+            ))
+            .map_err(|e| ctx(format!("[time] accuracy = {accuracy:e}: {e}")))?;
+            let grid = TimeGrid::uniform(t0, choice.step, tt.end).map_err(|e| ctx(format!("[time]: {e}")))?;
+            (grid, Some(choice))
+        }
+    };
     Ok(Loaded::Ivp(Problem {
         name,
         coordinates,
@@ -702,6 +734,7 @@ fn build(path: &Path, text: &str, file: ProblemFile, want_bvp: bool) -> Result<L
         symmetries,
         model: model_info,
         plots: file.output.plots.unwrap_or(false),
+        auto_step,
     }))
 }
 

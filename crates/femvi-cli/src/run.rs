@@ -35,6 +35,34 @@ pub struct Summary {
     /// Energy mode only: steps taken with time as a parameter (on_degenerate = "fixed").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub degenerate_steps: Option<usize>,
+    /// `[time] accuracy` only: the step femvi chose.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_step: Option<AutoStep>,
+}
+
+/// The step chosen for `[time] accuracy` (femvi::step::auto::StepChoice), for summary.json.
+#[derive(Debug, Serialize)]
+pub struct AutoStep {
+    /// The relative position error requested at the end.
+    pub accuracy: f64,
+    /// The step chosen.
+    pub step: f64,
+    /// The element degree used.
+    pub degree: usize,
+    /// The estimated relative position error at the end with this step.
+    pub estimated_error: f64,
+    /// Steps taken by the pilot runs.
+    pub pilot_steps: usize,
+}
+
+fn auto_step(problem: &Problem) -> Option<AutoStep> {
+    problem.auto_step.as_ref().map(|c| AutoStep {
+        accuracy: c.accuracy,
+        step: c.step,
+        degree: problem.element.degree(),
+        estimated_error: c.estimated_error,
+        pilot_steps: c.pilot_steps,
+    })
 }
 
 /// How a run ended.
@@ -359,6 +387,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
         min_step: it.energy_stats().map(|s| s.min_step),
         max_step: it.energy_stats().map(|s| s.max_step),
         degenerate_steps: it.energy_stats().map(|s| s.degenerate_steps),
+        auto_step: auto_step(problem),
     };
     write_summary(dir, &summary)?;
     Ok(if summary.error.is_some() {
@@ -385,6 +414,7 @@ fn empty_summary(problem: &Problem, wall: f64, error: String) -> Summary {
         min_step: None,
         max_step: None,
         degenerate_steps: None,
+        auto_step: auto_step(problem),
     }
 }
 

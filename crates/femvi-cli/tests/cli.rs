@@ -177,6 +177,11 @@ fn corpus() -> Vec<(&'static str, Vec<u8>, i32, &'static str)> {
         ("energy-bad-policy", g("step = 0.1", "mode = \"energy\"\nstep = 0.1\non_degenerate = \"skip\""), 2, "fixed"),
         ("inf-initial", g("q = [1.0]", "q = [inf]"), 2, "non-finite"),
         ("no-initial", g("[initial]\nq = [1.0]\nv = [0.0]\n", ""), 2, "needs [initial] and [time]"),
+        ("accuracy-and-step", g("step = 0.1", "step = 0.1\naccuracy = 1e-6"), 2, "exactly one of `step`, `steps` or `accuracy`"),
+        ("accuracy-too-small", g("step = 0.1", "accuracy = 1e-14"), 2, "outside"),
+        ("accuracy-negative", g("step = 0.1", "accuracy = -1e-6"), 2, "outside"),
+        ("accuracy-energy-mode", g("step = 0.1", "mode = \"energy\"\nstep = 0.1\naccuracy = 1e-6"), 2, "uniform step"),
+        ("accuracy-q1-start", GOOD.replacen("v = [0.0]", "q1 = [0.99]", 1).replacen("step = 0.1", "accuracy = 1e-6", 1).into_bytes(), 2, "fixes the first step"),
         ("boundary-in-run", format!("{GOOD}\n[boundary]\nt0 = 0.0\nq0 = [0.0]\nt1 = 1.0\nq1 = [0.0]\nelements = 4\n").into_bytes(), 2, "femvi bvp"),
     ]
 }
@@ -246,6 +251,43 @@ fn a_step_that_cannot_converge_is_a_numerical_failure_with_output_kept() {
         steps + 2,
         "header, node 0 and one row per completed step"
     );
+}
+
+/// `[time] accuracy`: femvi picks degree and step, reports them, and the run meets the
+/// accuracy (the harmonic oscillator x'' = −x from x = 1, v = 0: x(t) = cos t).
+#[test]
+fn accuracy_chooses_degree_and_step_and_reports_them() {
+    let dir = tempfile::tempdir().unwrap();
+    for accuracy in [1e-5, 1e-9] {
+        let path = dir.path().join("p.toml");
+        std::fs::write(
+            &path,
+            GOOD.replacen("step = 0.1", &format!("accuracy = {accuracy:e}"), 1)
+                .replacen("end = 1.0", "end = 300.0", 1),
+        )
+        .unwrap();
+        let out = dir.path().join("out");
+        let res = femvi().arg("run").arg(&path).arg("--out").arg(&out).output().unwrap();
+        let stdout = String::from_utf8_lossy(&res.stdout);
+        assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));
+        assert!(
+            stdout.contains(&format!("accuracy {accuracy:.1e}: degree ")),
+            "{stdout}"
+        );
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let auto = &summary["auto_step"];
+        let degree = auto["degree"].as_u64().unwrap() as usize;
+        assert_eq!(degree, femvi::step::auto::degree_for_accuracy(accuracy));
+        let step = auto["step"].as_f64().unwrap();
+        let steps = summary["steps"].as_u64().unwrap() as f64;
+        assert!((steps - (300.0 / step).ceil()).abs() <= 1.0, "{summary}");
+        let error = (summary["final_q"][0].as_f64().unwrap() - 300f64.cos()).abs();
+        assert!(
+            error <= accuracy && error >= accuracy / 100.0,
+            "{error:e} for {accuracy:e}"
+        );
+    }
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! internal and end nodes together ((2.40)–(2.42), generalised to any degree), then
 //! p_{k+1} = ∂L_d/∂Q^s. Uniform or variable grids (generalised Veselov mechanics, (2.3)).
 
+pub mod auto;
 pub mod fixed_point;
 pub mod grid;
 pub mod integrator;
