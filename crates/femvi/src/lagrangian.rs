@@ -42,6 +42,17 @@ pub trait Lagrangian {
         out.copy_from_slice(d.l_q());
     }
 
+    /// The forces at several points at once: for point i, `out[i n..(i + 1) n]` is
+    /// [`Lagrangian::force`] at `(t[i], q[i n..(i + 1) n])`. The fixed-point solver asks for
+    /// all quadrature points of an element in one call, so that an implementation can
+    /// vectorise across points. Default: one `force` call per point.
+    fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
+        let n = self.dim();
+        for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
+            self.force(ti, qi, oi);
+        }
+    }
+
     /// Value and gradient of L with respect to (q, v), and ∂L/∂t if `with_t`, into `out`.
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         out.first_by_ad(self, t, q, v, with_t);
@@ -317,6 +328,15 @@ pub trait Potential {
         }
     }
 
+    /// The forces at several points at once (see [`Lagrangian::forces`]). Default: one
+    /// [`Potential::force`] call per point.
+    fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
+        let n = self.dim();
+        for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
+            self.force(ti, qi, oi);
+        }
+    }
+
     /// The Jacobian of the force, −∇²V, row-major n×n into `out`. Default: hyper-dual AD.
     fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) {
         let n = q.len();
@@ -389,6 +409,10 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
 
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
         self.potential.force(t, q, out);
+    }
+
+    fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
+        self.potential.forces(t, q, out);
     }
 
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {

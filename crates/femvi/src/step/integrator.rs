@@ -4,7 +4,7 @@
 //! with the trapezoid rule, which is Störmer–Verlet). Positions and momenta are advanced by
 //! increments with compensated summation, so round-off grows like √steps.
 
-use super::fixed_point::{FixedPointTables, StepTables};
+use super::fixed_point::{affine, FixedPointTables, StepTables};
 use super::grid::TimeGrid;
 use super::start::StageStart;
 use crate::discrete::{Element, ElementWork};
@@ -215,6 +215,10 @@ pub struct Integrator<'a, L: Lagrangian> {
     // Workspaces.
     x: Vec<f64>,
     incr: Vec<f64>,
+    /// The node increments' second, small sum (fixed-point step with exact coefficients).
+    incr_lo: Vec<f64>,
+    /// The positions q_k + Y_l at the quadrature points (fixed-point sweep).
+    stage_q: Vec<f64>,
     grad: Vec<f64>,
     hess: Vec<f64>,
     ework: ElementWork,
@@ -316,6 +320,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             last_incr: vec![0.0; (s + 1) * n],
             x: vec![0.0; s * n],
             incr: vec![0.0; (s + 1) * n],
+            incr_lo: vec![0.0; s * n],
+            stage_q: vec![0.0; element.points() * n],
             grad: vec![0.0; (s + 1) * n],
             hess: vec![0.0; ((s + 1) * n).pow(2)],
             ework: ElementWork::new(element, n),
@@ -1029,7 +1035,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                         &mut self.y,
                         &mut self.force,
                         &mut self.wforce,
-                        &mut self.tmp,
+                        &mut self.stage_q,
                     )
                 };
             }
@@ -1098,20 +1104,22 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         // Node increments ΔQ^m = h α_m u + h² Σ_i β_mi w_i and the momentum increment
         // h Σ_i b_i f_i from the last forces, with the coefficients' rounding errors as a
         // second, small sum when polishing.
-        for m in 0..s {
-            for c in 0..n {
-                let mut hi = st.h_alpha[m] * self.u[c];
-                for i in 0..r {
-                    hi += st.h2_beta[m * r + i] * w[i * n + c];
-                }
-                if exact {
-                    let mut lo = st.h_alpha_lo[m] * self.u[c];
-                    for i in 0..r {
-                        lo += st.h2_beta_lo[m * r + i] * w[i * n + c];
-                    }
-                    hi += lo;
-                }
-                self.incr[(m + 1) * n + c] = hi;
+        affine(
+            s,
+            n,
+            &st.h_alpha,
+            &self.u,
+            &st.h2_beta,
+            r,
+            w,
+            &mut self.incr[n..],
+            false,
+        );
+        if exact {
+            let lo = &mut self.incr_lo[..s * n];
+            affine(s, n, &st.h_alpha_lo, &self.u, &st.h2_beta_lo, r, w, lo, false);
+            for (hi, lo) in self.incr[n..].iter_mut().zip(lo.iter()) {
+                *hi += lo;
             }
         }
         self.dq.copy_from_slice(&self.incr[s * n..]);
@@ -1186,13 +1194,15 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     }
 }
 
-/// One sweep of the fixed-point map of the stage values: the forces at q + Y_l, then
-/// Y_l ← h a_l u + h² Σ_i B_li M⁻¹f_i in place (`h2b` row-major). Returns (max |ΔY|, max |Y|),
-/// NaN if a value is not finite. `N` is the dimension when known at compile time (0: use
-/// `n`), which lets the compiler unroll the component loops. (Measured and not kept: a
-/// Gauss–Seidel order, each stage updated with the newest forces — no fewer sweeps on the
-/// pendulum, and slower; summing column by column into a second buffer so that the stage
-/// loop vectorises — no faster.)
+/// One sweep of the fixed-point map of the stage values: the forces at q + Y_l for all l in
+/// one [`Lagrangian::forces`] call, then Y_l ← h a_l u + h² Σ_i B_li M⁻¹f_i in place by
+/// [`affine`] (`h2b` column-major). Returns (max |ΔY|, max |Y|), NaN if a value is not
+/// finite. `N` is the dimension when known at compile time (0: use `n`), which lets the
+/// compiler unroll the component loops. (Measured and not kept: a Gauss–Seidel order, each
+/// stage updated with the newest forces — no fewer sweeps on the pendulum, and slower. Kept:
+/// the column-major sum with the stage count fixed at compile time, which vectorises — P3,
+/// degree 8, h = 1: 11 500 → 9 800 instructions and 675 → 612 ns per step, best of 15
+/// against the row-by-row sum with runtime sizes.)
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn fixed_point_sweep<L: Lagrangian, const N: usize>(
@@ -1207,19 +1217,19 @@ fn fixed_point_sweep<L: Lagrangian, const N: usize>(
     y: &mut [f64],
     force: &mut [f64],
     wforce: &mut [f64],
-    tmp: &mut [f64],
+    pos: &mut [f64],
 ) -> (f64, f64) {
     let n = if N > 0 { N } else { n };
     let r = stage_t.len();
     let rn = r * n;
-    let (q, u, tmp) = (&q[..n], &u[..n], &mut tmp[..n]);
+    let (q, u) = (&q[..n], &u[..n]);
     let identity = mass.is_identity();
-    for ((yl, fl), &tl) in y.chunks_exact(n).zip(force.chunks_exact_mut(n)).zip(stage_t) {
+    for (pl, yl) in pos[..rn].chunks_exact_mut(n).zip(y.chunks_exact(n)) {
         for c in 0..n {
-            tmp[c] = q[c] + yl[c];
+            pl[c] = q[c] + yl[c];
         }
-        lag.force(tl, tmp, fl);
     }
+    lag.forces(stage_t, &pos[..rn], &mut force[..rn]);
     // M⁻¹ f: the forces themselves for unit masses (no copy).
     let w: &[f64] = if identity {
         &force[..rn]
@@ -1229,27 +1239,7 @@ fn fixed_point_sweep<L: Lagrangian, const N: usize>(
         }
         &wforce[..rn]
     };
-    let mut delta = 0.0f64;
-    let mut ymax = 0.0f64;
-    // x·0 is NaN exactly when x is not finite: one add per value instead of a branch.
-    let mut probe = 0.0f64;
-    for ((yl, row), &hal) in y[..rn].chunks_exact_mut(n).zip(h2b.chunks_exact(r)).zip(ha) {
-        for c in 0..n {
-            let mut acc = hal * u[c];
-            for (b, wi) in row.iter().zip(w.chunks_exact(n)) {
-                acc += b * wi[c];
-            }
-            let d = (acc - yl[c]).abs();
-            if d > delta {
-                delta = d;
-            }
-            if acc.abs() > ymax {
-                ymax = acc.abs();
-            }
-            probe += acc * 0.0;
-            yl[c] = acc;
-        }
-    }
+    let (delta, ymax, probe) = affine(r, n, ha, u, h2b, r, w, &mut y[..rn], true);
     if probe.is_nan() {
         return (f64::NAN, f64::NAN);
     }

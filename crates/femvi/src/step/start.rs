@@ -20,7 +20,7 @@
 //! All tables are products of Lagrange bases with the h-scaled element tables, kept until the
 //! step, the step ratio or the set of data changes (so a uniform grid computes them once).
 
-use super::fixed_point::FixedPointTables;
+use super::fixed_point::{affine, FixedPointTables};
 use crate::discrete::Element;
 
 /// Where the predicted force is taken, as a fraction of the new step (0.3 … 1 measured alike).
@@ -68,7 +68,8 @@ struct Tables {
     /// h a(θ) and h² B(θ) E₁ (length m1): the predicted position from the first m1 data.
     pred_a: f64,
     pred: Vec<f64>,
-    /// h² B E₂ (r × w, w = m1 + 1 with the predictor, m1 without): the stages from all data.
+    /// h² B E₂ (column-major r × w, w = m1 + 1 with the predictor, m1 without): the stages
+    /// from all data.
     mat: Vec<f64>,
 }
 
@@ -179,7 +180,7 @@ impl StageStart {
             for l in 0..r {
                 let b = h * h * tab.b[l * r + i];
                 for j in 0..w {
-                    t.mat[l * w + j] += b * self.row[j];
+                    t.mat[j * r + l] += b * self.row[j];
                 }
             }
         }
@@ -236,16 +237,7 @@ impl StageStart {
             eval(PREDICTOR_THETA, &self.y_theta, &mut self.data[m1 * n..(m1 + 1) * n]);
         }
         let w = m1 + usize::from(rich);
-        for l in 0..r {
-            let row = &t.mat[l * w..(l + 1) * w];
-            for c in 0..n {
-                let mut acc = ha[l] * u[c];
-                for (j, m) in row.iter().enumerate() {
-                    acc += m * self.data[j * n + c];
-                }
-                y[l * n + c] = acc;
-            }
-        }
+        affine(r, n, ha, u, &t.mat, w, &self.data, y, false);
     }
 }
 
