@@ -3,7 +3,7 @@
 //! `tool,problem,config,step,steps,cpu_seconds,error` for a sweep of elements and steps, with
 //! process CPU time. Run by benches/peers/run.sh; not part of `cargo test`.
 //!
-//! Usage: cargo run --release -p femvi --example work_precision -- p1|p2|p3|roundoff|reference
+//! Usage: cargo run --release -p femvi --example work_precision -- p1|p2|p3|p3-best|roundoff
 
 use femvi::diagnostics::exact;
 use femvi::{models, Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
@@ -245,6 +245,35 @@ fn p3() {
     }
 }
 
+/// The cheapest P3 configurations of the sweep at 1e-6 and 1e-10, alone: run by
+/// benches/peers/repeat.sh alternately with the C Verlet loop, to see how far their margin
+/// against the scaled GNI_IRK2 figures stands above the machine's run-to-run noise.
+fn p3_best() {
+    let configs: &[(usize, f64, f64, bool)] = &[
+        (6, 1.25, 1e-10, false),
+        (8, 1.0, 1e-14, false),
+        (9, 1.25, 1e-14, false),
+        (10, 1.5, 1e-14, false),
+        (10, 1.5, 1e-14, true),
+    ];
+    for &(s, h, tolerance, polish) in configs {
+        let opts = SolverOptions {
+            tolerance,
+            polish,
+            ..Default::default()
+        };
+        let tag = if polish {
+            String::new()
+        } else {
+            format!(" / tol {tolerance:e} unpolished")
+        };
+        match p3_run(&element(s), h, opts) {
+            Some((t, e, n)) => println!("femvi,P3,{}{tag},{h:e},{n},{t:e},{e:e}", label(s)),
+            None => eprintln!("P3 {}{tag} h = {h}: a step failed (typed error)", label(s)),
+        }
+    }
+}
+
 /// Energy error of P3 at machine-level accuracy over 10⁷ steps: the envelope of |ΔH| in
 /// doubling windows of steps, and the least-squares exponent of its growth.
 fn roundoff() {
@@ -277,7 +306,8 @@ fn main() {
         Some("p1") => p1(),
         Some("p2") => p2(),
         Some("p3") => p3(),
+        Some("p3-best") => p3_best(),
         Some("roundoff") => roundoff(),
-        _ => eprintln!("usage: work_precision p1|p2|p3|roundoff"),
+        _ => eprintln!("usage: work_precision p1|p2|p3|p3-best|roundoff"),
     }
 }

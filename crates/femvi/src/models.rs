@@ -390,6 +390,9 @@ impl Potential for HarmonicPotential {
 /// the work, and glibc's sine took 8.4 ns a call against 4.1 ns for `libm::sin` in a loop of
 /// eight independent arguments in [−1.7, 1.7] (P3's range), the two differing by at most 1 ulp
 /// (in 2.8 % of 10⁶ arguments). The AD paths ([`Potential::value`]) keep `f64::sin`/`cos`.
+/// [`Potential::forces`] is written out as one loop over the points rather than the default
+/// call of `force` per point, which the compiler did not inline: P3 with degree 10 at
+/// h = 1.5, 13 100 → 11 700 instructions per step (cachegrind), results unchanged.
 #[derive(Debug, Clone, Copy)]
 pub struct PendulumPotential {
     /// m g l.
@@ -408,6 +411,11 @@ impl Potential for PendulumPotential {
     }
     fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         out[0] = -self.mgl * libm::sin(q[0]);
+    }
+    fn forces(&self, _t: &[f64], q: &[f64], out: &mut [f64]) {
+        for (o, &x) in out.iter_mut().zip(q) {
+            *o = -self.mgl * libm::sin(x);
+        }
     }
     fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         out[0] = -self.mgl * libm::cos(q[0]);
@@ -620,6 +628,29 @@ mod tests {
         assert!(worst <= 1, "{worst} ulps");
         // Two implementations, not one: they do differ somewhere.
         assert!(differ > 0);
+    }
+
+    /// `forces` (several points at once; the pendulum overrides it, the others take the
+    /// per-point default) gives what `force` gives point by point, bit for bit, also through
+    /// the `Lagrangian` of a `Mechanical` system with a non-unit mass.
+    #[test]
+    fn forces_at_several_points_are_the_force_at_each() {
+        fn check<L: Lagrangian>(lag: &L, n: usize) {
+            let k = 7;
+            let t: Vec<f64> = (0..k).map(|i| 0.3 * i as f64).collect();
+            let q: Vec<f64> = (0..k * n).map(|i| -2.0 + 0.61 * i as f64).collect();
+            let mut all = vec![f64::NAN; k * n];
+            lag.forces(&t, &q, &mut all);
+            for i in 0..k {
+                let mut one = vec![f64::NAN; n];
+                lag.force(t[i], &q[i * n..(i + 1) * n], &mut one);
+                assert_eq!(&all[i * n..(i + 1) * n], &one[..], "point {i}");
+            }
+        }
+        check(&pendulum(2.0, 9.81, 0.5).unwrap(), 1);
+        check(&Mechanical::unit_mass(PendulumPotential { mgl: 1.0 }), 1);
+        check(&kepler(1.0), 2);
+        check(&henon_heiles(), 2);
     }
 
     #[test]
