@@ -258,3 +258,65 @@ fn advance_is_bit_identical_to_step() {
         },
     );
 }
+
+/// A force that turns infinite (past q = 1) stops explicit stepping with the typed
+/// non-finite error at the last good node, the same node by `step` and by the fast `advance`
+/// path, which also agree with a hand-written Verlet loop run to the first non-finite value.
+#[test]
+fn explicit_steps_stop_at_the_last_finite_node() {
+    use femvi::{Error, StepFailure};
+    struct Wall;
+    impl Potential for Wall {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn value<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+            -q[0]
+        }
+        fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+            out[0] = if q[0] > 1.0 { f64::INFINITY } else { 1.0 };
+        }
+    }
+    let lag = Mechanical::unit_mass(Wall);
+    let trap = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    let h = 0.01;
+    let grid = TimeGrid::uniform(0.0, h, 10.0).unwrap();
+    let start = Start::Momentum {
+        q: vec![0.0],
+        p: vec![0.0],
+    };
+    // Hand-written: from rest under a unit force, q_k ≈ (kh)²/2 until it passes 1.
+    let (mut q, mut p, mut good) = (0.0f64, 0.0f64, 0usize);
+    loop {
+        let qn = q + h * p + 0.5 * h * h;
+        let f1 = if qn > 1.0 { f64::INFINITY } else { 1.0 };
+        let pn = p + 0.5 * h * (1.0 + f1);
+        if !pn.is_finite() {
+            break;
+        }
+        (q, p, good) = (qn, pn, good + 1);
+    }
+    let mut a = Integrator::new(&lag, &trap, grid.clone(), start.clone(), SolverOptions::default()).unwrap();
+    let ea = loop {
+        match a.step() {
+            Ok(true) => {}
+            Ok(false) => panic!("step: the wall was not met"),
+            Err(e) => break e,
+        }
+    };
+    let mut b = Integrator::new(&lag, &trap, grid, start, SolverOptions::default()).unwrap();
+    let eb = loop {
+        match b.advance(usize::MAX) {
+            Ok(0) => panic!("advance: the wall was not met"),
+            Ok(_) => {}
+            Err(e) => break e,
+        }
+    };
+    for (it, e) in [(&a, ea), (&b, eb)] {
+        let Error::Step(e) = e else { panic!("{e}") };
+        assert_eq!(e.failure, StepFailure::NonFinite);
+        assert_eq!(it.node().k, good);
+        assert!((it.node().q[0] - q).abs() < 1e-12 && (it.node().p[0] - p).abs() < 1e-12);
+    }
+    assert_eq!((a.node().q, a.node().p), (b.node().q, b.node().p));
+}

@@ -697,8 +697,14 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let (mut last_t, mut last_h, mut last_q, mut last_dq) = (self.last_t, self.last_h, q, dq);
         let mut done = 0;
         let mut failed = false;
+        let uniform = self.grid.uniform_rule();
+        let mut k1 = (k + 1) as i64 as f64;
         while done < max_steps {
-            let Some((h, t_next)) = self.grid.next(k, t) else { break };
+            let next = match &uniform {
+                Some(u) => u.next(k1, t),
+                None => self.grid.next(k, t),
+            };
+            let Some((h, t_next)) = next else { break };
             let half_h2 = 0.5 * h * h;
             let prev = (q, p, cq, cp, pending);
             if identity {
@@ -726,7 +732,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 p[c] = tp;
             }
             self.lag.force(t + h, &y, &mut f1);
-            let mut finite = true;
+            // x·0 is NaN exactly when x is not finite: one sum tells whether all are.
+            let mut probe = 0.0;
             for c in 0..N {
                 dp[c] = 0.5 * h * (f0[c] + f1[c]);
                 let yq = dq[c] + cq[c];
@@ -734,9 +741,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 cq[c] = (q[c] - tq) + yq;
                 q[c] = tq;
                 pending[c] = dp[c];
-                finite &= dp[c].is_finite() && tq.is_finite();
+                probe += dp[c] * 0.0 + tq * 0.0;
             }
-            if !finite {
+            if probe.is_nan() {
                 (q, p, cq, cp, pending) = prev;
                 failed = true;
                 break;
@@ -747,6 +754,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             last_t = t;
             last_h = h;
             k += 1;
+            k1 += 1.0;
             t = t_next;
             done += 1;
         }

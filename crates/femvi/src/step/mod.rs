@@ -9,5 +9,5 @@ pub mod grid;
 pub mod integrator;
 mod start;
 
-pub use grid::TimeGrid;
+pub use grid::{TimeGrid, UniformRule};
 pub use integrator::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start};
