@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # P3's cheapest femvi configurations at 1e-6 and 1e-10 (work_precision p3-best), run K times
-# (default 7) alternately with the C Verlet loop; prints each femvi time against GNI_IRK2's
-# figure scaled by the Verlet loop of the same repetition (0.11 s at 1e-6 and 0.12 s at 1e-10
-# on a machine whose loop took 34 ns per step), and the median and range of those ratios.
+# (default 7) alternately with the C Verlet loop, each time the least of 3 runs; prints each
+# femvi time against GNI_IRK2's figure scaled by the Verlet loop of the same repetition (0.11 s
+# at 1e-6 and 0.12 s at 1e-10 on a machine whose loop took 34 ns per step), and the median and
+# range of those ratios.
 # Run by hand (not by CI); see README.md here.
 set -euo pipefail
 cd "$(dirname "$0")"
