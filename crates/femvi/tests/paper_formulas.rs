@@ -320,3 +320,74 @@ fn explicit_steps_stop_at_the_last_finite_node() {
     }
     assert_eq!((a.node().q, a.node().p), (b.node().q, b.node().p));
 }
+
+/// The explicit fast path on a variable grid (steps 0.01, 0.017, 0.006 in turn, so that the
+/// drift's coefficients ½h_k h_{k−1} and ½h_k(h_{k−1} + h_k) differ every step) against a
+/// hand-written variable-step velocity Verlet with M⁻¹ and against Newton's method on the
+/// element equations, with unit and non-unit diagonal masses.
+#[test]
+fn explicit_steps_on_a_variable_grid_are_verlet() {
+    let trap = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    let steps = vec![0.01, 0.017, 0.006];
+    let grid = TimeGrid::steps(0.0, steps.clone(), 30.0).unwrap();
+    let hh = Mechanical::new(
+        femvi::models::HenonHeilesPotential,
+        femvi::MassMatrix::diagonal(vec![2.0, 0.5]).unwrap(),
+    )
+    .unwrap();
+    fn check<L: femvi::Lagrangian>(
+        lag: &L,
+        minv: [f64; 2],
+        trap: &Element,
+        grid: &TimeGrid,
+        q0: [f64; 2],
+        p0: [f64; 2],
+    ) {
+        let start = Start::Momentum {
+            q: q0.to_vec(),
+            p: p0.to_vec(),
+        };
+        let newton = SolverOptions {
+            method: femvi::Method::Newton,
+            ..Default::default()
+        };
+        let mut fast = Integrator::new(lag, trap, grid.clone(), start.clone(), SolverOptions::default()).unwrap();
+        let mut slow = Integrator::new(lag, trap, grid.clone(), start, newton).unwrap();
+        let f = |q: [f64; 2]| {
+            let mut out = [0.0; 2];
+            lag.force(0.0, &q, &mut out);
+            out
+        };
+        let (mut q, mut p, mut k) = (q0, p0, 0usize);
+        let (mut worst_hand, mut worst_newton) = (0.0f64, 0.0f64);
+        while let Some((h, _)) = grid.next(k, fast.node().t) {
+            let f0 = f(q);
+            let qn = [
+                q[0] + h * minv[0] * p[0] + 0.5 * h * h * minv[0] * f0[0],
+                q[1] + h * minv[1] * p[1] + 0.5 * h * h * minv[1] * f0[1],
+            ];
+            let f1 = f(qn);
+            p = [p[0] + 0.5 * h * (f0[0] + f1[0]), p[1] + 0.5 * h * (f0[1] + f1[1])];
+            q = qn;
+            assert!(fast.step().unwrap() && slow.step().unwrap());
+            k += 1;
+            let (a, b) = (fast.node(), slow.node());
+            for c in 0..2 {
+                worst_hand = worst_hand.max((a.q[c] - q[c]).abs()).max((a.p[c] - p[c]).abs());
+                worst_newton = worst_newton.max((a.q[c] - b.q[c]).abs()).max((a.p[c] - b.p[c]).abs());
+            }
+        }
+        assert!(k > 2000);
+        assert!(worst_hand < 1e-11, "against the hand-written loop: {worst_hand:e}");
+        assert!(worst_newton < 1e-11, "against Newton: {worst_newton:e}");
+    }
+    check(
+        &femvi::models::kepler(1.0),
+        [1.0, 1.0],
+        &trap,
+        &grid,
+        [0.4, 0.0],
+        [0.0, 2.0],
+    );
+    check(&hh, [0.5, 2.0], &trap, &grid, [0.1, -0.1], [0.3, 0.2]);
+}
