@@ -328,8 +328,7 @@ fn explicit_steps_stop_at_the_last_finite_node() {
 #[test]
 fn explicit_steps_on_a_variable_grid_are_verlet() {
     let trap = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
-    let steps = vec![0.01, 0.017, 0.006];
-    let grid = TimeGrid::steps(0.0, steps.clone(), 30.0).unwrap();
+    let grid = TimeGrid::steps(0.0, vec![0.01, 0.017, 0.006], 30.0).unwrap();
     let hh = Mechanical::new(
         femvi::models::HenonHeilesPotential,
         femvi::MassMatrix::diagonal(vec![2.0, 0.5]).unwrap(),

@@ -92,9 +92,9 @@ impl TimeGrid {
         Some((h, t_next))
     }
 
-    /// For a uniform grid, its step rule with the constants computed once (for loops that take
-    /// many steps: the explicit step's runs about 20 instructions a step, and this is [`next`]'s
-    /// own rule, so the values are the same).
+    /// For a uniform grid, its step rule with the constants computed once, for loops that take
+    /// many steps (the explicit fast path). It is the rule [`next`] itself applies, so both
+    /// give the same values.
     ///
     /// [`next`]: Self::next
     #[inline]

@@ -714,7 +714,11 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             ([0.0; N], 0.0)
         };
         let (mut f0, mut f1, mut y, mut dq, mut dp) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+        // M⁻¹ f_{k−1}, carried from step to step like f_{k−1} itself.
         let (mut u, mut w, mut wprev) = ([0.0; N], [0.0; N], [0.0; N]);
+        if !IDENTITY {
+            mass.solve(&fprev, &mut wprev);
+        }
         if self.force0_valid {
             let off = self.fsal_slot * N;
             f0 = load(&self.force[off..off + N]);
@@ -747,7 +751,6 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                     pk[c] = p[c] + cp[c];
                 }
                 mass.solve(&pk, &mut u);
-                mass.solve(&fprev, &mut wprev);
                 mass.solve(&f0, &mut w);
                 for c in 0..N {
                     dq[c] = (h * u[c] + a * wprev[c]) + b * w[c];
@@ -781,6 +784,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             last_q = prev.0;
             last_dq = dq;
             fprev = f0;
+            wprev = w;
             hprev = h;
             f0 = f1;
             last_t = t;
