@@ -83,6 +83,9 @@ pub enum Error {
     /// A step failed.
     #[error(transparent)]
     Step(#[from] StepError),
+    /// An observer of a run (an output being written) failed; the run stopped there.
+    #[error("{0}")]
+    Observer(String),
 }
 
 /// Shorthand for results of this crate.

@@ -4,10 +4,12 @@
 //! p_{k+1} = ∂L_d/∂Q^s. Uniform or variable grids (generalised Veselov mechanics, (2.3)).
 
 pub mod auto;
+pub mod drive;
 pub mod fixed_point;
 pub mod grid;
 pub mod integrator;
 mod start;
 
+pub use drive::{drive, DriveReport, Observer};
 pub use grid::{TimeGrid, UniformRule};
 pub use integrator::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start};
