@@ -12,7 +12,9 @@
 //! energy is insensitive to h (c₂ ≈ 0) or has no root in the bounds, the step is degenerate:
 //! a typed error, or (on request) one step with h as a parameter, counted.
 
-use super::{Integrator, Resolved};
+use super::element_work::buffers;
+use super::integrator::Integrator;
+use super::solver::{Kind, Solver};
 use crate::error::{invalid, Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
 
@@ -70,6 +72,8 @@ pub(super) struct EnergyState {
     /// Compensation of the carried energy's sum of increments.
     comp: f64,
     stats: EnergyStats,
+    /// The node's positions during a search (the element's base; no allocation per trial).
+    scratch: Vec<f64>,
 }
 
 /// Relative size of |g| at which the search stops; the residual left is at round-off level.
@@ -104,16 +108,16 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             ));
         }
         let mut me = Self::new(lag, element, grid, start, options)?;
-        if me.method == Resolved::Explicit {
+        if me.solver.kind() == Kind::Explicit {
             // Explicit stepping keeps state between steps; the search solves a step repeatedly.
-            me.method = Resolved::FixedPoint;
-            me.fp = Some(super::FixedPointTables::new(element)?);
+            me.solver = Solver::new(Kind::FixedPoint, element, me.state.n)?;
         }
         let mut state = EnergyState {
             opts: energy,
             started: false,
             h_prev: h0,
             comp: 0.0,
+            scratch: Vec::new(),
             stats: EnergyStats {
                 energy: f64::NAN,
                 min_step: f64::INFINITY,
@@ -124,9 +128,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         };
         if me.pending.is_some() {
             // Start from (q0, q1): element 0 was solved in `new`; its E⁺ at t1 is the energy.
-            let (t, h) = (me.last_t, me.last_h);
-            let base = me.last_base.clone();
-            me.incr.copy_from_slice(&me.last_incr);
+            let (t, h) = (me.last.t, me.last.h);
+            let base = me.last.base.clone();
+            me.inc.incr.copy_from_slice(&me.last.incr);
             let (_, e_plus, _) = me.element_energies(t, h, &base);
             state.started = true;
             state.stats.energy = e_plus;
@@ -135,104 +139,6 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         }
         me.energy = Some(state);
         Ok(me)
-    }
-
-    /// The tangent map of the last energy-mode step on extended phase space, in the canonical
-    /// variables (q, t; p, −E) (row-major, 2(n+1) square, ordered q_1 … q_n, t, p_1 … p_n, −E).
-    /// The step equations R_j = δ_j0 p_k + ∂L_d/∂Q^j (j < s) and R_E = ∂L_d/∂t_k − E_k are
-    /// differentiated implicitly for (dX, dt_{k+1}), with the full Hessian F of L_d in
-    /// (t_k, t_{k+1}, Q); then q' = q_k + X^s, t' = t_{k+1}, p' = ∂L_d/∂Q^s, E' = −∂L_d/∂t_{k+1}.
-    /// The paper's (3.6) says this map preserves dq∧dp − dt∧dE.
-    ///
-    /// # Errors
-    /// Not in energy mode, no variable step taken yet, or a singular system.
-    pub fn extended_tangent_map(&mut self) -> Result<Vec<f64>> {
-        if self.energy.is_none() || !self.have_last {
-            return Err(invalid("extended tangent map", "needs a step taken in energy mode"));
-        }
-        let n = self.n;
-        let s = self.element.degree();
-        let (t0, h) = (self.last_t, self.last_h);
-        let (_, _, f) = self
-            .element
-            .full_hessian(self.lag, t0, h, &self.last_base, &self.last_incr);
-        let m = 2 + (s + 1) * n;
-        let fz = |a: usize, b: usize| f[a * m + b];
-        // Indices into z: τ0 = 0, τ1 = 1, Q^j component c = 2 + j n + c.
-        let qi = |j: usize, c: usize| 2 + j * n + c;
-        let dim = s * n + 1;
-        // Unknowns: dX^m (m = 1..=s), then dt_{k+1}. Rows: R_j (j < s), then R_E.
-        let jac = nalgebra::DMatrix::from_fn(dim, dim, |row, col| {
-            let rz = if row < s * n { qi(row / n, row % n) } else { 0 };
-            if col < s * n {
-                fz(rz, qi(col / n + 1, col % n))
-            } else {
-                fz(rz, 1)
-            }
-        });
-        let lu = jac.lu();
-        let d = 2 * (n + 1);
-        let mut out = vec![0.0; d * d];
-        // Inputs in the order (q_1..q_n, t, p_1..p_n, −E).
-        for col in 0..d {
-            let dq = |c: usize| if col < n && c == col { 1.0 } else { 0.0 };
-            let dt0 = if col == n { 1.0 } else { 0.0 };
-            let dp = |c: usize| {
-                if col > n && col < 2 * n + 1 && c == col - n - 1 {
-                    1.0
-                } else {
-                    0.0
-                }
-            };
-            let de = if col == 2 * n + 1 { -1.0 } else { 0.0 }; // the variable is −E
-                                                                // dQ^j = dq + dX^j contributes Σ_m F_{r,Q^m} dq through all nodes (translation).
-            let translation = |rz: usize| {
-                (0..=s)
-                    .map(|j| (0..n).map(|c| fz(rz, qi(j, c)) * dq(c)).sum::<f64>())
-                    .sum::<f64>()
-            };
-            let mut rhs = nalgebra::DVector::zeros(dim);
-            for row in 0..dim {
-                let rz = if row < s * n { qi(row / n, row % n) } else { 0 };
-                let mut r = translation(rz) + fz(rz, 0) * dt0;
-                if row < n {
-                    r += dp(row);
-                }
-                if row == s * n {
-                    r -= de;
-                }
-                rhs[row] = -r;
-            }
-            let sol = lu.solve(&rhs).ok_or_else(|| {
-                Error::Step(StepError {
-                    step: self.k.saturating_sub(1),
-                    t: t0,
-                    residual: f64::NAN,
-                    iterations: 0,
-                    failure: StepFailure::Singular,
-                })
-            })?;
-            let dx = |j: usize, c: usize| if j == 0 { 0.0 } else { sol[(j - 1) * n + c] };
-            let dt1 = sol[s * n];
-            // Differential of ∂L_d/∂z_r along the solution.
-            let along = |rz: usize| {
-                let mut acc = fz(rz, 0) * dt0 + fz(rz, 1) * dt1;
-                for j in 0..=s {
-                    for c in 0..n {
-                        acc += fz(rz, qi(j, c)) * (dq(c) + dx(j, c));
-                    }
-                }
-                acc
-            };
-            for c in 0..n {
-                out[c * d + col] = dq(c) + dx(s, c);
-                out[(n + 1 + c) * d + col] = along(qi(s, c));
-            }
-            out[n * d + col] = dt1;
-            // E' = −∂L_d/∂t_{k+1}; the variable is −E' = ∂L_d/∂t_{k+1}.
-            out[(2 * n + 1) * d + col] = along(1);
-        }
-        Ok(out)
     }
 
     /// Statistics of the energy mode (None with steps as parameters).
@@ -244,21 +150,15 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// in `incr` (as left by a solve).
     fn element_energies(&mut self, t: f64, h: f64, base: &[f64]) -> (f64, f64, f64) {
         let autonomous = self.lag.is_autonomous();
-        self.element.gradient_in_place(
-            self.lag,
-            t,
-            h,
-            base,
-            &self.incr,
-            !autonomous,
-            &mut self.ework,
-            &mut self.grad,
-        );
-        let (em, ep) = self.element.energies(h, &self.ework);
-        let n = self.n;
+        let n = self.state.n;
+        let b = buffers(&mut self.bufs, self.element, n);
+        let (ework, grad) = (&mut b.ework, &mut b.grad);
+        self.element
+            .gradient_in_place(self.lag, t, h, base, &self.inc.incr, !autonomous, ework, grad);
+        let (em, ep) = self.element.energies(h, ework);
         let mut mag = 0.0;
-        for (i, pd) in self.ework.pts.iter().enumerate() {
-            let vlv: f64 = self.ework.vc[i * n..(i + 1) * n]
+        for (i, pd) in ework.pts.iter().enumerate() {
+            let vlv: f64 = ework.vc[i * n..(i + 1) * n]
                 .iter()
                 .zip(pd.l_v())
                 .map(|(a, b)| (a * b).abs())
@@ -272,17 +172,23 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// fails at that trial step.
     fn energy_gap(&mut self, h: f64, target: f64) -> Option<(f64, f64, f64)> {
         self.solve_at(h).ok()?;
-        let base = std::mem::take(&mut self.tmp);
-        let mut base = base;
-        base.copy_from_slice(&self.q);
-        let (em, ep, mag) = self.element_energies(self.t, h, &base);
-        self.tmp = base;
+        let mut base = self
+            .energy
+            .as_mut()
+            .map(|e| std::mem::take(&mut e.scratch))
+            .unwrap_or_default();
+        base.clear();
+        base.extend_from_slice(&self.state.q);
+        let (em, ep, mag) = self.element_energies(self.state.t, h, &base);
+        if let Some(e) = self.energy.as_mut() {
+            e.scratch = base;
+        }
         let g = em - target;
         g.is_finite().then_some((g, ep - em, mag))
     }
 
     pub(super) fn step_energy(&mut self) -> Result<bool> {
-        if self.t >= self.grid.end() {
+        if self.state.t >= self.grid.end() {
             return Ok(false);
         }
         let Some(state) = self.energy.as_ref() else {
@@ -295,8 +201,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let (h, change, residual, degenerate, fresh) = if !started {
             // The first element with its step as a parameter fixes the discrete energy.
             self.solve_at(h_prev)?;
-            let base = self.q.clone();
-            let (_, ep, _) = self.element_energies(self.t, h_prev, &base);
+            let base = self.state.q.clone();
+            let (_, ep, _) = self.element_energies(self.state.t, h_prev, &base);
             (h_prev, ep, 0.0, false, true)
         } else {
             match self.search_step(h_prev, target, opts) {
@@ -307,14 +213,14 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                     // Time as a parameter for this step: the element's E⁺ starts a new level.
                     let h = h_prev.clamp(opts.min_step, opts.max_step);
                     self.solve_at(h)?;
-                    let base = self.q.clone();
-                    let (_, ep, _) = self.element_energies(self.t, h, &base);
+                    let base = self.state.q.clone();
+                    let (_, ep, _) = self.element_energies(self.state.t, h, &base);
                     (h, ep, 0.0, true, true)
                 }
                 Err(fail) => return Err(Error::Step(fail)),
             }
         };
-        let t_next = self.t + h;
+        let t_next = self.state.t + h;
         self.commit(h, t_next)?;
         let Some(state) = self.energy.as_mut() else {
             unreachable!("energy mode")
@@ -349,8 +255,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     ) -> std::result::Result<(f64, f64, f64), StepError> {
         let (lo, hi) = (opts.min_step, opts.max_step);
         let fail = |me: &Self, residual: f64, iterations: usize| StepError {
-            step: me.k,
-            t: me.t,
+            step: me.state.k,
+            t: me.state.t,
             residual,
             iterations,
             failure: StepFailure::NoAdmissibleStep,
