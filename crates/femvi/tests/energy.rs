@@ -484,3 +484,41 @@ fn extended_two_form_3_6_is_preserved() {
     }
     assert!(symplecticity_defect(&m, 3) > 1e-3);
 }
+
+/// Energy mode with degree 1 and the trapezoid rule on a mechanical Lagrangian: `Auto` would
+/// be explicit stepping, which energy mode replaces by the fixed-point solver; the run must be
+/// the one `Method::FixedPoint` gives (it used to index empty step tables and panic).
+#[test]
+fn energy_mode_with_the_trapezoid_rule_is_the_fixed_point_run() {
+    let pend = models::pendulum(1.0, 1.0, 1.0).unwrap();
+    let el = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    // Steps whose energy equation is degenerate are taken with h as a parameter.
+    let energy = EnergyOptions {
+        on_degenerate: Degenerate::Fixed,
+        ..EnergyOptions::from_step(0.01)
+    };
+    let run = |method| {
+        let grid = TimeGrid::uniform(0.0, 0.01, 3.0).unwrap();
+        let start = Start::Momentum {
+            q: vec![0.0],
+            p: vec![1.5],
+        };
+        let opts = SolverOptions {
+            method,
+            ..SolverOptions::default()
+        };
+        let mut it = Integrator::with_energy(&pend, &el, grid, start, opts, energy).unwrap();
+        while it.step().unwrap() {}
+        let node = it.node();
+        let stats = it.energy_stats().unwrap();
+        (node.k, node.t, node.q.to_vec(), node.p.to_vec(), stats.degenerate_steps)
+    };
+    let auto = run(femvi::Method::Auto);
+    assert!(
+        auto.0 > 100 && auto.4 < auto.0,
+        "steps {}, degenerate {}",
+        auto.0,
+        auto.4
+    );
+    assert_eq!(auto, run(femvi::Method::FixedPoint));
+}

@@ -315,17 +315,41 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             (h1, g1, e1) = (h2, g2, e2);
         }
         // Bracketed between h0 and h1: Illinois regula falsi.
+        let (best_h, best_g) = self.illinois([(h0, g0), (h1, g1)], target, tol, &mut evals, |me, g, evals| {
+            fail(me, g.abs() / scale, evals)
+        })?;
+        if best_g.abs() > REJECT * mag {
+            return Err(fail(self, best_g.abs() / scale, evals));
+        }
+        // Leave the state solved at the chosen step.
+        let Some((g, e, _)) = self.energy_gap(best_h, target) else {
+            return Err(fail(self, best_g.abs() / scale, evals));
+        };
+        Ok((best_h, e, g.abs() / scale))
+    }
+
+    /// Regula falsi (Illinois) on g(h) = E⁻(w_k(h)) − target between two steps whose g have
+    /// opposite signs; returns the best (h, g) found. `fail` builds the error of a failed
+    /// trial solve from the best |g| so far.
+    fn illinois(
+        &mut self,
+        [(h0, g0), (h1, g1)]: [(f64, f64); 2],
+        target: f64,
+        tol: f64,
+        evals: &mut usize,
+        fail: impl Fn(&Self, f64, usize) -> StepError,
+    ) -> std::result::Result<(f64, f64), StepError> {
         let (mut ha, mut ga, mut hb, mut gb) = (h0, g0, h1, g1);
         let (mut best_h, mut best_g) = if g0.abs() < g1.abs() { (h0, g0) } else { (h1, g1) };
-        while evals < 100 && (hb - ha).abs() > 4.0 * f64::EPSILON * hb.abs().max(ha.abs()) {
+        while *evals < 100 && (hb - ha).abs() > 4.0 * f64::EPSILON * hb.abs().max(ha.abs()) {
             let mut hc = (ha * gb - hb * ga) / (gb - ga);
             if !hc.is_finite() || hc <= ha.min(hb) || hc >= ha.max(hb) {
                 hc = 0.5 * (ha + hb);
             }
             let Some((gc, _, _)) = self.energy_gap(hc, target) else {
-                return Err(fail(self, best_g.abs() / scale, evals));
+                return Err(fail(self, best_g, *evals));
             };
-            evals += 1;
+            *evals += 1;
             if gc.abs() < best_g.abs() {
                 (best_h, best_g) = (hc, gc);
             }
@@ -339,13 +363,6 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             }
             (hb, gb) = (hc, gc);
         }
-        if best_g.abs() > REJECT * mag {
-            return Err(fail(self, best_g.abs() / scale, evals));
-        }
-        // Leave the state solved at the chosen step.
-        let Some((g, e, _)) = self.energy_gap(best_h, target) else {
-            return Err(fail(self, best_g.abs() / scale, evals));
-        };
-        Ok((best_h, e, g.abs() / scale))
+        Ok((best_h, best_g))
     }
 }

@@ -244,21 +244,12 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
     t0: f64,
     max_steps: usize,
 ) -> LoopEnd<N> {
-    let Carry {
-        mut q,
-        mut cq,
-        mut p,
-        mut cp,
-        mut pending,
-        mut fprev,
-        mut hprev,
-        mut f0,
-    } = *cr;
+    let mut c = *cr;
     let (mut f1, mut y, mut dq, mut dp) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
     // M⁻¹ f_{k−1}, carried from step to step like f_{k−1} itself.
     let (mut u, mut w, mut wprev) = ([0.0; N], [0.0; N], [0.0; N]);
     if !IDENTITY {
-        mass.solve(&fprev, &mut wprev);
+        mass.solve(&c.fprev, &mut wprev);
     }
     let (mut k, mut t) = (k0, t0);
     let mut end = LoopEnd {
@@ -268,7 +259,7 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
         t,
         last_t: 0.0,
         last_h: 0.0,
-        last_q: q,
+        last_q: c.q,
         last_dq: dq,
     };
     let uniform = grid.uniform_rule();
@@ -280,55 +271,47 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
         };
         let Some((h, t_next)) = next else { break };
         let half_h = 0.5 * h;
-        let (a, b) = (half_h * hprev, half_h * (hprev + h));
-        let prev = (q, p, cq, cp, pending);
-        if IDENTITY {
-            for c in 0..N {
-                dq[c] = (h * (p[c] + cp[c]) + a * fprev[c]) + b * f0[c];
-                y[c] = q[c] + dq[c];
-            }
-        } else {
-            let mut pk = [0.0; N];
-            for c in 0..N {
-                pk[c] = p[c] + cp[c];
-            }
-            mass.solve(&pk, &mut u);
-            mass.solve(&f0, &mut w);
-            for c in 0..N {
-                dq[c] = (h * u[c] + a * wprev[c]) + b * w[c];
-                y[c] = q[c] + dq[c];
-            }
-        }
+        let (a, b) = (half_h * c.hprev, half_h * (c.hprev + h));
+        let prev = (c.q, c.p, c.cq, c.cp, c.pending);
+        drift::<N, IDENTITY>(
+            mass,
+            [h, a, b],
+            [&c.p, &c.cp, &c.fprev, &wprev, &c.f0, &c.q],
+            &mut u,
+            &mut w,
+            &mut dq,
+            &mut y,
+        );
         // The pending increment joins the compensated sum off the critical path.
-        for c in 0..N {
-            let yp = pending[c] + cp[c];
-            let tp = p[c] + yp;
-            cp[c] = (p[c] - tp) + yp;
-            p[c] = tp;
+        for i in 0..N {
+            let yp = c.pending[i] + c.cp[i];
+            let tp = c.p[i] + yp;
+            c.cp[i] = (c.p[i] - tp) + yp;
+            c.p[i] = tp;
         }
         lag.force(t + h, &y, &mut f1);
         // x·0 is NaN exactly when x is not finite: one sum tells whether all are.
         let mut probe = 0.0;
-        for c in 0..N {
-            dp[c] = half_h * (f0[c] + f1[c]);
-            let yq = dq[c] + cq[c];
-            let tq = q[c] + yq;
-            cq[c] = (q[c] - tq) + yq;
-            q[c] = tq;
-            pending[c] = dp[c];
-            probe += dp[c] * 0.0 + tq * 0.0;
+        for i in 0..N {
+            dp[i] = half_h * (c.f0[i] + f1[i]);
+            let yq = dq[i] + c.cq[i];
+            let tq = c.q[i] + yq;
+            c.cq[i] = (c.q[i] - tq) + yq;
+            c.q[i] = tq;
+            c.pending[i] = dp[i];
+            probe += dp[i] * 0.0 + tq * 0.0;
         }
         if probe.is_nan() {
-            (q, p, cq, cp, pending) = prev;
+            (c.q, c.p, c.cq, c.cp, c.pending) = prev;
             end.failed = true;
             break;
         }
         end.last_q = prev.0;
         end.last_dq = dq;
-        fprev = f0;
+        c.fprev = c.f0;
         wprev = w;
-        hprev = h;
-        f0 = f1;
+        c.hprev = h;
+        c.f0 = f1;
         end.last_t = t;
         end.last_h = h;
         k += 1;
@@ -336,17 +319,41 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
         t = t_next;
         end.done += 1;
     }
-    *cr = Carry {
-        q,
-        cq,
-        p,
-        cp,
-        pending,
-        fprev,
-        hprev,
-        f0,
-    };
+    *cr = c;
     end.k = k;
     end.t = t;
     end
+}
+
+/// The drift of one step, dq = (h P + a f_{k−1}) + b f_k with P = p + cp (M⁻¹ applied to
+/// P and the forces unless M = I), and the new position y = q + dq. `v` holds
+/// (p, cp, f_{k−1}, M⁻¹f_{k−1}, f_k, q); `u` and `w` receive M⁻¹P and M⁻¹f_k.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn drift<const N: usize, const IDENTITY: bool>(
+    mass: &MassMatrix,
+    [h, a, b]: [f64; 3],
+    [p, cp, fprev, wprev, f0, q]: [&[f64; N]; 6],
+    u: &mut [f64; N],
+    w: &mut [f64; N],
+    dq: &mut [f64; N],
+    y: &mut [f64; N],
+) {
+    if IDENTITY {
+        for c in 0..N {
+            dq[c] = (h * (p[c] + cp[c]) + a * fprev[c]) + b * f0[c];
+            y[c] = q[c] + dq[c];
+        }
+    } else {
+        let mut pk = [0.0; N];
+        for c in 0..N {
+            pk[c] = p[c] + cp[c];
+        }
+        mass.solve(&pk, u);
+        mass.solve(f0, w);
+        for c in 0..N {
+            dq[c] = (h * u[c] + a * wprev[c]) + b * w[c];
+            y[c] = q[c] + dq[c];
+        }
+    }
 }
