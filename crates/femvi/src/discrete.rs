@@ -42,6 +42,31 @@ impl Element {
         Ok(Self { basis, rule, phi, dphi })
     }
 
+    /// The element of order 2s for `order` = 2s: degree s with equispaced nodes and s-point
+    /// Gauss–Legendre quadrature (femvi's default choice; the nodal order is 2s).
+    ///
+    /// # Errors
+    /// An order that is zero or odd.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// let element = femvi::Element::with_order(8)?;
+    /// assert_eq!((element.degree(), element.points()), (4, 4));
+    /// assert!(femvi::Element::with_order(7).is_err());
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn with_order(order: usize) -> Result<Self> {
+        if order == 0 || order % 2 == 1 {
+            return Err(invalid(
+                "order",
+                format!("{order}: Galerkin elements with Gauss quadrature have even orders 2s, s >= 1"),
+            ));
+        }
+        let s = order / 2;
+        Self::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s))
+    }
+
     /// The paper's midpoint discrete Lagrangian (2.19), generalised:
     /// L_d = h L(t_k + h/2, (q_k + q_{k+1})/2, (q_{k+1} − q_k)/h).
     pub fn midpoint() -> Self {

@@ -20,6 +20,7 @@ pub mod expr;
 pub mod fem;
 pub mod lagrangian;
 pub mod models;
+pub mod solution;
 pub mod solve;
 pub mod step;
 
@@ -27,4 +28,5 @@ pub use discrete::{Element, ElementWork};
 pub use error::{Error, Result, StepError, StepFailure};
 pub use fem::{NodeFamily, QuadratureKind};
 pub use lagrangian::{Lagrangian, MassMatrix, Mechanical, Potential, Scalar};
+pub use solution::{solve, Problem, Solution, SolveOptions, Steps};
 pub use step::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start, TimeGrid};

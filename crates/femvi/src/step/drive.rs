@@ -63,6 +63,12 @@ pub trait Observer<L: Lagrangian> {
         let _ = (it, error);
         Ok(())
     }
+
+    /// Whether the run should stop after the node just recorded, without an error (an
+    /// event that stops the run, a step limit). Default: never.
+    fn stop(&self) -> bool {
+        false
+    }
 }
 
 /// How a driven run ended.
@@ -70,22 +76,28 @@ pub trait Observer<L: Lagrangian> {
 pub struct DriveReport {
     /// Steps taken.
     pub steps: usize,
+    /// Whether an observer stopped the run before the end of the grid.
+    pub stopped: bool,
     /// The first error: a step that failed, or an observer that failed (also in `finish`).
     pub error: Option<Error>,
 }
 
 /// Steps `it` to the end of its grid, calling the observers at every node (in the order
-/// given), and `finish` on each at the end. A failure of a step or of an observer stops the
+/// given), and `finish` on each at the end; an observer's [`Observer::stop`] ends the run
+/// early. A failure of a step or of an observer stops the
 /// run; the integrator stays at the last good node and every observer's `finish` still runs.
 /// See [`Observer`] for an example.
 pub fn drive<L: Lagrangian>(it: &mut Integrator<'_, L>, observers: &mut [&mut dyn Observer<L>]) -> DriveReport {
     let mut error = notify(it, observers, it.finished()).err();
     let mut steps = 0;
-    while error.is_none() {
+    let stop = |observers: &[&mut dyn Observer<L>]| observers.iter().any(|o| o.stop());
+    let mut stopped = stop(observers);
+    while error.is_none() && !stopped {
         match it.step() {
             Ok(true) => {
                 steps += 1;
                 error = notify(it, observers, it.finished()).err();
+                stopped = stop(observers);
             }
             Ok(false) => break,
             Err(e) => error = Some(e),
@@ -96,7 +108,7 @@ pub fn drive<L: Lagrangian>(it: &mut Integrator<'_, L>, observers: &mut [&mut dy
             error.get_or_insert(e);
         }
     }
-    DriveReport { steps, error }
+    DriveReport { steps, stopped, error }
 }
 
 fn notify<L: Lagrangian>(it: &Integrator<'_, L>, observers: &mut [&mut dyn Observer<L>], last: bool) -> Result<()> {

@@ -25,6 +25,7 @@ impl ElementBuffers {
     }
 
     /// The buffers with the Hessian allocated: (work, gradient, Hessian).
+    #[inline]
     pub(crate) fn with_hessian(&mut self) -> (&mut ElementWork, &mut [f64], &mut [f64]) {
         let w = self.grad.len();
         if self.hess.len() != w * w {
@@ -35,6 +36,7 @@ impl ElementBuffers {
 }
 
 /// Makes the buffers on first use.
+#[inline]
 pub(crate) fn buffers<'b>(slot: &'b mut Option<ElementBuffers>, element: &Element, n: usize) -> &'b mut ElementBuffers {
     slot.get_or_insert_with(|| ElementBuffers::new(element, n))
 }

@@ -160,6 +160,7 @@ impl FixedPointStep {
     }
 
     /// Makes the tables for step h current: from the cache, or built into the oldest entry.
+    #[inline]
     fn select_tables(&mut self, element: &Element, h: f64) {
         if self.step_tables[self.cur_tables].h_bits != h.to_bits() {
             match self.step_tables.iter().position(|t| t.h_bits == h.to_bits()) {
@@ -214,6 +215,7 @@ impl FixedPointStep {
     }
 
     /// Starting stage values from the predicted node increments.
+    #[inline]
     fn start_from_guess(&mut self, element: &Element, n: usize) {
         let s = element.degree();
         for l in 0..element.points() {
@@ -353,6 +355,7 @@ impl FixedPointStep {
     }
 
     /// The step was accepted: its stage forces (M⁻¹f) start the next step.
+    #[inline]
     pub(crate) fn accepted(&mut self, identity: bool, r: usize, n: usize) {
         let w = if identity { &self.force } else { &self.wforce };
         self.stage_start.data[..r * n].copy_from_slice(&w[..r * n]);

@@ -27,6 +27,7 @@ impl Guess {
 
     /// Sets `x` for the step h: the previous element's polynomial extrapolated, or the
     /// initial velocity `v0` on the first step.
+    #[inline]
     pub(crate) fn predict(&mut self, element: &Element, last: &LastElement, v0: &[f64], h: f64) {
         let n = v0.len();
         let s = element.degree();

@@ -76,6 +76,7 @@ impl Solver {
         })
     }
 
+    #[inline]
     pub(crate) fn kind(&self) -> Kind {
         match self {
             Solver::Explicit(_) => Kind::Explicit,

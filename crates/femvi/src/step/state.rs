@@ -96,6 +96,7 @@ impl RunState {
     }
 
     /// The current node.
+    #[inline]
     pub(crate) fn node(&self) -> Node<'_> {
         Node {
             k: self.k,
@@ -106,6 +107,7 @@ impl RunState {
     }
 
     /// Largest |q_k| (at least the smallest positive number): the scale of tolerances.
+    #[inline]
     pub(crate) fn qscale(&self) -> f64 {
         self.q.iter().fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()))
     }
@@ -116,6 +118,7 @@ impl RunState {
     /// solver writes the last element's increments itself.
     ///
     /// Errors: [`StepFailure::NonFinite`] if the new node is not finite.
+    #[inline]
     pub(crate) fn commit(
         &mut self,
         last: &mut LastElement,
@@ -172,6 +175,7 @@ impl LastElement {
     }
 
     /// The element as a public view, if there is one.
+    #[inline]
     pub(crate) fn view(&self) -> Option<ElementNodes<'_>> {
         self.valid.then_some(ElementNodes {
             t: self.t,

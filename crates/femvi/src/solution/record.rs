@@ -1,0 +1,235 @@
+//! The observer behind [`super::solve`]: keeps every `every`-th node with its velocity and
+//! energy, answers `saveat` times from each new element's polynomial as the run passes them,
+//! runs the event detector, appends to the dense output, and stops at the step limit.
+
+use super::dense::{momentum, DenseOutput, ElementEval};
+use super::events::{Detector, EventRecord, Span};
+use super::{Saved, SolveOptions};
+use crate::error::{invalid, Error, Result};
+use crate::fem::LagrangeBasis;
+use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
+use crate::step::{Integrator, Observer};
+
+/// The node before the current one: (k, t, q, p, v).
+struct PrevNode {
+    k: usize,
+    t: f64,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    v: Vec<f64>,
+}
+
+pub(crate) struct Recorder {
+    n: usize,
+    every: usize,
+    pub(crate) step: Vec<usize>,
+    pub(crate) t: Vec<f64>,
+    pub(crate) q: Vec<f64>,
+    pub(crate) p: Vec<f64>,
+    pub(crate) v: Vec<f64>,
+    pub(crate) energy: Vec<f64>,
+    saveat: Vec<f64>,
+    next_save: usize,
+    pub(crate) saved: Saved,
+    detector: Option<Detector>,
+    pub(crate) events: Vec<EventRecord>,
+    pub(crate) dense: Option<DenseOutput>,
+    dense_wanted: bool,
+    max_steps: Option<usize>,
+    basis: LagrangeBasis,
+    eval: ElementEval,
+    work: PointDerivatives,
+    prev: Option<PrevNode>,
+    last_kept: Option<usize>,
+    node_v: Vec<f64>,
+    node_h: f64,
+}
+
+impl Recorder {
+    /// Errors: `saveat` times not increasing or not finite.
+    pub(crate) fn new(options: &SolveOptions, basis: &LagrangeBasis, n: usize) -> Result<Self> {
+        let saveat = options.saveat.clone();
+        if saveat.iter().any(|t| !t.is_finite()) || saveat.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(invalid("saveat", "times must be finite and strictly increasing"));
+        }
+        let events = options.events.clone();
+        let detector = (!events.is_empty()).then(|| Detector::new(events, basis, n));
+        Ok(Self {
+            n,
+            every: options.every,
+            step: vec![],
+            t: vec![],
+            q: vec![],
+            p: vec![],
+            v: vec![],
+            energy: vec![],
+            saveat,
+            next_save: 0,
+            saved: Saved::default(),
+            detector,
+            events: vec![],
+            dense: None,
+            dense_wanted: options.dense,
+            max_steps: options.max_steps,
+            basis: basis.clone(),
+            eval: ElementEval::new(basis.len()),
+            work: PointDerivatives::new(n),
+            prev: None,
+            last_kept: None,
+            node_v: vec![0.0; n],
+            node_h: f64::NAN,
+        })
+    }
+
+    fn keep(&mut self, k: usize, t: f64, q: &[f64], p: &[f64]) {
+        if self.last_kept == Some(k) {
+            return;
+        }
+        self.last_kept = Some(k);
+        self.step.push(k);
+        self.t.push(t);
+        self.q.extend_from_slice(q);
+        self.p.extend_from_slice(p);
+        self.v.extend_from_slice(&self.node_v);
+        self.energy.push(self.node_h);
+    }
+
+    fn save(&mut self, t: f64, q: &[f64], v: &[f64], p: &[f64]) {
+        self.saved.t.push(t);
+        self.saved.q.extend_from_slice(q);
+        self.saved.v.extend_from_slice(v);
+        self.saved.p.extend_from_slice(p);
+    }
+
+    /// The saveat times in (t_k, t_{k+1}] answered from the element; those equal to the
+    /// node time from the node.
+    fn save_element<L: Lagrangian>(&mut self, lag: &L, sp: &Span<'_>, prev: &PrevNode, node: (f64, &[f64], &[f64])) {
+        let (mut q, mut v, mut p) = (vec![0.0; self.n], vec![0.0; self.n], vec![0.0; self.n]);
+        while let Some(&ts) = self.saveat.get(self.next_save) {
+            if ts > node.0 {
+                break;
+            }
+            self.next_save += 1;
+            if ts < prev.t {
+                continue; // before the start
+            }
+            if ts == prev.t {
+                let (pq, pv, pp) = (prev.q.clone(), prev.v.clone(), prev.p.clone());
+                self.save(ts, &pq, &pv, &pp);
+            } else if ts == node.0 {
+                let nv = self.node_v.clone();
+                self.save(ts, node.1, &nv, node.2);
+            } else {
+                self.eval
+                    .eval(&self.basis, sp.t0, sp.h, sp.base, sp.incr, ts, &mut q, &mut v);
+                momentum(lag, ts, &q, &v, &mut self.work, &mut p);
+                self.save(ts, &q, &v, &p);
+            }
+        }
+    }
+
+    fn step_done<L: Lagrangian>(&mut self, it: &Integrator<'_, L>) {
+        let node = it.node();
+        let Some(prev) = self.prev.take() else { return };
+        let Some(el) = it.last_element() else {
+            self.prev = Some(prev);
+            return;
+        };
+        let sp = Span {
+            step: prev.k,
+            t0: el.t,
+            h: el.h,
+            base: el.base,
+            incr: el.incr,
+        };
+        let lag = it.lagrangian();
+        self.save_element(lag, &sp, &prev, (node.t, node.q, node.p));
+        if let Some(d) = self.detector.as_mut() {
+            d.scan(lag, &self.basis, &sp, &mut self.events);
+        }
+        if let Some(dense) = self.dense.as_mut() {
+            dense.push(
+                el.t,
+                el.h,
+                (&prev.p, &prev.v),
+                el.base,
+                el.incr,
+                (node.t, node.q, node.p, &self.node_v),
+            );
+        }
+        self.prev = Some(prev);
+    }
+}
+
+impl<L: Lagrangian> Observer<L> for Recorder {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> Result<()> {
+        let node = it.node();
+        self.node_h = hamiltonian(
+            it.lagrangian(),
+            node.t,
+            node.q,
+            node.p,
+            &mut self.node_v,
+            &mut self.work,
+        )?;
+        if self.prev.is_none() {
+            if self.dense_wanted {
+                self.dense = Some(DenseOutput::new(
+                    self.basis.clone(),
+                    node.t,
+                    node.q,
+                    node.p,
+                    &self.node_v,
+                ));
+            }
+            self.prev = Some(PrevNode {
+                k: node.k,
+                t: node.t,
+                q: node.q.to_vec(),
+                p: node.p.to_vec(),
+                v: self.node_v.clone(),
+            });
+            if let Some(&ts) = self.saveat.first() {
+                if ts == node.t {
+                    let nv = self.node_v.clone();
+                    self.save(ts, node.q, &nv, node.p);
+                    self.next_save = 1;
+                }
+            }
+        } else {
+            self.step_done(it);
+        }
+        let keep = node.k == 0 || last || (self.every > 0 && node.k.is_multiple_of(self.every));
+        if keep {
+            self.keep(node.k, node.t, node.q, node.p);
+        }
+        if let Some(prev) = self.prev.as_mut() {
+            prev.k = node.k;
+            prev.t = node.t;
+            prev.q.copy_from_slice(node.q);
+            prev.p.copy_from_slice(node.p);
+            prev.v.copy_from_slice(&self.node_v);
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, it: &Integrator<'_, L>, _error: Option<&Error>) -> Result<()> {
+        // The node the run ended on is kept, whatever stopped it.
+        let node = it.node();
+        let mut v = vec![0.0; self.n];
+        if let Ok(h) = hamiltonian(it.lagrangian(), node.t, node.q, node.p, &mut v, &mut self.work) {
+            self.node_v = v;
+            self.node_h = h;
+            self.keep(node.k, node.t, node.q, node.p);
+        }
+        Ok(())
+    }
+
+    fn stop(&self) -> bool {
+        let by_event = self.detector.as_ref().is_some_and(|d| d.stop);
+        let by_limit = self
+            .max_steps
+            .is_some_and(|m| self.prev.as_ref().is_some_and(|p| p.k >= m));
+        by_event || by_limit
+    }
+}
