@@ -508,6 +508,20 @@ pub fn velocity_from_momentum<L: Lagrangian>(
 ///
 /// # Errors
 /// As [`velocity_from_momentum`].
+///
+/// # Example
+///
+/// ```
+/// use femvi::lagrangian::{hamiltonian, PointDerivatives};
+///
+/// let kepler = femvi::models::kepler(1.0);
+/// let (mut v, mut work) = (vec![0.0; 2], PointDerivatives::new(2));
+/// // The circular orbit of radius 1: H = ½ − 1.
+/// let h = hamiltonian(&kepler, 0.0, &[1.0, 0.0], &[0.0, 1.0], &mut v, &mut work)?;
+/// assert!((h + 0.5).abs() < 1e-15);
+/// assert_eq!(v, [0.0, 1.0]);
+/// # Ok::<(), femvi::Error>(())
+/// ```
 pub fn hamiltonian<L: Lagrangian>(
     lag: &L,
     t: f64,

@@ -30,3 +30,8 @@ pub use fem::{NodeFamily, QuadratureKind};
 pub use lagrangian::{Lagrangian, MassMatrix, Mechanical, Potential, Scalar};
 pub use solution::{solve, Problem, Solution, SolveOptions, Steps};
 pub use step::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start, TimeGrid};
+
+/// The README's Rust blocks, compiled and run as doc-tests.
+#[doc = include_str!("../../../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -29,6 +29,21 @@ impl ExprLagrangian {
     /// # Errors
     /// [`ExprError`] with the position of a syntax error, an unknown symbol, a wrong number of
     /// function arguments, or a name clash between coordinates and parameters.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::expr::ExprLagrangian;
+    /// use femvi::Lagrangian;
+    ///
+    /// let coords = ["theta".to_string()];
+    /// let lag = ExprLagrangian::new("0.5*l^2*theta_dot^2 + g*l*cos(theta)", &coords, &[("g".into(), 9.81), ("l".into(), 2.0)])?;
+    /// // L(t, θ = 0, θ̇ = 1) = ½ l² + g l.
+    /// let l: f64 = lag.value(0.0, &[0.0], &[1.0]);
+    /// assert!((l - (2.0 + 9.81 * 2.0)).abs() < 1e-12);
+    /// assert!(ExprLagrangian::new("theta_dot^2 +", &coords, &[]).is_err());
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
     pub fn new(source: &str, coordinates: &[String], parameters: &[(String, f64)]) -> Result<Self, ExprError> {
         let mut vars = vec!["t".to_string()];
         vars.extend(coordinates.iter().cloned());

@@ -47,6 +47,13 @@ pub struct Problem<L> {
 
 impl<L> Problem<L> {
     /// The problem of `lagrangian` from `start` at `t0` to `t_end`.
+    ///
+    /// ```
+    /// use femvi::{models, Problem, Start};
+    /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
+    /// let problem = Problem::new(models::kepler(1.0), start, 0.0, 100.0);
+    /// assert_eq!(problem.t_end, 100.0);
+    /// ```
     pub fn new(lagrangian: L, start: Start, t0: f64, t_end: f64) -> Self {
         Self {
             lagrangian,
@@ -96,6 +103,14 @@ pub struct SolveOptions {
 
 impl SolveOptions {
     /// Uniform steps h, every node kept, default solver, nothing else.
+    ///
+    /// ```
+    /// use femvi::{SolveOptions, Steps};
+    /// // Every tenth node and the values at t = 0.5 and 1.5, with a looser solver.
+    /// let mut options = SolveOptions { every: 10, saveat: vec![0.5, 1.5], ..SolveOptions::step(0.01) };
+    /// options.solver.tolerance = 1e-12;
+    /// assert_eq!(options.steps, Steps::Fixed(0.01));
+    /// ```
     pub fn step(h: f64) -> Self {
         Self {
             steps: Steps::Fixed(h),
@@ -169,6 +184,16 @@ impl Solution {
     }
 
     /// q of kept node i.
+    ///
+    /// ```
+    /// use femvi::{models, solve, Element, Problem, SolveOptions, Start};
+    /// let problem = Problem::new(models::harmonic(1.0, 4.0)?, Start::Velocity { q: vec![1.0], v: vec![0.0] }, 0.0, 1.0);
+    /// let sol = solve(&problem, &Element::with_order(6)?, &SolveOptions::step(0.1))?;
+    /// let last = sol.len() - 1;
+    /// assert!((sol.q_row(last).unwrap()[0] - 2f64.cos()).abs() < 1e-7); // ω = 2
+    /// assert!(sol.q_row(last + 1).is_none());
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     pub fn q_row(&self, i: usize) -> Option<&[f64]> {
         self.q.get(i * self.n..(i + 1) * self.n)
     }

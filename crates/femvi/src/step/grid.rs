@@ -20,6 +20,16 @@ impl TimeGrid {
     ///
     /// # Errors
     /// A step that is not positive and finite, or an end not after t0.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// let grid = femvi::TimeGrid::uniform(0.0, 0.25, 1.0)?;
+    /// assert_eq!(grid.count(), 4);
+    /// assert_eq!(grid.next(0, 0.0), Some((0.25, 0.25)));
+    /// assert!(femvi::TimeGrid::uniform(0.0, -0.1, 1.0).is_err());
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     pub fn uniform(t0: f64, h: f64, end: f64) -> Result<Self> {
         Self::steps(t0, vec![h], end)
     }
@@ -28,6 +38,16 @@ impl TimeGrid {
     ///
     /// # Errors
     /// An empty list, a step that is not positive and finite, or an end not after t0.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// let grid = femvi::TimeGrid::steps(0.0, vec![0.5, 0.25], 2.0)?;
+    /// assert_eq!(grid.nominal(0), 0.5);
+    /// assert_eq!(grid.nominal(1), 0.25);
+    /// assert_eq!(grid.nominal(2), 0.5);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     pub fn steps(t0: f64, steps: Vec<f64>, end: f64) -> Result<Self> {
         if steps.is_empty() {
             return Err(invalid("time steps", "the list of steps is empty"));

@@ -94,6 +94,32 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.state.node()
     }
 
+    /// The energy H = p·v − L at the current node (v from the inverse Legendre transform).
+    ///
+    /// # Errors
+    /// A Legendre transform that cannot be inverted there.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::{models, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let lag = models::harmonic(1.0, 1.0)?;
+    /// let element = Element::with_order(4)?;
+    /// let start = Start::Velocity { q: vec![1.0], v: vec![0.0] };
+    /// let mut it = Integrator::new(&lag, &element, TimeGrid::uniform(0.0, 0.1, 100.0)?, start, SolverOptions::default())?;
+    /// let e0 = it.energy()?;
+    /// while it.step()? {}
+    /// // A quadratic energy, kept by Gauss elements to round-off.
+    /// assert!((it.energy()? - e0).abs() < 1e-13 && (e0 - 0.5).abs() < 1e-15);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn energy(&self) -> Result<f64> {
+        let n = self.state.n;
+        let mut v = self.state.v0.clone();
+        let mut work = crate::lagrangian::PointDerivatives::new(n);
+        crate::lagrangian::hamiltonian(self.lag, self.state.t, &self.state.q, &self.state.p, &mut v, &mut work)
+    }
+
     /// The element solved by the last step, if any.
     pub fn last_element(&self) -> Option<ElementNodes<'_>> {
         self.last.view()
@@ -179,6 +205,28 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     ///
     /// # Errors
     /// As [`Integrator::step`]; the steps before the failure are kept.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+    /// // Störmer–Verlet (degree 1, trapezoid): 1000 steps in chunks of 300.
+    /// let kepler = models::kepler(1.0);
+    /// let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid)?;
+    /// let grid = TimeGrid::uniform(0.0, 0.001, 1.0)?;
+    /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
+    /// let mut it = Integrator::new(&kepler, &verlet, grid, start, SolverOptions::default())?;
+    /// let mut taken = vec![];
+    /// loop {
+    ///     match it.advance(300)? {
+    ///         0 => break,
+    ///         k => taken.push(k),
+    ///     }
+    /// }
+    /// assert_eq!(taken, [300, 300, 300, 100]);
+    /// assert!((it.node().q[0] - 1f64.cos()).abs() < 1e-6);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     pub fn advance(&mut self, max_steps: usize) -> Result<usize> {
         if let Some(done) = self.fast_explicit(max_steps) {
             return done;

@@ -17,6 +17,21 @@ impl<L: Lagrangian> Integrator<'_, L> {
     ///
     /// # Errors
     /// No step taken yet, or a singular step Jacobian.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::{models, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let lag = models::pendulum(1.0, 1.0, 1.0)?;
+    /// let element = Element::with_order(4)?;
+    /// let start = Start::Velocity { q: vec![1.0], v: vec![0.0] };
+    /// let mut it = Integrator::new(&lag, &element, TimeGrid::uniform(0.0, 0.1, 1.0)?, start, SolverOptions::default())?;
+    /// it.step()?;
+    /// let m = it.tangent_map()?; // 2×2, row-major
+    /// // Symplectic in one degree of freedom: the determinant is 1.
+    /// assert!((m[0] * m[3] - m[1] * m[2] - 1.0).abs() < 1e-13);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     pub fn tangent_map(&mut self) -> Result<Vec<f64>> {
         if !self.last.valid {
             return Err(invalid("tangent map", "no step has been taken"));
