@@ -78,7 +78,7 @@ fn paper_formula(element: &Element) -> Option<&'static str> {
 
 /// The paper's prediction of ∂²L_d/∂q_k∂q_{k+1} for a unit-mass 1-D Lagrangian ½v² − V(q),
 /// with V'' from `vpp` and integrals by the element's own quadrature. `nodes` are the element's
-/// nodal values (q_k, [q_m,] q_{k+1}).
+/// nodal values (q_k, \[q_m,\] q_{k+1}).
 fn predicted(element: &Element, formula: &str, h: f64, nodes: &[f64], vpp: &dyn Fn(f64) -> f64) -> f64 {
     let rule = &element.rule;
     match formula {
@@ -179,72 +179,26 @@ pub fn check<L: Lagrangian>(
     let (q0, p0, t0) = (node.q.to_vec(), node.p.to_vec(), node.t);
     let h0 = hamiltonian(lag, t0, &q0, &p0, &mut v, &mut work)?;
     let j0: Vec<f64> = symmetries.iter().map(|s| s.momentum(&q0, &p0)).collect();
-    let mut momentum_drift = vec![0.0f64; j0.len()];
-    let (mut max_rel, mut defect, mut defect_rel, mut samples) = (0.0f64, 0.0f64, 0.0f64, 0usize);
-    // Online least squares of the relative energy error against time.
-    let (mut sn, mut st, mut se, mut stt, mut ste) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    let mut steps_taken = vec![];
-    let mut last_t = t0;
+    let mut tally = Tally::new(h0, j0, t0);
     // The paper's two-form formulas: n = 1, unit mass, autonomous, steps as parameters.
     let formula = match (n, lag.mass_matrix(), energy) {
         (1, Some(mass), None) if mass.is_identity() && lag.is_autonomous() => paper_formula(element),
         _ => None,
     };
-    let (mut two_form_worst, mut two_form_samples) = (0.0f64, 0usize);
     while it.step()? {
         let k = it.node().k;
         // In energy mode the first element has its step as a parameter: no extended map there.
         let sample = k.is_multiple_of(stride) || it.finished();
         if sample && (energy.is_none() || k >= 2) {
-            let (m, d) = match energy {
-                None => (it.tangent_map()?, n),
-                Some(_) => (it.extended_tangent_map()?, n + 1),
-            };
-            let dev = symplecticity_defect(&m, d);
-            let size = m.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-            defect = defect.max(dev);
-            defect_rel = defect_rel.max(dev / size.powi(2).max(1.0));
-            samples += 1;
-            if let (Some(f), Some(e)) = (formula, it.last_element()) {
-                // dp_k = −D11 dq_k − D12 dq_{k+1}: at fixed q_k, ∂q_{k+1}/∂p_k = −1/D12.
-                let computed = -1.0 / m[1];
-                let nodes: Vec<f64> = e.incr.iter().map(|d| e.base[0] + d).collect();
-                let (h, t) = (e.h, e.t);
-                let vpp = |q: f64| {
-                    let mut pd = PointDerivatives::new(1);
-                    lag.second_derivatives(t, &[q], &[0.0], false, &mut pd);
-                    -pd.h(1, 1)
-                };
-                let want = predicted(element, f, h, &nodes, &vpp);
-                two_form_worst = two_form_worst.max(((computed - want) / want).abs());
-                two_form_samples += 1;
-            }
+            sample_tangent_map(&mut it, lag, element, energy, formula, &mut tally)?;
         }
         let node = it.node();
-        steps_taken.push(node.t - last_t);
-        last_t = node.t;
         let h = hamiltonian(lag, node.t, node.q, node.p, &mut v, &mut work)?;
-        let rel = if h0 != 0.0 { (h - h0) / h0.abs() } else { h - h0 };
-        max_rel = max_rel.max(rel.abs());
-        sn += 1.0;
-        st += node.t;
-        se += rel;
-        stt += node.t * node.t;
-        ste += node.t * rel;
-        for (i, s) in symmetries.iter().enumerate() {
-            let j = s.momentum(node.q, node.p);
-            let d = if j0[i] != 0.0 {
-                (j - j0[i]).abs() / j0[i].abs()
-            } else {
-                (j - j0[i]).abs()
-            };
-            momentum_drift[i] = momentum_drift[i].max(d);
-        }
+        tally.node(node.t, h, node.q, node.p, symmetries);
     }
-    let denom = sn * stt - st * st;
-    let energy_drift = if denom > 0.0 { (sn * ste - st * se) / denom } else { 0.0 };
     let node = it.node();
     let (final_q, final_p, final_t) = (node.q.to_vec(), node.p.to_vec(), node.t);
+    let samples = tally.samples;
     if stride > 1 {
         notes.push(format!(
             "symplecticity sampled at {samples} of about {total} steps (every {stride}-th)"
@@ -253,46 +207,202 @@ pub fn check<L: Lagrangian>(
     if energy.is_some() {
         notes.push("energy mode: symplecticity of the extended map in (q, t; p, -E), paper (3.6)".into());
     }
-    // Time reversal: from (q_N, −p_N) back over the same steps in reverse order.
-    let time_reversal_error = if energy.is_none() && lag.is_autonomous() && !steps_taken.is_empty() {
-        let back: Vec<f64> = steps_taken.iter().rev().cloned().collect();
-        let span: f64 = back.iter().sum();
-        let grid = TimeGrid::steps(0.0, back, span)?;
-        let start = Start::Momentum {
-            q: final_q,
-            p: final_p.iter().map(|x| -x).collect(),
-        };
-        let mut rev = Integrator::new(lag, element, grid, start, options)?;
-        while rev.step()? {}
-        let r = rev.node();
-        let dq = r.q.iter().zip(&q0).map(|(a, b)| (a - b).abs());
-        let dp = r.p.iter().zip(&p0).map(|(a, b)| (a + b).abs());
-        Some(dq.chain(dp).fold(0.0, f64::max))
+    let time_reversal_error = if energy.is_none() && lag.is_autonomous() && !tally.steps_taken.is_empty() {
+        let end = (final_q, final_p);
+        Some(time_reversal(
+            lag,
+            element,
+            options,
+            &tally.steps_taken,
+            end,
+            (&q0, &p0),
+        )?)
     } else {
         notes.push("time reversal skipped: the Lagrangian depends on time, or the steps are variables".into());
         None
     };
-    let (symplecticity_defect, symplecticity_defect_relative) = if samples > 0 {
-        (Some(defect), Some(defect_rel))
-    } else {
-        (None, None)
-    };
-    Ok(CheckReport {
-        steps: steps_taken.len(),
+    Ok(tally.report(
         final_t,
-        symplecticity_defect,
-        symplecticity_defect_relative,
-        symplecticity_samples: samples,
-        max_rel_energy_error: max_rel,
-        energy_drift,
-        momentum_drift,
         time_reversal_error,
-        max_rel_discrete_energy_error: it.energy_stats().map(|s| s.max_rel_residual),
-        two_form: formula.map(|f| TwoFormCheck {
-            formula: f.to_string(),
-            max_rel_difference: two_form_worst,
-            samples: two_form_samples,
-        }),
+        it.energy_stats().map(|s| s.max_rel_residual),
+        formula,
         notes,
-    })
+    ))
+}
+
+/// Measures the tangent map of the step just taken (the extended map in energy mode) into
+/// `tally`: its symplecticity defect and, with a paper's `formula`, its two-form coefficient.
+fn sample_tangent_map<L: Lagrangian>(
+    it: &mut Integrator<'_, L>,
+    lag: &L,
+    element: &Element,
+    energy: Option<EnergyOptions>,
+    formula: Option<&str>,
+    tally: &mut Tally,
+) -> Result<()> {
+    let n = lag.dim();
+    let (m, d) = match energy {
+        None => (it.tangent_map()?, n),
+        Some(_) => (it.extended_tangent_map()?, n + 1),
+    };
+    let dev = symplecticity_defect(&m, d);
+    let size = m.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    tally.defect = tally.defect.max(dev);
+    tally.defect_rel = tally.defect_rel.max(dev / size.powi(2).max(1.0));
+    tally.samples += 1;
+    if let (Some(f), Some(e)) = (formula, it.last_element()) {
+        // dp_k = −D11 dq_k − D12 dq_{k+1}: at fixed q_k, ∂q_{k+1}/∂p_k = −1/D12.
+        let computed = -1.0 / m[1];
+        let nodes: Vec<f64> = e.incr.iter().map(|d| e.base[0] + d).collect();
+        let (h, t) = (e.h, e.t);
+        let vpp = |q: f64| {
+            let mut pd = PointDerivatives::new(1);
+            lag.second_derivatives(t, &[q], &[0.0], false, &mut pd);
+            -pd.h(1, 1)
+        };
+        let want = predicted(element, f, h, &nodes, &vpp);
+        tally.two_form_worst = tally.two_form_worst.max(((computed - want) / want).abs());
+        tally.two_form_samples += 1;
+    }
+    Ok(())
+}
+
+/// The time-reversal error: from (q_N, −p_N) = (`end.0`, −`end.1`) back over `steps_taken`
+/// in reverse order, the largest distance of the positions from q_0 and of the momenta from
+/// −p_0 (`start` = (q_0, p_0)).
+fn time_reversal<L: Lagrangian>(
+    lag: &L,
+    element: &Element,
+    options: SolverOptions,
+    steps_taken: &[f64],
+    end: (Vec<f64>, Vec<f64>),
+    start: (&[f64], &[f64]),
+) -> Result<f64> {
+    let (final_q, final_p) = end;
+    let (q0, p0) = start;
+    let back: Vec<f64> = steps_taken.iter().rev().cloned().collect();
+    let span: f64 = back.iter().sum();
+    let grid = TimeGrid::steps(0.0, back, span)?;
+    let start = Start::Momentum {
+        q: final_q,
+        p: final_p.iter().map(|x| -x).collect(),
+    };
+    let mut rev = Integrator::new(lag, element, grid, start, options)?;
+    while rev.step()? {}
+    let r = rev.node();
+    let dq = r.q.iter().zip(q0).map(|(a, b)| (a - b).abs());
+    let dp = r.p.iter().zip(p0).map(|(a, b)| (a + b).abs());
+    Ok(dq.chain(dp).fold(0.0, f64::max))
+}
+
+/// The quantities accumulated step by step over a run.
+struct Tally {
+    /// Energy and Noether momenta at the start.
+    h0: f64,
+    j0: Vec<f64>,
+    momentum_drift: Vec<f64>,
+    max_rel: f64,
+    /// Symplecticity defects (absolute, relative) and the tangent maps sampled.
+    defect: f64,
+    defect_rel: f64,
+    samples: usize,
+    /// Online least squares of the relative energy error against time: Σ1, Σt, Σe, Σt², Σte.
+    sn: f64,
+    st: f64,
+    se: f64,
+    stt: f64,
+    ste: f64,
+    steps_taken: Vec<f64>,
+    last_t: f64,
+    two_form_worst: f64,
+    two_form_samples: usize,
+}
+
+impl Tally {
+    fn new(h0: f64, j0: Vec<f64>, t0: f64) -> Self {
+        let momentum_drift = vec![0.0f64; j0.len()];
+        Tally {
+            h0,
+            j0,
+            momentum_drift,
+            max_rel: 0.0,
+            defect: 0.0,
+            defect_rel: 0.0,
+            samples: 0,
+            sn: 0.0,
+            st: 0.0,
+            se: 0.0,
+            stt: 0.0,
+            ste: 0.0,
+            steps_taken: vec![],
+            last_t: t0,
+            two_form_worst: 0.0,
+            two_form_samples: 0,
+        }
+    }
+
+    /// The node (t, q, p) reached by a step, with energy h: the step, the relative energy
+    /// error and the momenta's drifts.
+    fn node(&mut self, t: f64, h: f64, q: &[f64], p: &[f64], symmetries: &[Symmetry]) {
+        self.steps_taken.push(t - self.last_t);
+        self.last_t = t;
+        let h0 = self.h0;
+        let rel = if h0 != 0.0 { (h - h0) / h0.abs() } else { h - h0 };
+        self.max_rel = self.max_rel.max(rel.abs());
+        self.sn += 1.0;
+        self.st += t;
+        self.se += rel;
+        self.stt += t * t;
+        self.ste += t * rel;
+        let j0 = &self.j0;
+        for (i, s) in symmetries.iter().enumerate() {
+            let j = s.momentum(q, p);
+            let d = if j0[i] != 0.0 {
+                (j - j0[i]).abs() / j0[i].abs()
+            } else {
+                (j - j0[i]).abs()
+            };
+            self.momentum_drift[i] = self.momentum_drift[i].max(d);
+        }
+    }
+
+    /// The report from the tallies and what was measured after the run.
+    fn report(
+        self,
+        final_t: f64,
+        time_reversal_error: Option<f64>,
+        max_rel_discrete_energy_error: Option<f64>,
+        formula: Option<&str>,
+        notes: Vec<String>,
+    ) -> CheckReport {
+        let denom = self.sn * self.stt - self.st * self.st;
+        let energy_drift = if denom > 0.0 {
+            (self.sn * self.ste - self.st * self.se) / denom
+        } else {
+            0.0
+        };
+        let (symplecticity_defect, symplecticity_defect_relative) = if self.samples > 0 {
+            (Some(self.defect), Some(self.defect_rel))
+        } else {
+            (None, None)
+        };
+        CheckReport {
+            steps: self.steps_taken.len(),
+            final_t,
+            symplecticity_defect,
+            symplecticity_defect_relative,
+            symplecticity_samples: self.samples,
+            max_rel_energy_error: self.max_rel,
+            energy_drift,
+            momentum_drift: self.momentum_drift,
+            time_reversal_error,
+            max_rel_discrete_energy_error,
+            two_form: formula.map(|f| TwoFormCheck {
+                formula: f.to_string(),
+                max_rel_difference: self.two_form_worst,
+                samples: self.two_form_samples,
+            }),
+            notes,
+        }
+    }
 }

@@ -17,7 +17,7 @@
 //! the Kepler, outer solar system and pendulum problems at 1e-6 and 1e-10.
 
 use crate::discrete::Element;
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Error, Result};
 use crate::fem::QuadratureKind;
 use crate::lagrangian::Lagrangian;
 use crate::step::{Integrator, SolverOptions, Start, TimeGrid};
@@ -118,6 +118,78 @@ pub fn choose_step<L: Lagrangian>(
     accuracy: f64,
     opts: SolverOptions,
 ) -> Result<StepChoice> {
+    check_request(start, t0, end, accuracy)?;
+    let span = end - t0;
+    let p = nominal_order(element) as i32;
+    let richardson = 2f64.powi(p) / (2f64.powi(p) - 1.0);
+    let target = 0.5 * accuracy;
+    let mut search = Search {
+        span,
+        h: span / PILOT_STEPS as f64,
+        pilot_steps: 0,
+        last_error: None,
+        best: None,
+        at_noise: None,
+        failed_at: f64::INFINITY,
+    };
+    for _ in 0..40 {
+        let h = search.h;
+        let horizon = (PILOT_STEPS as f64 * h).min(span);
+        let pilot_end = t0 + horizon;
+        let runs = pilot_pair(lag, element, start, t0, h, pilot_end, opts);
+        let (diff, qmax, steps) = match runs {
+            Ok(r) => r,
+            Err(e) => match search.failed(e) {
+                Retry::Done(choice) => return Ok(choice),
+                Retry::GiveUp => break,
+                Retry::Again => continue,
+            },
+        };
+        search.pilot_steps += steps;
+        let pilot_error = richardson * diff / qmax.max(f64::MIN_POSITIVE);
+        let at_end = pilot_error * span / horizon;
+        let pilot_steps = search.pilot_steps;
+        let choice = |step: f64, estimated_error: f64| StepChoice {
+            accuracy,
+            step,
+            estimated_error,
+            pilot_error,
+            pilot_step: h,
+            pilot_end,
+            pilot_steps,
+        };
+        // Below this the difference is round-off, not truncation: the step can grow.
+        let noise = 100.0 * f64::EPSILON * (steps as f64).sqrt();
+        if pilot_error <= noise {
+            match search.at_round_off(choice(h, at_end)) {
+                Some(done) => return Ok(done),
+                None => continue,
+            }
+        }
+        // The step that puts the end's error at the target, from the order p (the error at
+        // the end scales like h^p; the pilot horizon grows with h, which the linear
+        // extrapolation cancels).
+        let factor = (target / at_end).powf(1.0 / p as f64);
+        let mut next = h * factor.clamp(1.0 / 16.0, 4.0);
+        if next >= search.failed_at {
+            next = (h * search.failed_at).sqrt();
+        }
+        let choice = choice(next, at_end * (next / h).powi(p));
+        if (1.0 / 1.3..=1.3).contains(&factor) {
+            return Ok(choice);
+        }
+        search.best = Some(choice);
+        search.h = next.min(span);
+    }
+    match (search.best, search.last_error) {
+        (Some(b), _) => Ok(b),
+        (None, Some(e)) => Err(e),
+        (None, None) => Err(invalid("accuracy", "no step found")),
+    }
+}
+
+/// Checks a request of [`choose_step`]: the accuracy, the kind of start and the time span.
+fn check_request(start: &Start, t0: f64, end: f64, accuracy: f64) -> Result<()> {
     if !(MIN_ACCURACY..=0.1).contains(&accuracy) {
         return Err(invalid(
             "accuracy",
@@ -136,92 +208,70 @@ pub fn choose_step<L: Lagrangian>(
             format!("end = {end} is not after the start t = {t0}"),
         ));
     }
-    let span = end - t0;
-    let p = nominal_order(element) as i32;
-    let richardson = 2f64.powi(p) / (2f64.powi(p) - 1.0);
-    let target = 0.5 * accuracy;
-    let mut h = span / PILOT_STEPS as f64;
-    let mut pilot_steps = 0;
-    let mut last_error = None;
-    let mut best: Option<StepChoice> = None;
-    // The largest step whose pilots were at round-off, and the smallest that failed.
-    let mut at_noise: Option<StepChoice> = None;
-    let mut failed_at = f64::INFINITY;
-    for _ in 0..40 {
-        let horizon = (PILOT_STEPS as f64 * h).min(span);
-        let pilot_end = t0 + horizon;
-        let runs = pilot_pair(lag, element, start, t0, h, pilot_end, opts);
-        let (diff, qmax, steps) = match runs {
-            Ok(r) => r,
-            Err(e) => {
-                // Too large a step for the solver (or the motion): go back towards the
-                // largest step that worked, or down by 4.
-                last_error = Some(e);
-                failed_at = failed_at.min(h);
-                match &at_noise {
-                    Some(ok) if failed_at < 1.5 * ok.step => return Ok(ok.clone()),
-                    Some(ok) => h = (ok.step * h).sqrt(),
-                    None => h *= 0.25,
-                }
-                if h < span * 1e-12 {
-                    break;
-                }
-                continue;
-            }
-        };
-        pilot_steps += steps;
-        let pilot_error = richardson * diff / qmax.max(f64::MIN_POSITIVE);
-        let at_end = pilot_error * span / horizon;
-        // Below this the difference is round-off, not truncation: the step can grow.
-        let noise = 100.0 * f64::EPSILON * (steps as f64).sqrt();
-        if pilot_error <= noise {
-            let choice = StepChoice {
-                accuracy,
-                step: h,
-                estimated_error: at_end,
-                pilot_error,
-                pilot_step: h,
-                pilot_end,
-                pilot_steps,
-            };
-            let grow = (4.0 * h).min(span / 8.0);
-            if grow <= h {
-                return Ok(choice); // the whole run in a few steps is at round-off
-            }
-            at_noise = Some(choice);
-            h = if 4.0 * h >= failed_at {
-                (h * failed_at).sqrt()
-            } else {
-                grow
-            };
-            continue;
+    Ok(())
+}
+
+/// The state of [`choose_step`]'s search: the step to try next and what the pilots so far
+/// have shown.
+struct Search {
+    /// The run's time span.
+    span: f64,
+    /// The step of the next pilot pair.
+    h: f64,
+    /// Steps taken by all pilot runs so far.
+    pilot_steps: usize,
+    /// The error of the last pilot pair that failed.
+    last_error: Option<Error>,
+    /// The choice from the last pilot pair whose difference was above round-off.
+    best: Option<StepChoice>,
+    /// The largest step whose pilots were at round-off, and the smallest that failed.
+    at_noise: Option<StepChoice>,
+    failed_at: f64,
+}
+
+/// What the search does after a pilot pair failed.
+enum Retry {
+    /// Take this choice (a step at round-off, close below the failing one).
+    Done(StepChoice),
+    /// Another step (set in [`Search::h`]).
+    Again,
+    /// The step has become too small to try.
+    GiveUp,
+}
+
+impl Search {
+    /// The pilot pair with step h failed with `e`: too large a step for the solver (or the
+    /// motion). Goes back towards the largest step that worked, or down by 4.
+    fn failed(&mut self, e: Error) -> Retry {
+        self.last_error = Some(e);
+        self.failed_at = self.failed_at.min(self.h);
+        match &self.at_noise {
+            Some(ok) if self.failed_at < 1.5 * ok.step => return Retry::Done(ok.clone()),
+            Some(ok) => self.h = (ok.step * self.h).sqrt(),
+            None => self.h *= 0.25,
         }
-        // The step that puts the end's error at the target, from the order p (the error at
-        // the end scales like h^p; the pilot horizon grows with h, which the linear
-        // extrapolation cancels).
-        let factor = (target / at_end).powf(1.0 / p as f64);
-        let mut next = h * factor.clamp(1.0 / 16.0, 4.0);
-        if next >= failed_at {
-            next = (h * failed_at).sqrt();
+        if self.h < self.span * 1e-12 {
+            Retry::GiveUp
+        } else {
+            Retry::Again
         }
-        let choice = StepChoice {
-            accuracy,
-            step: next,
-            estimated_error: at_end * (next / h).powi(p),
-            pilot_error,
-            pilot_step: h,
-            pilot_end,
-            pilot_steps,
-        };
-        if (1.0 / 1.3..=1.3).contains(&factor) {
-            return Ok(choice);
-        }
-        best = Some(choice);
-        h = next.min(span);
     }
-    match (best, last_error) {
-        (Some(b), _) => Ok(b),
-        (None, Some(e)) => Err(e),
-        (None, None) => Err(invalid("accuracy", "no step found")),
+
+    /// The pilot pair with step h differed by round-off only (`choice` at h): returns the
+    /// choice if the step cannot grow, else grows the step by 4 (the geometric mean with the
+    /// smallest step that failed, if that is closer) and returns None.
+    fn at_round_off(&mut self, choice: StepChoice) -> Option<StepChoice> {
+        let h = self.h;
+        let grow = (4.0 * h).min(self.span / 8.0);
+        if grow <= h {
+            return Some(choice); // the whole run in a few steps is at round-off
+        }
+        self.at_noise = Some(choice);
+        self.h = if 4.0 * h >= self.failed_at {
+            (h * self.failed_at).sqrt()
+        } else {
+            grow
+        };
+        None
     }
 }

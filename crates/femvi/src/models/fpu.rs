@@ -1,0 +1,58 @@
+//! The Fermi–Pasta–Ulam–Tsingou chain (Fermi, Pasta and Ulam, Los Alamos report LA-1940,
+//! 1955; programmed by Mary Tsingou): n unit masses between fixed ends q_0 = q_{n+1} = 0,
+//! joined by springs with the bond potential d²/2 + α d³/3 + β d⁴/4 of the elongation
+//! d_i = q_{i+1} − q_i (the α-chain for β = 0, the β-chain for α = 0), so that
+//! q̈_i = V'(d_i) − V'(d_{i−1}) with V'(d) = d + α d² + β d³. The dimension n is a parameter.
+
+use crate::lagrangian::{Mechanical, Potential, Scalar};
+
+/// The α/β Fermi–Pasta–Ulam–Tsingou chain with fixed ends q_0 = q_{n+1} = 0:
+/// V = Σ_{i=0}^{n} (d²/2 + α d³/3 + β d⁴/4), d = q_{i+1} − q_i.
+#[derive(Debug, Clone, Copy)]
+pub struct FpuPotential {
+    /// Number of moving masses.
+    pub n: usize,
+    /// Cubic coefficient.
+    pub alpha: f64,
+    /// Quartic coefficient.
+    pub beta: f64,
+}
+
+impl Potential for FpuPotential {
+    fn is_autonomous(&self) -> bool {
+        true
+    }
+    fn dim(&self) -> usize {
+        self.n
+    }
+    fn value<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+        let mut v = D::from(0.0);
+        for i in 0..=self.n {
+            let left = if i == 0 { D::from(0.0) } else { q[i - 1] };
+            let right = if i == self.n { D::from(0.0) } else { q[i] };
+            let d = right - left;
+            v += d * d * 0.5 + d * d * d * (self.alpha / 3.0) + d * d * d * d * (self.beta / 4.0);
+        }
+        v
+    }
+    fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+        // −∂V/∂q_i = V'(d_i) − V'(d_{i−1}) with the bond d_i = q_{i+1} − q_i.
+        let dv = |d: f64| d + self.alpha * d * d + self.beta * d * d * d;
+        let bond = |i: usize| {
+            let left = if i == 0 { 0.0 } else { q[i - 1] };
+            let right = if i == self.n { 0.0 } else { q[i] };
+            right - left
+        };
+        let mut prev = dv(bond(0));
+        for i in 0..self.n {
+            let next = dv(bond(i + 1));
+            out[i] = next - prev;
+            prev = next;
+        }
+    }
+}
+
+/// The FPUT chain with unit masses.
+pub fn fpu(n: usize, alpha: f64, beta: f64) -> Mechanical<FpuPotential> {
+    Mechanical::unit_mass(FpuPotential { n, alpha, beta })
+}

@@ -1,0 +1,104 @@
+//! The gravitational n-body problem in the plane or in space (dim = 2 or 3):
+//! L = Σ_i m_i |v_i|²/2 + G Σ_{i<j} m_i m_j / |x_i − x_j|, so that
+//! m_i ẍ_i = G Σ_{j≠i} m_i m_j (x_j − x_i) / |x_j − x_i|³. The mass matrix is diagonal, each
+//! body's mass repeated over its coordinates x_i = (q_{i·dim}, …). The outer solar system
+//! (Hairer, Lubich and Wanner, Geometric Numerical Integration, Sect. I.2.4) is the instance
+//! with the data of `models::outer_solar_system`.
+
+use crate::error::Result;
+use crate::lagrangian::{MassMatrix, Mechanical, Potential, Scalar};
+
+/// V = −G Σ_{i<j} m_i m_j / |x_i − x_j| for bodies in `dim` dimensions.
+#[derive(Debug, Clone)]
+pub struct GravityPotential {
+    /// Gravitational constant.
+    pub g: f64,
+    /// Masses.
+    pub masses: Vec<f64>,
+    /// 2 or 3.
+    pub dim: usize,
+}
+
+impl Potential for GravityPotential {
+    fn is_autonomous(&self) -> bool {
+        true
+    }
+    fn dim(&self) -> usize {
+        self.masses.len() * self.dim
+    }
+    fn value<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+        let (nb, d) = (self.masses.len(), self.dim);
+        let mut v = D::from(0.0);
+        for i in 0..nb {
+            for j in i + 1..nb {
+                let mut r2 = D::from(0.0);
+                for c in 0..d {
+                    let x = q[i * d + c] - q[j * d + c];
+                    r2 += x * x;
+                }
+                v -= r2.sqrt().recip() * (self.g * self.masses[i] * self.masses[j]);
+            }
+        }
+        v
+    }
+    fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+        let (nb, d) = (self.masses.len(), self.dim);
+        out.iter_mut().for_each(|x| *x = 0.0);
+        for i in 0..nb {
+            for j in i + 1..nb {
+                let mut dx = [0.0; 3];
+                let mut r2 = 0.0;
+                for c in 0..d {
+                    dx[c] = q[j * d + c] - q[i * d + c];
+                    r2 += dx[c] * dx[c];
+                }
+                let k = self.g * self.masses[i] * self.masses[j] / (r2 * r2.sqrt());
+                for c in 0..d {
+                    out[i * d + c] += k * dx[c];
+                    out[j * d + c] -= k * dx[c];
+                }
+            }
+        }
+    }
+}
+
+/// The gravitational n-body problem.
+///
+/// # Errors
+/// A mass that is not positive.
+pub fn n_body(g: f64, masses: Vec<f64>, dim: usize) -> Result<Mechanical<GravityPotential>> {
+    let diag: Vec<f64> = masses.iter().flat_map(|m| std::iter::repeat_n(*m, dim)).collect();
+    Mechanical::new(GravityPotential { g, masses, dim }, MassMatrix::diagonal(diag)?)
+}
+
+/// The outer solar system (Sun and five outer planets), 3-D.
+pub fn outer_solar_system() -> Mechanical<GravityPotential> {
+    n_body(
+        super::outer_solar_system::G,
+        super::outer_solar_system::MASSES.to_vec(),
+        3,
+    )
+    .unwrap_or_else(|_| unreachable!("the masses are positive"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    // The module of data and the function of the same name, both.
+    use crate::models::outer_solar_system;
+
+    #[test]
+    fn outer_solar_system_energy_matches_the_data() {
+        // H0 = Σ|p|²/(2m) − G Σ m_i m_j / r_ij from ../shared/problems (an independent sum).
+        let sys = outer_solar_system();
+        let q: Vec<f64> = outer_solar_system::X0.iter().flatten().cloned().collect();
+        let v: Vec<f64> = outer_solar_system::V0.iter().flatten().cloned().collect();
+        let mut h = 0.0;
+        for b in 0..6 {
+            let m = outer_solar_system::MASSES[b];
+            h += 0.5 * m * (0..3).map(|c| v[b * 3 + c].powi(2)).sum::<f64>();
+        }
+        h += sys.potential.value(0.0, &q);
+        assert!((h - (-3.2154531832081636e-08)).abs() < 1e-20, "{h:e}");
+    }
+}
