@@ -3,11 +3,12 @@
 //! interpolating the path with piecewise polynomials of any degree and integrating the
 //! Lagrangian with a quadrature rule.
 //!
-//! The modules read like a table of contents: [`lagrangian`] (continuous systems),
+//! Start with [`solution`]: [`solve()`] runs a [`Problem`] to a [`Solution`] (the README has
+//! a quick start). The modules read like a table of contents: [`lagrangian`] (continuous systems),
 //! [`bvp`] (two-point boundary value problems by the discrete variational principle),
 //! [`fem`] (bases, quadrature), [`discrete`] (the element: L_d, its derivatives, discrete
-//! Legendre transforms and energies), [`solve`] (nonlinear solvers), [`step`] (the discrete
-//! flow with time steps as parameters and as variables), [`diagnostics`] (symplecticity,
+//! Legendre transforms and energies), [`mod@solve`] (nonlinear solvers), [`step`] (the discrete
+//! flow with time steps as parameters and as variables, checkpoints, the run driver), [`diagnostics`] (symplecticity,
 //! orders), [`expr`] (Lagrangians from math expressions) and
 //! [`models`] (built-in systems).
 #![deny(missing_docs)]

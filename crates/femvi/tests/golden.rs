@@ -353,3 +353,97 @@ fn final_states_are_bit_identical_to_the_stored_ones() {
     }
     assert_eq!(got.lines().count(), want.lines().count());
 }
+
+/// Runs `make()` whole, and again stopped after each of `stops` steps, checkpointed (through
+/// JSON) and restored into a fresh integrator; the final states must be identical. Returns
+/// the number of resumed runs.
+fn resume<'a, L: Lagrangian + 'a>(make: impl Fn() -> Integrator<'a, L>, stops: &[usize]) -> usize {
+    let mut whole = make();
+    while whole.step().unwrap() {}
+    let want = finish(&whole);
+    for &stop in stops {
+        let mut first = make();
+        assert_eq!(first.advance(stop).unwrap(), stop);
+        let json = serde_json::to_string(&first.checkpoint("golden")).unwrap();
+        let mut resumed = make();
+        resumed
+            .restore(&serde_json::from_str(&json).unwrap(), "golden")
+            .unwrap();
+        while resumed.step().unwrap() {}
+        assert_eq!(finish(&resumed), want, "stopped at {stop}");
+    }
+    stops.len()
+}
+
+/// A run stopped at a node and restored from its checkpoint (serialised to JSON and read
+/// back) continues bit for bit as the uninterrupted run, for every solver and energy mode, at
+/// many stopping points.
+#[test]
+fn checkpoints_resume_bit_for_bit() {
+    let kep = models::kepler(1.0);
+    let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
+    let (trap, deg2, deg6, mid) = (trapezoid(), gauss(2), gauss(6), Element::midpoint());
+    let mut checked = 0;
+    let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
+    let pend_start = || Start::Velocity {
+        q: vec![1.2],
+        v: vec![0.0],
+    };
+    checked += resume(
+        || new(&kep, &trap, uni(0.01, 5.0), kepler_start(), opts(Method::Auto)),
+        &[1, 2, 3, 77, 250, 499],
+    );
+    checked += resume(
+        || new(&pend, &deg6, uni(0.4, 40.0), pend_start(), opts(Method::Auto)),
+        &[1, 2, 5, 50, 99],
+    );
+    let q1 = || Start::Positions {
+        q0: vec![1.0],
+        q1: vec![0.99],
+    };
+    checked += resume(
+        || new(&pend, &deg2, uni(0.05, 5.0), q1(), opts(Method::Auto)),
+        &[1, 2, 3, 40],
+    );
+    checked += resume(
+        || new(&pend, &deg2, uni(0.05, 3.0), pend_start(), opts(Method::Newton)),
+        &[1, 2, 17, 59],
+    );
+    checked += resume(|| energy(&pend, &mid, pend_start(), 0.05, 5.0), &[1, 2, 3, 33, 90]);
+    assert!(checked >= 20, "{checked} resumed runs");
+}
+
+#[test]
+fn checkpoints_of_other_runs_are_refused() {
+    let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
+    let (deg2, deg3) = (gauss(2), gauss(3));
+    let start = || Start::Velocity {
+        q: vec![1.2],
+        v: vec![0.0],
+    };
+    let grid = || TimeGrid::uniform(0.0, 0.1, 5.0).unwrap();
+    let mut a = new(&pend, &deg2, grid(), start(), opts(Method::Auto));
+    a.advance(5).unwrap();
+    let saved = a.checkpoint("p");
+    let mut other_element = new(&pend, &deg3, grid(), start(), opts(Method::Auto));
+    assert!(other_element.restore(&saved, "p").is_err());
+    let mut other_grid = new(
+        &pend,
+        &deg2,
+        TimeGrid::uniform(0.0, 0.2, 5.0).unwrap(),
+        start(),
+        opts(Method::Auto),
+    );
+    assert!(other_grid.restore(&saved, "p").is_err());
+    let mut same = new(&pend, &deg2, grid(), start(), opts(Method::Auto));
+    assert!(same.restore(&saved, "q").is_err(), "another tag");
+    let mut damaged = saved.clone();
+    damaged.words.pop();
+    assert!(same.restore(&damaged, "p").is_err(), "truncated");
+    assert_eq!(same.node().k, 0, "unchanged after a refusal");
+    let mut old = saved.clone();
+    old.version = "0.0.1".into();
+    assert!(same.restore(&old, "p").is_err(), "another version");
+    same.restore(&saved, "p").unwrap();
+    assert_eq!(same.node().k, 5);
+}

@@ -164,14 +164,14 @@ impl Recorder {
 impl<L: Lagrangian> Observer<L> for Recorder {
     fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> Result<()> {
         let node = it.node();
-        self.node_h = hamiltonian(
-            it.lagrangian(),
-            node.t,
-            node.q,
-            node.p,
-            &mut self.node_v,
-            &mut self.work,
-        )?;
+        let keep = node.k == 0 || last || (self.every > 0 && node.k.is_multiple_of(self.every));
+        // The velocity and energy at the node (a Newton solve for general Lagrangians) only
+        // where they are used: kept nodes, the dense output, a saveat time on the node.
+        let saved_here = self.saveat.get(self.next_save).is_some_and(|&ts| ts <= node.t);
+        if keep || self.dense_wanted || saved_here || self.prev.is_none() {
+            let lag = it.lagrangian();
+            self.node_h = hamiltonian(lag, node.t, node.q, node.p, &mut self.node_v, &mut self.work)?;
+        }
         if self.prev.is_none() {
             if self.dense_wanted {
                 self.dense = Some(DenseOutput::new(
@@ -199,7 +199,6 @@ impl<L: Lagrangian> Observer<L> for Recorder {
         } else {
             self.step_done(it);
         }
-        let keep = node.k == 0 || last || (self.every > 0 && node.k.is_multiple_of(self.every));
         if keep {
             self.keep(node.k, node.t, node.q, node.p);
         }

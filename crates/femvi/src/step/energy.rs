@@ -12,6 +12,7 @@
 //! energy is insensitive to h (c₂ ≈ 0) or has no root in the bounds, the step is degenerate:
 //! a typed error, or (on request) one step with h as a parameter, counted.
 
+use super::checkpoint::{Reader, Words};
 use super::element_work::buffers;
 use super::integrator::Integrator;
 use super::solver::{Kind, Solver};
@@ -82,6 +83,41 @@ const ACCEPT: f64 = 0.25 * f64::EPSILON;
 /// s the discrete energy depends on h only at O(h^{2s}), so for s ≥ 3 g is nearly flat and
 /// its round-off noise hides the root: such steps are degenerate, not accepted loosely.
 const REJECT: f64 = 64.0 * f64::EPSILON;
+
+impl EnergyState {
+    pub(super) fn options(&self) -> EnergyOptions {
+        self.opts
+    }
+
+    /// The carried energy and the statistics (checkpoints).
+    pub(super) fn save(&self, w: &mut Words) {
+        w.b(self.started);
+        w.f(self.h_prev);
+        w.f(self.comp);
+        let st = &self.stats;
+        for x in [st.energy, st.min_step, st.max_step, st.max_rel_residual] {
+            w.f(x);
+        }
+        w.u(st.degenerate_steps);
+    }
+
+    pub(super) fn load(&mut self, r: &mut Reader<'_>) -> Result<()> {
+        self.started = r.b()?;
+        self.h_prev = r.f()?;
+        self.comp = r.f()?;
+        let st = &mut self.stats;
+        for x in [
+            &mut st.energy,
+            &mut st.min_step,
+            &mut st.max_step,
+            &mut st.max_rel_residual,
+        ] {
+            *x = r.f()?;
+        }
+        st.degenerate_steps = r.u()?;
+        Ok(())
+    }
+}
 
 impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// Sets up a run with time steps as variables. The grid gives t0, the first step (taken

@@ -5,6 +5,7 @@
 //! locals for small fixed sizes ([`ExplicitStep::advance`]) that keeps the compensated
 //! momentum lazily between calls.
 
+use super::checkpoint::{Reader, Words};
 use super::grid::TimeGrid;
 use super::state::{Increments, LastElement, RunState};
 use crate::error::{Error, Result, StepError, StepFailure};
@@ -67,6 +68,35 @@ impl ExplicitStep {
             lazy_fprev: vec![0.0; n],
             lazy_hprev: 0.0,
         }
+    }
+
+    /// The carried forces and lazy momentum (checkpoints).
+    pub(crate) fn save_state(&self, w: &mut Words) {
+        w.fs(&self.force);
+        w.u(self.fsal_slot);
+        w.b(self.force0_valid);
+        w.b(self.lazy_valid);
+        for v in [&self.lazy_p, &self.lazy_cp, &self.lazy_pending, &self.lazy_fprev] {
+            w.fs(v);
+        }
+        w.f(self.lazy_hprev);
+    }
+
+    pub(crate) fn load_state(&mut self, r: &mut Reader<'_>) -> Result<()> {
+        r.fs(&mut self.force)?;
+        self.fsal_slot = r.u()? & 1;
+        self.force0_valid = r.b()?;
+        self.lazy_valid = r.b()?;
+        for v in [
+            &mut self.lazy_p,
+            &mut self.lazy_cp,
+            &mut self.lazy_pending,
+            &mut self.lazy_fprev,
+        ] {
+            r.fs(v)?;
+        }
+        self.lazy_hprev = r.f()?;
+        Ok(())
     }
 
     /// One Verlet step of size h from the current node into `out`, and the last element's

@@ -7,6 +7,7 @@
 //! element's, exact in double-double (step/fixed_point.rs); the start interpolates the last
 //! step's forces (step/start.rs).
 
+use super::checkpoint::{Reader, Words};
 use super::fixed_point::{affine, FixedPointTables, StepTables};
 use super::guess::Guess;
 use super::solver::StepContext;
@@ -352,6 +353,20 @@ impl FixedPointStep {
             }
             out.dp[c] = hi;
         }
+    }
+
+    /// The data the next step's start depends on (checkpoints); tables and workspaces are
+    /// recomputed from the step.
+    pub(crate) fn save(&self, w: &mut Words) {
+        w.b(self.have_last_w);
+        w.u(self.last_sweeps);
+        self.stage_start.save(w);
+    }
+
+    pub(crate) fn load(&mut self, r: &mut Reader<'_>) -> Result<()> {
+        self.have_last_w = r.b()?;
+        self.last_sweeps = r.u()?;
+        self.stage_start.load(r)
     }
 
     /// The step was accepted: its stage forces (M⁻¹f) start the next step.

@@ -42,6 +42,7 @@
 //!   committed step (`tangent.rs`) applied to tangent vectors, an observer of each node.
 
 pub mod auto;
+mod checkpoint;
 pub mod drive;
 mod element_work;
 mod energy;
@@ -59,6 +60,7 @@ mod start;
 mod state;
 mod tangent;
 
+pub use checkpoint::Checkpoint;
 pub use drive::{drive, DriveReport, Observer};
 pub use energy::{Degenerate, EnergyOptions, EnergyStats};
 pub use grid::{TimeGrid, UniformRule};

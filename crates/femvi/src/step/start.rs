@@ -80,6 +80,24 @@ struct Tables {
 const CACHED: usize = 4;
 
 impl StageStart {
+    /// The forces at the data points and where the node force was taken (checkpoints).
+    pub(super) fn save(&self, w: &mut super::checkpoint::Words) {
+        w.fs(&self.data);
+        match self.node_force_k {
+            None => w.b(false),
+            Some(k) => {
+                w.b(true);
+                w.u(k);
+            }
+        }
+    }
+
+    pub(super) fn load(&mut self, r: &mut super::checkpoint::Reader<'_>) -> crate::error::Result<()> {
+        r.fs(&mut self.data)?;
+        self.node_force_k = if r.b()? { Some(r.u()?) } else { None };
+        Ok(())
+    }
+
     /// Workspace for `element` in dimension n.
     pub(super) fn new(element: &Element, n: usize) -> Self {
         let r = element.points();

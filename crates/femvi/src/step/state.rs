@@ -4,6 +4,7 @@
 //! the state by [`RunState::commit`]: positions and momenta advance by increments with
 //! compensated (Kahan) summation, so round-off grows like √steps.
 
+use super::checkpoint::{Reader, Words};
 use crate::error::{Error, Result, StepError, StepFailure};
 
 /// A node of the discrete trajectory.
@@ -163,7 +164,52 @@ impl RunState {
     }
 }
 
+impl RunState {
+    pub(crate) fn save(&self, w: &mut Words) {
+        w.u(self.k);
+        w.f(self.t);
+        for v in [&self.q, &self.p, &self.comp_q, &self.comp_p, &self.v0] {
+            w.fs(v);
+        }
+        w.u(self.iterations);
+        w.u(self.steps);
+    }
+
+    pub(crate) fn load(&mut self, r: &mut Reader<'_>) -> Result<()> {
+        self.k = r.u()?;
+        self.t = r.f()?;
+        for v in [
+            &mut self.q,
+            &mut self.p,
+            &mut self.comp_q,
+            &mut self.comp_p,
+            &mut self.v0,
+        ] {
+            r.fs(v)?;
+        }
+        self.iterations = r.u()?;
+        self.steps = r.u()?;
+        Ok(())
+    }
+}
+
 impl LastElement {
+    pub(crate) fn save(&self, w: &mut Words) {
+        w.b(self.valid);
+        w.f(self.t);
+        w.f(self.h);
+        w.fs(&self.base);
+        w.fs(&self.incr);
+    }
+
+    pub(crate) fn load(&mut self, r: &mut Reader<'_>) -> Result<()> {
+        self.valid = r.b()?;
+        self.t = r.f()?;
+        self.h = r.f()?;
+        r.fs(&mut self.base)?;
+        r.fs(&mut self.incr)
+    }
+
     pub(crate) fn new(s: usize, n: usize, t0: f64) -> Self {
         Self {
             valid: false,
