@@ -7,6 +7,7 @@ mod check;
 mod convergence;
 mod plot;
 mod problem;
+mod record;
 mod run;
 
 use clap::{Parser, Subcommand};
