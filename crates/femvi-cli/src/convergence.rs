@@ -29,8 +29,11 @@ pub enum Reference {
 /// One run of the study.
 #[derive(Debug, Serialize)]
 pub struct Run {
+    /// The step size.
     pub step: f64,
+    /// ‖(q, p) − (q, p)_ref‖₂ at the end.
     pub error: f64,
+    /// The order measured against the previous run.
     pub order_from_previous: Option<f64>,
     /// With --l2: the L² distance of the piecewise-polynomial q_h to the reference over [t0, T].
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -40,16 +43,20 @@ pub struct Run {
 /// The study, printed as JSON with `--json`.
 #[derive(Debug, Serialize)]
 pub struct Study {
+    /// The problem's name.
     pub name: String,
+    /// The element used.
     pub scheme: String,
     /// Least-squares slope of ln(error) against ln(step) over all runs.
     pub order: f64,
     /// What the errors were measured against.
     pub reference: String,
+    /// The end time of every run.
     pub t_end: f64,
     /// With --l2: the least-squares order of the L² errors.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub l2_order: Option<f64>,
+    /// One entry per step size, in the order given.
     pub runs: Vec<Run>,
 }
 

@@ -45,7 +45,9 @@ pub fn file(dir: &Path, stem: &str, format: Format) -> PathBuf {
 
 /// One line of a plot.
 pub struct Series {
+    /// Legend entry.
     pub name: String,
+    /// (x, y) points.
     pub points: Vec<(f64, f64)>,
 }
 

@@ -15,16 +15,27 @@ use std::time::Instant;
 /// What summary.json holds.
 #[derive(Debug, Serialize)]
 pub struct Summary {
+    /// The problem's name.
     pub name: String,
+    /// The element used.
     pub scheme: String,
+    /// Steps completed.
     pub steps: usize,
+    /// The requested end time.
     pub t_end: f64,
+    /// Time of the last node.
     pub final_t: f64,
+    /// Positions at the last node.
     pub final_q: Vec<f64>,
+    /// Momenta at the last node.
     pub final_p: Vec<f64>,
+    /// Max over nodes of |H − H0|/|H0| (absolute if H0 = 0), H by the Legendre transform.
     pub max_rel_energy_error: f64,
+    /// Solver iterations per step (0 for explicit steps).
     pub mean_solver_iterations: f64,
+    /// Run time.
     pub wall_seconds: f64,
+    /// The message of the error that stopped the run, if any.
     pub error: Option<String>,
     /// Energy mode only: largest relative residual of the discrete energy equations (3.3).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -58,6 +69,7 @@ pub struct AutoStep {
     pub pilot_steps: usize,
 }
 
+/// summary.json's `auto_step` for a problem with `[time] accuracy`.
 fn auto_step(problem: &Problem) -> Option<AutoStep> {
     problem.auto_step.as_ref().map(|c| AutoStep {
         accuracy: c.accuracy,
@@ -81,10 +93,15 @@ pub enum Outcome {
 /// Output formats of a run and whether a progress bar may be shown.
 #[derive(Debug, Clone, Copy)]
 pub struct RunOutput {
+    /// Write trajectory.csv.
     pub csv: bool,
+    /// Write trajectory.npy and columns.txt.
     pub npy: bool,
+    /// Show a progress bar (on a terminal, after a second).
     pub progress: bool,
+    /// Draw plots.
     pub plots: bool,
+    /// Image format of the plots.
     pub plot_format: crate::plot::Format,
 }
 
@@ -161,6 +178,7 @@ fn run_summary<L: Lagrangian>(
     }
 }
 
+/// The summary of a run that failed before its first node (the start from (q0, q1)).
 fn empty_summary(problem: &Problem, wall: f64, error: String) -> Summary {
     Summary {
         name: problem.name.clone(),
@@ -182,6 +200,7 @@ fn empty_summary(problem: &Problem, wall: f64, error: String) -> Summary {
     }
 }
 
+/// Writes `dir`/summary.json (pretty JSON and a newline).
 fn write_summary(dir: &Path, s: &Summary) -> std::io::Result<()> {
     let mut f = std::fs::File::create(dir.join("summary.json"))?;
     let text = serde_json::to_string_pretty(s).map_err(std::io::Error::other)?;
