@@ -13,15 +13,23 @@ use std::time::Instant;
 /// What summary.json holds for a boundary value problem.
 #[derive(Debug, Serialize)]
 pub struct BvpSummary {
+    /// The problem's name.
     pub name: String,
+    /// The element used.
     pub scheme: String,
+    /// Number of elements.
     pub elements: usize,
     /// "fixed" (uniform mesh) or "energy" (moving mesh).
     pub time_mode: &'static str,
+    /// The discrete action S of the solution.
     pub action: Option<f64>,
+    /// max |∂S/∂Q| over the unknowns at the solution (or where Newton's method stopped).
     pub residual_norm: Option<f64>,
+    /// Newton iterations taken.
     pub newton_iterations: usize,
+    /// Run time.
     pub wall_seconds: f64,
+    /// The message of the error that stopped the solve, if any.
     pub error: Option<String>,
 }
 

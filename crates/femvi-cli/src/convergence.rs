@@ -2,7 +2,8 @@
 //! measures the final nodal error in phase space, ‖(q, p) − (q, p)_ref‖₂, and fits observed
 //! orders. The reference is a closed form where the model has one (harmonic, kepler), or a
 //! run with a finer step and an element of degree s + 2. With --l2 it also measures the L²
-//! error of the piecewise-polynomial trajectory over the whole span ((2.33), (2.56)).
+//! error of the piecewise-polynomial trajectory over the whole span ((2.33), (2.56)); with
+//! --plot it draws the errors against the step with the fitted slopes ([`plot`]).
 
 use crate::problem::Problem;
 use femvi::diagnostics::{exact, fit_order, PiecewiseTrajectory};
@@ -28,8 +29,11 @@ pub enum Reference {
 /// One run of the study.
 #[derive(Debug, Serialize)]
 pub struct Run {
+    /// The step size.
     pub step: f64,
+    /// ‖(q, p) − (q, p)_ref‖₂ at the end.
     pub error: f64,
+    /// The order measured against the previous run.
     pub order_from_previous: Option<f64>,
     /// With --l2: the L² distance of the piecewise-polynomial q_h to the reference over [t0, T].
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -39,16 +43,20 @@ pub struct Run {
 /// The study, printed as JSON with `--json`.
 #[derive(Debug, Serialize)]
 pub struct Study {
+    /// The problem's name.
     pub name: String,
+    /// The element used.
     pub scheme: String,
     /// Least-squares slope of ln(error) against ln(step) over all runs.
     pub order: f64,
     /// What the errors were measured against.
     pub reference: String,
+    /// The end time of every run.
     pub t_end: f64,
     /// With --l2: the least-squares order of the L² errors.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub l2_order: Option<f64>,
+    /// One entry per step size, in the order given.
     pub runs: Vec<Run>,
 }
 
@@ -199,4 +207,55 @@ fn study_with<L: Lagrangian>(
         l2_order,
         runs,
     })
+}
+
+/// Error against step on log-log axes, with the least-squares line of each fit.
+pub fn plot(dir: &std::path::Path, study: &Study, f: crate::plot::Format) -> Result<(), String> {
+    use crate::plot::{self, Series};
+    let pts: Vec<(f64, f64)> = study.runs.iter().map(|r| (r.step, r.error)).collect();
+    let fit_line = |pts: &[(f64, f64)], order: f64| -> Vec<(f64, f64)> {
+        // Through the geometric mean of the points with the fitted slope.
+        let k = pts.len() as f64;
+        let (mx, my) = pts
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (x, y)| (a + x.ln() / k, b + y.ln() / k));
+        pts.iter()
+            .map(|(x, _)| (*x, (my + order * (x.ln() - mx)).exp()))
+            .collect()
+    };
+    let mut series = vec![
+        Series {
+            name: "final nodal error".into(),
+            points: pts.clone(),
+        },
+        Series {
+            name: format!("fit: order {:.2}", study.order),
+            points: fit_line(&pts, study.order),
+        },
+    ];
+    if let Some(o) = study.l2_order {
+        let l2: Vec<(f64, f64)> = study
+            .runs
+            .iter()
+            .map(|r| (r.step, r.l2_error.unwrap_or(f64::NAN)))
+            .collect();
+        series.push(Series {
+            name: "L2 error".into(),
+            points: l2.clone(),
+        });
+        series.push(Series {
+            name: format!("fit: L2 order {o:.2}"),
+            points: fit_line(&l2, o),
+        });
+    }
+    let title = format!("{}: convergence", study.name);
+    plot::log_lines(
+        &plot::file(dir, "convergence", f),
+        f,
+        &title,
+        "step h",
+        "error",
+        &series,
+        true,
+    )
 }

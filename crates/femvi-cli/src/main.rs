@@ -5,8 +5,10 @@
 mod bvp;
 mod check;
 mod convergence;
+mod models;
 mod plot;
 mod problem;
+mod record;
 mod run;
 
 use clap::{Parser, Subcommand};
@@ -141,7 +143,7 @@ fn dispatch(cli: Cli) -> ExitCode {
         },
         Command::Check { problem, json, out } => cmd_check(&problem, json, out),
         Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
-        Command::Models { name } => cmd_models(name.as_deref()),
+        Command::Models { name } => models::cmd_models(name.as_deref()),
         Command::Convergence {
             problem,
             steps,
@@ -155,134 +157,6 @@ fn dispatch(cli: Cli) -> ExitCode {
             Ok(f) => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, plot.then_some(f), out),
             Err(code) => code,
         },
-    }
-}
-
-/// Error against step on log-log axes, with the least-squares line of each fit.
-fn convergence_plot(dir: &std::path::Path, study: &convergence::Study, f: plot::Format) -> Result<(), String> {
-    use plot::Series;
-    let pts: Vec<(f64, f64)> = study.runs.iter().map(|r| (r.step, r.error)).collect();
-    let fit_line = |pts: &[(f64, f64)], order: f64| -> Vec<(f64, f64)> {
-        // Through the geometric mean of the points with the fitted slope.
-        let k = pts.len() as f64;
-        let (mx, my) = pts
-            .iter()
-            .fold((0.0, 0.0), |(a, b), (x, y)| (a + x.ln() / k, b + y.ln() / k));
-        pts.iter()
-            .map(|(x, _)| (*x, (my + order * (x.ln() - mx)).exp()))
-            .collect()
-    };
-    let mut series = vec![
-        Series {
-            name: "final nodal error".into(),
-            points: pts.clone(),
-        },
-        Series {
-            name: format!("fit: order {:.2}", study.order),
-            points: fit_line(&pts, study.order),
-        },
-    ];
-    if let Some(o) = study.l2_order {
-        let l2: Vec<(f64, f64)> = study
-            .runs
-            .iter()
-            .map(|r| (r.step, r.l2_error.unwrap_or(f64::NAN)))
-            .collect();
-        series.push(Series {
-            name: "L2 error".into(),
-            points: l2.clone(),
-        });
-        series.push(Series {
-            name: format!("fit: L2 order {o:.2}"),
-            points: fit_line(&l2, o),
-        });
-    }
-    let title = format!("{}: convergence", study.name);
-    plot::log_lines(
-        &plot::file(dir, "convergence", f),
-        f,
-        &title,
-        "step h",
-        "error",
-        &series,
-        true,
-    )
-}
-
-/// Complete problem files of the built-in models (also examples/models/, run by the tests).
-const MODEL_FILES: &[(&str, &str)] = &[
-    ("harmonic", include_str!("../../../examples/models/harmonic.toml")),
-    ("pendulum", include_str!("../../../examples/models/pendulum.toml")),
-    ("kepler", include_str!("../../../examples/models/kepler.toml")),
-    (
-        "henon-heiles",
-        include_str!("../../../examples/models/henon-heiles.toml"),
-    ),
-    (
-        "forced-oscillator",
-        include_str!("../../../examples/models/forced-oscillator.toml"),
-    ),
-    ("fpu", include_str!("../../../examples/models/fpu.toml")),
-    ("n-body", include_str!("../../../examples/models/n-body.toml")),
-    (
-        "outer-solar-system",
-        include_str!("../../../examples/models/outer-solar-system.toml"),
-    ),
-    (
-        "double-pendulum",
-        include_str!("../../../examples/models/double-pendulum.toml"),
-    ),
-];
-
-fn cmd_models(name: Option<&str>) -> ExitCode {
-    let Some(name) = name else {
-        for m in femvi::models::MODELS {
-            let params: Vec<String> = m.parameters.iter().map(|(k, v)| format!("{k} = {v}")).collect();
-            let defaults = femvi::models::parameters(m.name, &[]).unwrap_or_default();
-            let coords = femvi::models::coordinates(m.name, &defaults);
-            let shown = if coords.len() > 6 {
-                format!("{}, … ({} in all)", coords[..6].join(", "), coords.len())
-            } else {
-                coords.join(", ")
-            };
-            let labels: Vec<String> = problem::model_symmetries(m.name, &defaults)
-                .iter()
-                .map(|s| s.label(&coords))
-                .collect();
-            let symmetries = if labels.is_empty() {
-                "none".to_string()
-            } else {
-                labels.join(", ")
-            };
-            println!("{:<20} {}", m.name, m.description);
-            println!(
-                "{:<20} parameters: {}",
-                "",
-                if params.is_empty() {
-                    "none".into()
-                } else {
-                    params.join(", ")
-                }
-            );
-            println!("{:<20} coordinates: {shown}; symmetries: {symmetries}", "");
-        }
-        println!("\n`femvi models NAME` prints a complete problem file for NAME.");
-        return ExitCode::SUCCESS;
-    };
-    match MODEL_FILES.iter().find(|(n, _)| *n == name) {
-        Some((_, text)) => {
-            print!("{text}");
-            ExitCode::SUCCESS
-        }
-        None => {
-            let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).collect();
-            eprintln!(
-                "error: unknown model '{name}'{}; built-in models: {}",
-                problem::did_you_mean(name, &names),
-                names.join(", ")
-            );
-            ExitCode::from(BAD_INPUT)
-        }
     }
 }
 
@@ -437,7 +311,7 @@ fn cmd_convergence(
         return ExitCode::from(BAD_INPUT);
     }
     if let Some(f) = plot {
-        if let Err(e) = convergence_plot(&dir, &study, f) {
+        if let Err(e) = convergence::plot(&dir, &study, f) {
             eprintln!("error: {e}");
             return ExitCode::from(BAD_INPUT);
         }

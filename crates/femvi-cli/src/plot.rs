@@ -45,7 +45,9 @@ pub fn file(dir: &Path, stem: &str, format: Format) -> PathBuf {
 
 /// One line of a plot.
 pub struct Series {
+    /// Legend entry.
     pub name: String,
+    /// (x, y) points.
     pub points: Vec<(f64, f64)>,
 }
 
@@ -170,15 +172,9 @@ fn log_range(values: impl Iterator<Item = f64>, pad: f64, fallback: (f64, f64)) 
     }
 }
 
-fn draw_on<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    title: &str,
-    xlabel: &str,
-    ylabel: &str,
-    series: &[Series],
-    axes: Axes,
-) -> Result<(), String> {
-    let data: Vec<Vec<(f64, f64)>> = series
+/// The points of each series that are drawn: thinned, and positive on log axes.
+fn plotted(series: &[Series], axes: Axes) -> Vec<Vec<(f64, f64)>> {
+    series
         .iter()
         .map(|s| {
             thin(&s.points)
@@ -190,7 +186,19 @@ fn draw_on<DB: DrawingBackend>(
                 })
                 .collect()
         })
-        .collect();
+        .collect()
+}
+
+/// Draws `series` with a title, axis labels and (several series) a legend on `root`.
+fn draw_on<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+    axes: Axes,
+) -> Result<(), String> {
+    let data = plotted(series, axes);
     let xs = || data.iter().flatten().map(|p| p.0);
     let ys = || data.iter().flatten().map(|p| p.1);
     root.fill(&WHITE).map_err(err)?;

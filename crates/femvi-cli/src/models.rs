@@ -1,0 +1,84 @@
+//! `femvi models`: lists the built-in models (parameters, coordinates, symmetries) or prints
+//! the complete problem file of one of them.
+
+use crate::problem;
+use crate::BAD_INPUT;
+use std::process::ExitCode;
+
+/// Complete problem files of the built-in models (also examples/models/, run by the tests).
+const MODEL_FILES: &[(&str, &str)] = &[
+    ("harmonic", include_str!("../../../examples/models/harmonic.toml")),
+    ("pendulum", include_str!("../../../examples/models/pendulum.toml")),
+    ("kepler", include_str!("../../../examples/models/kepler.toml")),
+    (
+        "henon-heiles",
+        include_str!("../../../examples/models/henon-heiles.toml"),
+    ),
+    (
+        "forced-oscillator",
+        include_str!("../../../examples/models/forced-oscillator.toml"),
+    ),
+    ("fpu", include_str!("../../../examples/models/fpu.toml")),
+    ("n-body", include_str!("../../../examples/models/n-body.toml")),
+    (
+        "outer-solar-system",
+        include_str!("../../../examples/models/outer-solar-system.toml"),
+    ),
+    (
+        "double-pendulum",
+        include_str!("../../../examples/models/double-pendulum.toml"),
+    ),
+];
+
+/// Lists the models, or prints the problem file of `name`.
+pub fn cmd_models(name: Option<&str>) -> ExitCode {
+    let Some(name) = name else {
+        for m in femvi::models::MODELS {
+            let params: Vec<String> = m.parameters.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+            let defaults = femvi::models::parameters(m.name, &[]).unwrap_or_default();
+            let coords = femvi::models::coordinates(m.name, &defaults);
+            let shown = if coords.len() > 6 {
+                format!("{}, … ({} in all)", coords[..6].join(", "), coords.len())
+            } else {
+                coords.join(", ")
+            };
+            let labels: Vec<String> = problem::model_symmetries(m.name, &defaults)
+                .iter()
+                .map(|s| s.label(&coords))
+                .collect();
+            let symmetries = if labels.is_empty() {
+                "none".to_string()
+            } else {
+                labels.join(", ")
+            };
+            println!("{:<20} {}", m.name, m.description);
+            println!(
+                "{:<20} parameters: {}",
+                "",
+                if params.is_empty() {
+                    "none".into()
+                } else {
+                    params.join(", ")
+                }
+            );
+            println!("{:<20} coordinates: {shown}; symmetries: {symmetries}", "");
+        }
+        println!("\n`femvi models NAME` prints a complete problem file for NAME.");
+        return ExitCode::SUCCESS;
+    };
+    match MODEL_FILES.iter().find(|(n, _)| *n == name) {
+        Some((_, text)) => {
+            print!("{text}");
+            ExitCode::SUCCESS
+        }
+        None => {
+            let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).collect();
+            eprintln!(
+                "error: unknown model '{name}'{}; built-in models: {}",
+                problem::did_you_mean(name, &names),
+                names.join(", ")
+            );
+            ExitCode::from(BAD_INPUT)
+        }
+    }
+}

@@ -1,0 +1,122 @@
+//! The `[time]` table: the time grid of an initial value problem (a uniform step, a list of
+//! steps used in turn, or a step chosen for a requested accuracy) and energy mode (time steps
+//! as variables), checked and turned into a [`TimeGrid`] and [`femvi::EnergyOptions`].
+
+use super::errors::{InputError, Source};
+use super::system::System;
+use femvi::step::auto::StepChoice;
+use femvi::{Element, SolverOptions, Start, TimeGrid};
+use serde::Deserialize;
+
+/// `[time] mode` (and `[boundary] time_mode`): fixed steps, or steps solved from the discrete
+/// energy equation.
+#[derive(Debug, Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// Steps as given (the default).
+    #[default]
+    Fixed,
+    /// Steps as variables (paper §3).
+    Energy,
+}
+
+/// `[time] on_degenerate`: what energy mode does at a step whose energy equation has no
+/// admissible root.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub enum OnDegenerate {
+    /// Stop with an error (the default).
+    Error,
+    /// Take that step with the previous step size as a parameter, and count it.
+    Fixed,
+}
+
+/// `[time]` as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeTable {
+    /// Fixed steps or energy mode.
+    #[serde(default)]
+    pub mode: Mode,
+    /// A uniform step (energy mode: the first step).
+    pub step: Option<f64>,
+    /// Steps used in turn.
+    pub steps: Option<Vec<f64>>,
+    /// Relative position error wanted at `end`: femvi chooses the step (and, without
+    /// [scheme] order or degree, the degree) by pilot runs (femvi::step::auto).
+    pub accuracy: Option<f64>,
+    /// Final time.
+    pub end: f64,
+    /// Energy mode: the smallest step allowed.
+    pub min_step: Option<f64>,
+    /// Energy mode: the largest step allowed.
+    pub max_step: Option<f64>,
+    /// Energy mode: the policy where the energy equation degenerates.
+    pub on_degenerate: Option<OnDegenerate>,
+}
+
+impl TimeTable {
+    /// Energy mode's options (None in fixed mode), checked against the other keys.
+    pub fn energy(&self, src: &Source) -> Result<Option<femvi::EnergyOptions>, InputError> {
+        if self.mode == Mode::Fixed {
+            if self.min_step.is_some() || self.max_step.is_some() || self.on_degenerate.is_some() {
+                return Err(src.error("[time] min_step, max_step and on_degenerate apply only to mode = \"energy\""));
+            }
+            return Ok(None);
+        }
+        if self.accuracy.is_some() {
+            return Err(
+                src.error("[time] accuracy chooses a uniform step; mode = \"energy\" takes the first `step` instead")
+            );
+        }
+        let h = self.step.ok_or_else(|| {
+            src.error("[time] mode = \"energy\" needs `step` (the first step; later steps are variables)")
+        })?;
+        if self.steps.is_some() {
+            return Err(src.error("[time] mode = \"energy\" takes `step`, not a list of `steps`"));
+        }
+        let d = femvi::EnergyOptions::from_step(h);
+        Ok(Some(femvi::EnergyOptions {
+            min_step: self.min_step.unwrap_or(d.min_step),
+            max_step: self.max_step.unwrap_or(d.max_step),
+            on_degenerate: match self.on_degenerate {
+                Some(OnDegenerate::Fixed) => femvi::Degenerate::Fixed,
+                _ => femvi::Degenerate::Error,
+            },
+        }))
+    }
+
+    /// The grid from `t0` to `end`; with `accuracy`, a placeholder until
+    /// [`TimeTable::choose_step`] has the initial values.
+    pub fn grid(&self, t0: f64, src: &Source) -> Result<TimeGrid, InputError> {
+        match (&self.step, &self.steps, &self.accuracy) {
+            (Some(h), None, None) => TimeGrid::uniform(t0, *h, self.end),
+            (None, Some(list), None) => TimeGrid::steps(t0, list.clone(), self.end),
+            (None, None, Some(_)) => TimeGrid::uniform(t0, (self.end - t0).abs().max(1.0), self.end),
+            _ => return Err(src.error("[time] needs exactly one of `step`, `steps` or `accuracy`")),
+        }
+        .map_err(|e| src.error(format!("[time]: {e}")))
+    }
+
+    /// With `accuracy`: the step that pilot runs choose (femvi::step::auto) and the uniform
+    /// grid with it. Without: None.
+    pub fn choose_step(
+        &self,
+        system: &System,
+        element: &Element,
+        start: &Start,
+        t0: f64,
+        options: SolverOptions,
+        src: &Source,
+    ) -> Result<Option<(TimeGrid, StepChoice)>, InputError> {
+        let Some(accuracy) = self.accuracy else {
+            return Ok(None);
+        };
+        let choice = crate::with_system!(system, l => femvi::step::auto::choose_step(
+            l, element, start, t0, self.end, accuracy, options
+        ))
+        .map_err(|e| src.error(format!("[time] accuracy = {accuracy:e}: {e}")))?;
+        let grid = TimeGrid::uniform(t0, choice.step, self.end).map_err(|e| src.error(format!("[time]: {e}")))?;
+        Ok(Some((grid, choice)))
+    }
+}

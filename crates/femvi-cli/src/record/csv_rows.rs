@@ -1,0 +1,73 @@
+//! trajectory.csv: one row per kept node (step, t, q, p, energy and, in energy mode, the
+//! discrete energy), each number written as the shortest text that reads back to it.
+
+use super::{NodeEnergy, Thinning, WriteFailure};
+use femvi::step::Observer;
+use femvi::{Integrator, Lagrangian};
+use std::cell::Cell;
+use std::fs::File;
+use std::path::Path;
+use std::rc::Rc;
+
+/// Writes trajectory.csv as the run goes.
+pub struct CsvRows {
+    writer: csv::Writer<File>,
+    thinning: Thinning,
+    energy: Rc<Cell<NodeEnergy>>,
+    failure: WriteFailure,
+    row: Vec<String>,
+}
+
+impl CsvRows {
+    /// Creates `dir`/trajectory.csv and writes the header.
+    pub fn create(
+        dir: &Path,
+        columns: &[String],
+        every: usize,
+        energy: Rc<Cell<NodeEnergy>>,
+        failure: WriteFailure,
+    ) -> std::io::Result<Self> {
+        let mut writer = csv::Writer::from_path(dir.join("trajectory.csv"))?;
+        writer.write_record(columns)?;
+        Ok(CsvRows {
+            writer,
+            thinning: Thinning::new(every),
+            energy,
+            failure,
+            row: Vec::with_capacity(columns.len()),
+        })
+    }
+}
+
+/// Debug formatting of f64 is the shortest string that reads back to the same number.
+fn num(x: f64) -> String {
+    format!("{x:?}")
+}
+
+impl<L: Lagrangian> Observer<L> for CsvRows {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        let node = it.node();
+        if !self.thinning.keep(node.k, last) {
+            return Ok(());
+        }
+        self.row.clear();
+        self.row.push(node.k.to_string());
+        self.row.push(num(node.t));
+        self.row.extend(node.q.iter().map(|&x| num(x)));
+        self.row.extend(node.p.iter().map(|&x| num(x)));
+        self.row.push(num(self.energy.get().h));
+        if let Some(st) = it.energy_stats() {
+            self.row.push(num(st.energy));
+        }
+        self.writer
+            .write_record(&self.row)
+            .map_err(|e| femvi::Error::Observer(e.to_string()))
+    }
+
+    fn finish(&mut self, _it: &Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+        if self.failure.happened() {
+            return Ok(());
+        }
+        self.writer.flush().map_err(|e| self.failure.record(e))
+    }
+}

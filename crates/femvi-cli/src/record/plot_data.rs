@@ -1,0 +1,127 @@
+//! The plots of a run, drawn when it ends: coordinates against time, a phase portrait per
+//! coordinate, the relative energy error and, in energy mode, the step sizes. They show the
+//! nodes trajectory.csv keeps.
+
+use super::{NodeEnergy, Thinning, WriteFailure};
+use crate::plot::{file, lines, log_lines, Format, Series};
+use crate::problem::Problem;
+use femvi::step::Observer;
+use femvi::{Integrator, Lagrangian};
+use std::cell::Cell;
+use std::path::Path;
+use std::rc::Rc;
+
+/// What the plots need, gathered as the run goes.
+pub struct PlotData<'a> {
+    problem: &'a Problem,
+    dir: &'a Path,
+    format: Format,
+    thinning: Thinning,
+    energy: Rc<Cell<NodeEnergy>>,
+    failure: WriteFailure,
+    t: Vec<f64>,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    rel_energy: Vec<f64>,
+    steps: Vec<(f64, f64)>,
+}
+
+impl<'a> PlotData<'a> {
+    /// Plots of `problem` in `format`, drawn into `dir` at the end.
+    pub fn new(
+        problem: &'a Problem,
+        dir: &'a Path,
+        format: Format,
+        energy: Rc<Cell<NodeEnergy>>,
+        failure: WriteFailure,
+    ) -> Self {
+        PlotData {
+            problem,
+            dir,
+            format,
+            thinning: Thinning::new(problem.every),
+            energy,
+            failure,
+            t: vec![],
+            q: vec![],
+            p: vec![],
+            rel_energy: vec![],
+            steps: vec![],
+        }
+    }
+
+    /// Draws coordinates against time, phase portraits, the energy error and (energy mode)
+    /// the step sizes.
+    fn draw(&self) -> Result<(), String> {
+        let (dir, f, problem) = (self.dir, self.format, self.problem);
+        let n = problem.coordinates.len();
+        let name = &problem.name;
+        let coords: Vec<Series> = (0..n)
+            .map(|c| Series {
+                name: problem.coordinates[c].clone(),
+                points: self
+                    .t
+                    .iter()
+                    .enumerate()
+                    .map(|(k, t)| (*t, self.q[k * n + c]))
+                    .collect(),
+            })
+            .collect();
+        let title = format!("{name}: coordinates");
+        lines(&file(dir, "coordinates", f), f, &title, "t", "q", &coords)?;
+        for (c, cname) in problem.coordinates.iter().enumerate() {
+            let pts = (0..self.t.len())
+                .map(|k| (self.q[k * n + c], self.p[k * n + c]))
+                .collect();
+            let series = [Series {
+                name: cname.clone(),
+                points: pts,
+            }];
+            let title = format!("{name}: phase portrait of {cname}");
+            let path = file(dir, &format!("phase_{cname}"), f);
+            lines(&path, f, &title, cname, &format!("p_{cname}"), &series)?;
+        }
+        let energy = [Series {
+            name: "relative energy error".into(),
+            points: self.t.iter().zip(&self.rel_energy).map(|(t, e)| (*t, *e)).collect(),
+        }];
+        let title = format!("{name}: relative energy error");
+        let path = file(dir, "energy_error", f);
+        log_lines(&path, f, &title, "t", "|H - H0| / |H0|", &energy, false)?;
+        if problem.energy.is_some() {
+            let steps = [Series {
+                name: "step".into(),
+                points: self.steps.clone(),
+            }];
+            let title = format!("{name}: step size (energy mode)");
+            lines(&file(dir, "step_size", f), f, &title, "t", "h", &steps)?;
+        }
+        Ok(())
+    }
+}
+
+impl<L: Lagrangian> Observer<L> for PlotData<'_> {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        let node = it.node();
+        if !self.thinning.keep(node.k, last) {
+            return Ok(());
+        }
+        if let Some(&previous) = self.t.last() {
+            self.steps.push((node.t, node.t - previous));
+        }
+        self.t.push(node.t);
+        self.q.extend_from_slice(node.q);
+        self.p.extend_from_slice(node.p);
+        self.rel_energy.push(self.energy.get().rel);
+        Ok(())
+    }
+
+    /// Draws the plots, unless an output before them could not be written; a plot that
+    /// cannot be drawn is the run's error (if it has none).
+    fn finish(&mut self, _it: &Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+        if self.failure.happened() {
+            return Ok(());
+        }
+        self.draw().map_err(femvi::Error::Observer)
+    }
+}

@@ -1,0 +1,75 @@
+//! The progress bar of `femvi run`: on a terminal, once a run has taken a second, on stderr.
+
+use crate::problem::Problem;
+use femvi::step::Observer;
+use femvi::{Integrator, Lagrangian};
+use std::time::Instant;
+
+/// A progress bar that appears once a run has taken a second.
+pub struct Progress {
+    enabled: bool,
+    total: u64,
+    t_end: f64,
+    clock: Instant,
+    bar: Option<indicatif::ProgressBar>,
+    /// Nodes seen, the start node included.
+    nodes: u64,
+}
+
+impl Progress {
+    /// A bar for `problem` if `enabled` (else it draws nothing): its length is the number of
+    /// steps of the grid (energy mode: of the first step's length).
+    pub fn new(enabled: bool, problem: &Problem) -> Self {
+        let grid = &problem.grid;
+        let total = match problem.energy {
+            None => grid.count() as u64,
+            Some(_) => ((grid.end() - grid.t0()) / grid.nominal(0)).ceil() as u64,
+        };
+        Progress {
+            enabled,
+            total,
+            t_end: grid.end(),
+            clock: Instant::now(),
+            bar: None,
+            nodes: 0,
+        }
+    }
+
+    /// Shows `steps` steps done, reaching time `t` (every 256 steps).
+    fn update(&mut self, steps: u64, t: f64) {
+        if !self.enabled || (steps & 255) != 0 {
+            return;
+        }
+        if self.bar.is_none() && self.clock.elapsed().as_secs_f64() > 1.0 {
+            let bar =
+                indicatif::ProgressBar::with_draw_target(Some(self.total), indicatif::ProgressDrawTarget::stderr());
+            let style = indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} steps, {msg}, ETA {eta}");
+            if let Ok(style) = style {
+                bar.set_style(style);
+            }
+            self.bar = Some(bar);
+        }
+        if let Some(bar) = &self.bar {
+            bar.set_position(steps.min(self.total));
+            let rate = steps as f64 / self.clock.elapsed().as_secs_f64().max(1e-9);
+            bar.set_message(format!("t = {t:.6} of {}, {rate:.0} steps/s", self.t_end));
+        }
+    }
+}
+
+impl<L: Lagrangian> Observer<L> for Progress {
+    fn node(&mut self, it: &Integrator<'_, L>, _last: bool) -> femvi::Result<()> {
+        self.nodes += 1;
+        if self.nodes > 1 {
+            self.update(self.nodes - 1, it.node().t);
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, _it: &Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+        Ok(())
+    }
+}
