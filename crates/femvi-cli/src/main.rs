@@ -2,14 +2,7 @@
 //! writes what the library returns, and turns errors into messages and exit codes
 //! (0 success, 1 numerical failure, 2 bad input).
 
-mod bvp;
-mod check;
-mod convergence;
-mod models;
-mod plot;
-mod problem;
-mod record;
-mod run;
+use femvi_cli::{bvp, check, convergence, models, plot, problem, run};
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -106,8 +99,7 @@ enum Command {
     },
 }
 
-const NUMERICAL: u8 = 1;
-const BAD_INPUT: u8 = 2;
+use femvi_cli::{BAD_INPUT, NUMERICAL};
 
 fn main() -> ExitCode {
     // No Rust panic message reaches the user: a panic is an internal error, reported as such.
