@@ -96,27 +96,21 @@ fn energy<'a, L: Lagrangian>(lag: &'a L, el: &'a Element, start: Start, h: f64, 
 }
 
 fn runs() -> Vec<(&'static str, Vec<u64>)> {
+    let mut out = vec![];
+    explicit_runs(&mut out);
+    fixed_point_runs(&mut out);
+    more_runs(&mut out);
+    out
+}
+
+/// Explicit steps through step() and advance(), cyclic steps, a generic size.
+fn explicit_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
     let kep = models::kepler(1.0);
-    let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
     let heavy = models::harmonic(2.5, 3.0).unwrap();
-    let hh = models::henon_heiles();
     let fpu = models::fpu(8, 0.25, 0.0);
-    let coords = vec!["x".to_string(), "y".to_string()];
-    // A charge in a magnetic field B = b (velocity-dependent: Newton only) in a Kepler well.
-    let magnetic = ExprLagrangian::new(
-        "0.5*(x_dot^2 + y_dot^2) + 0.5*b*(x*y_dot - y*x_dot) + 1/sqrt(x^2 + y^2)",
-        &coords,
-        &[("b".into(), 0.7)],
-    )
-    .unwrap();
-    let (t3, t4, t2, t1) = (trapezoid(), gauss(3), gauss(2), gauss(4));
+    let t3 = trapezoid();
     let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
     let cyc = |steps: Vec<f64>, end: f64| TimeGrid::steps(0.0, steps, end).unwrap();
-    let pend_start = || Start::Velocity {
-        q: vec![1.2],
-        v: vec![0.0],
-    };
-    let mut out = vec![];
     out.push((
         "kepler explicit step()",
         run_steps(new(&kep, &t3, uni(0.01, 20.0), kepler_start(), opts(Method::Auto))),
@@ -153,6 +147,25 @@ fn runs() -> Vec<(&'static str, Vec<u64>)> {
             100,
         ),
     ));
+}
+
+/// The fixed-point solver.
+fn fixed_point_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
+    let kep = models::kepler(1.0);
+    let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
+    let hh = models::henon_heiles();
+    let fpu = models::fpu(8, 0.25, 0.0);
+    let (t4, t2, t1) = (gauss(3), gauss(2), gauss(4));
+    let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
+    let cyc = |steps: Vec<f64>, end: f64| TimeGrid::steps(0.0, steps, end).unwrap();
+    let pend_start = || Start::Velocity {
+        q: vec![1.2],
+        v: vec![0.0],
+    };
+    let fpu_start = Start::Velocity {
+        q: (0..8).map(|i| 0.1 * (i as f64 + 1.0).sin()).collect(),
+        v: vec![0.0; 8],
+    };
     out.push((
         "pendulum fixed point degree 3",
         run_steps(new(&pend, &t4, uni(0.1, 20.0), pend_start(), opts(Method::Auto))),
@@ -202,6 +215,23 @@ fn runs() -> Vec<(&'static str, Vec<u64>)> {
         "fpu8 fixed point degree 2 generic size",
         run_steps(new(&fpu, &t2, uni(0.1, 10.0), fpu_start, opts(Method::Auto))),
     ));
+}
+
+fn more_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
+    let kep = models::kepler(1.0);
+    let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
+    let heavy = models::harmonic(2.5, 3.0).unwrap();
+    let coords = vec!["x".to_string(), "y".to_string()];
+    // A charge in a magnetic field B = b (velocity-dependent: Newton only) in a Kepler well.
+    let magnetic = ExprLagrangian::new(
+        "0.5*(x_dot^2 + y_dot^2) + 0.5*b*(x*y_dot - y*x_dot) + 1/sqrt(x^2 + y^2)",
+        &coords,
+        &[("b".into(), 0.7)],
+    )
+    .unwrap();
+    let (t4, t2) = (gauss(3), gauss(2));
+    let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
+    let cyc = |steps: Vec<f64>, end: f64| TimeGrid::steps(0.0, steps, end).unwrap();
     let heavy_lob = Element::galerkin(3, NodeFamily::Lobatto, QuadratureKind::GaussLobatto(4)).unwrap();
     out.push((
         "heavy harmonic fixed point lobatto 3",
@@ -256,6 +286,20 @@ fn runs() -> Vec<(&'static str, Vec<u64>)> {
             opts(Method::Newton),
         )),
     ));
+    energy_runs(out);
+    bvp_runs(out);
+}
+
+/// Energy mode, and the tangent maps of three kinds of steps.
+fn energy_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
+    let kep = models::kepler(1.0);
+    let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
+    let (t4, t2) = (gauss(3), gauss(2));
+    let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
+    let pend_start = || Start::Velocity {
+        q: vec![1.2],
+        v: vec![0.0],
+    };
     let mid = Element::midpoint();
     out.push((
         "pendulum energy mode midpoint",
@@ -289,6 +333,11 @@ fn runs() -> Vec<(&'static str, Vec<u64>)> {
         "pendulum energy mode extended tangent map",
         with_tangent(energy(&pend, &mid, pend_start(), 0.05, 3.0), true),
     ));
+}
+
+/// Boundary value problems, fixed and moving mesh.
+fn bvp_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
+    let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
     for (label, moving, el) in [
         ("pendulum bvp degree 2", false, gauss(2)),
         ("pendulum bvp moving mesh midpoint", true, Element::midpoint()),
@@ -316,7 +365,6 @@ fn runs() -> Vec<(&'static str, Vec<u64>)> {
         bits.push(sol.newton_iterations as u64);
         out.push((label, bits));
     }
-    out
 }
 
 fn render(runs: &[(&str, Vec<u64>)]) -> String {
