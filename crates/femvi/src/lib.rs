@@ -14,6 +14,7 @@
 #![deny(missing_docs)]
 
 pub mod bvp;
+pub mod chaos;
 pub mod diagnostics;
 pub mod discrete;
 pub mod error;

@@ -25,6 +25,8 @@ mod events;
 mod record;
 mod solve;
 
+pub(crate) use solve::grid;
+
 pub use dense::DenseOutput;
 pub use events::{Condition, Direction, Event, EventRecord};
 pub use solve::{solve, solve_with};

@@ -94,7 +94,7 @@ pub fn solve_with<L: Lagrangian>(
 }
 
 /// The time grid of the problem's span with the steps asked for.
-fn grid<L>(problem: &Problem<L>, steps: &Steps) -> Result<TimeGrid> {
+pub(crate) fn grid<L>(problem: &Problem<L>, steps: &Steps) -> Result<TimeGrid> {
     let (t0, end) = (problem.t0, problem.t_end);
     if !(t0.is_finite() && end.is_finite() && end > t0) {
         return Err(invalid(

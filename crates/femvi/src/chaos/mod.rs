@@ -1,0 +1,245 @@
+//! Variational equations of the discrete flow, for any Lagrangian: tangent vectors carried
+//! through each step by the step's tangent map (implicit differentiation of the step
+//! equations, `Integrator::tangent_map`; symplectic because the step is), and the chaos
+//! indicators built on them — MEGNO, FLI, the largest Lyapunov exponent and the whole
+//! spectrum (`accumulate.rs`) — and the sensitivity of the final state to the initial one.
+//!
+//! Cost: one element Hessian by automatic differentiation and one LU of the s·n step
+//! Jacobian per step, on top of the step itself.
+
+mod accumulate;
+
+use crate::discrete::Element;
+use crate::error::{invalid, Error, Result};
+use crate::lagrangian::Lagrangian;
+use crate::solution::{Problem, SolveOptions, Steps};
+use crate::step::Integrator;
+use accumulate::{apply, norm, orthonormalise, Growth};
+
+/// What to compute besides MEGNO, FLI and the largest exponent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChaosOptions {
+    /// Also the whole Lyapunov spectrum (2n tangent vectors, re-orthonormalised every
+    /// `renormalize_every` steps).
+    pub spectrum: bool,
+    /// Steps between re-orthonormalisations of the spectrum's vectors (≥ 1).
+    pub renormalize_every: usize,
+    /// The initial tangent vector of MEGNO, FLI and the largest exponent, in (q, p) (it is
+    /// normalised); default (1, 1, …)/√(2n).
+    pub initial_vector: Option<Vec<f64>>,
+    /// Record the indicators every this many steps (0: only at the end).
+    pub record_every: usize,
+}
+
+impl Default for ChaosOptions {
+    fn default() -> Self {
+        Self {
+            spectrum: false,
+            renormalize_every: 1,
+            initial_vector: None,
+            record_every: 0,
+        }
+    }
+}
+
+/// The indicators at one time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChaosSample {
+    /// Time.
+    pub t: f64,
+    /// MEGNO Y and its mean ⟨Y⟩.
+    pub megno: f64,
+    /// See `megno`.
+    pub mean_megno: f64,
+    /// FLI: the largest ln|δ| so far.
+    pub fli: f64,
+    /// ln|δ| / t: the largest Lyapunov exponent's estimate.
+    pub lyapunov: f64,
+}
+
+/// The indicators of a run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChaosReport {
+    /// Steps taken.
+    pub steps: usize,
+    /// The indicators at the end.
+    pub last: ChaosSample,
+    /// The Lyapunov spectrum (largest first), if asked for.
+    pub spectrum: Option<Vec<f64>>,
+    /// The indicators every `record_every` steps.
+    pub series: Vec<ChaosSample>,
+    /// The error that stopped the run early, if any (the indicators are those before it).
+    pub error: Option<Error>,
+}
+
+/// Runs `problem` with `element` (steps and solver from `options`; its outputs are not used)
+/// and computes MEGNO, FLI, the largest Lyapunov exponent and, if asked, the spectrum.
+///
+/// # Errors
+/// Bad input as for [`crate::solve()`]; energy mode (not supported yet); an initial vector of
+/// the wrong length or zero.
+///
+/// # Example
+///
+/// ```
+/// use femvi::chaos::{indicators, ChaosOptions};
+/// use femvi::{models, Element, Problem, SolveOptions, Start};
+///
+/// // A circular Kepler orbit: regular, MEGNO tends to 2, the exponent to 0.
+/// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
+/// let problem = Problem::new(models::kepler(1.0), start, 0.0, 2000.0);
+/// let report = indicators(&problem, &Element::with_order(4)?, &SolveOptions::step(0.1), &ChaosOptions::default())?;
+/// assert!((report.last.mean_megno - 2.0).abs() < 0.1);
+/// assert!(report.last.lyapunov.abs() < 0.01);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn indicators<L: Lagrangian>(
+    problem: &Problem<L>,
+    element: &Element,
+    options: &SolveOptions,
+    chaos: &ChaosOptions,
+) -> Result<ChaosReport> {
+    let mut it = integrator(problem, element, options)?;
+    let d = 2 * problem.lagrangian.dim();
+    let mut u = initial_vector(chaos, d)?;
+    let k = if chaos.spectrum { d } else { 0 };
+    // The spectrum's vectors start as the identity (column-major).
+    let mut w: Vec<f64> = (0..k * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
+    let (mut logs, mut sums, mut tmp) = (vec![0.0; k], vec![0.0; k], vec![0.0; d]);
+    let (t0, mut growth) = (problem.t0, Growth::new());
+    let (mut steps, mut series, mut error) = (0, vec![], None);
+    let sample = |g: &Growth, t: f64| ChaosSample {
+        t,
+        megno: g.megno,
+        mean_megno: g.mean_megno,
+        fli: g.fli,
+        lyapunov: g.log_norm / (t - t0),
+    };
+    loop {
+        match it.step() {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => {
+                error = Some(e);
+                break;
+            }
+        }
+        let m = match it.tangent_map() {
+            Ok(m) => m,
+            Err(e) => {
+                error = Some(e);
+                break;
+            }
+        };
+        steps += 1;
+        let (t, h) = (it.node().t, it.last_element().map_or(0.0, |e| e.h));
+        apply(&m, d, &mut u, &mut tmp);
+        let len = norm(&u);
+        u.iter_mut().for_each(|x| *x /= len);
+        growth.step(len.ln(), h, t - t0);
+        if k > 0 {
+            apply(&m, d, &mut w, &mut tmp);
+            if steps % chaos.renormalize_every.max(1) == 0 {
+                orthonormalise(&mut w, d, &mut logs);
+                sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
+            }
+        }
+        if chaos.record_every > 0 && steps % chaos.record_every == 0 {
+            series.push(sample(&growth, t));
+        }
+    }
+    let t = it.node().t;
+    if k > 0 && steps % chaos.renormalize_every.max(1) != 0 {
+        orthonormalise(&mut w, d, &mut logs);
+        sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
+    }
+    Ok(ChaosReport {
+        steps,
+        last: sample(&growth, t),
+        spectrum: (k > 0).then(|| sums.iter().map(|s| s / (t - t0)).collect()),
+        series,
+        error,
+    })
+}
+
+/// The last node of a run: (t, q, p).
+pub type FinalNode = (f64, Vec<f64>, Vec<f64>);
+
+/// The sensitivity of the final state to the initial one, ∂(q_N, p_N)/∂(q_0, p_0) (row-major
+/// 2n×2n), as the product of the step maps, with the final node (t, q, p).
+///
+/// # Errors
+/// As [`indicators`]; a step that fails is an error here (there is no final state).
+///
+/// # Example
+///
+/// ```
+/// use femvi::chaos::sensitivity;
+/// use femvi::{models, Element, Problem, SolveOptions, Start};
+///
+/// // The harmonic oscillator: the flow over time T is the rotation by T.
+/// let start = Start::Momentum { q: vec![1.0], p: vec![0.0] };
+/// let problem = Problem::new(models::harmonic(1.0, 1.0)?, start, 0.0, 1.0);
+/// let (m, _) = sensitivity(&problem, &Element::with_order(8)?, &SolveOptions::step(0.05))?;
+/// assert!((m[0] - 1f64.cos()).abs() < 1e-12 && (m[1] - 1f64.sin()).abs() < 1e-12);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn sensitivity<L: Lagrangian>(
+    problem: &Problem<L>,
+    element: &Element,
+    options: &SolveOptions,
+) -> Result<(Vec<f64>, FinalNode)> {
+    let mut it = integrator(problem, element, options)?;
+    let d = 2 * problem.lagrangian.dim();
+    // Column-major columns of the identity: W ← M W per step gives the product of the maps.
+    let mut w: Vec<f64> = (0..d * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
+    let mut tmp = vec![0.0; d];
+    while it.step()? {
+        let m = it.tangent_map()?;
+        apply(&m, d, &mut w, &mut tmp);
+    }
+    let node = it.node();
+    // Row-major output: entry (i, j) is component i of column j.
+    let out = (0..d * d).map(|x| w[(x % d) * d + x / d]).collect();
+    Ok((out, (node.t, node.q.to_vec(), node.p.to_vec())))
+}
+
+fn integrator<'a, L: Lagrangian>(
+    problem: &'a Problem<L>,
+    element: &'a Element,
+    options: &SolveOptions,
+) -> Result<Integrator<'a, L>> {
+    if let Steps::Energy { .. } = options.steps {
+        return Err(invalid(
+            "chaos indicators",
+            "energy mode is not supported yet (use steps as parameters)",
+        ));
+    }
+    let grid = crate::solution::grid(problem, &options.steps)?;
+    Integrator::new(
+        &problem.lagrangian,
+        element,
+        grid,
+        problem.start.clone(),
+        options.solver,
+    )
+}
+
+fn initial_vector(chaos: &ChaosOptions, d: usize) -> Result<Vec<f64>> {
+    let v = match &chaos.initial_vector {
+        Some(v) if v.len() != d => {
+            return Err(Error::Dimension {
+                what: "initial tangent vector".into(),
+                expected: d,
+                got: v.len(),
+            })
+        }
+        Some(v) => v.clone(),
+        None => vec![1.0; d],
+    };
+    let len = norm(&v);
+    if !(len > 0.0 && len.is_finite()) {
+        return Err(invalid("initial tangent vector", "must be finite and not zero"));
+    }
+    Ok(v.iter().map(|x| x / len).collect())
+}

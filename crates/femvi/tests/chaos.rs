@@ -1,0 +1,236 @@
+//! Variational equations and chaos indicators: the propagated tangent map against central
+//! finite differences of whole runs (a mechanical and a velocity-dependent Lagrangian), its
+//! symplecticity over 10⁴ steps, MEGNO → 2 on regular orbits (Kepler, Hénon–Heiles), MEGNO's
+//! slope λ/2 on a chaotic Hénon–Heiles orbit against the exponent from the QR method, and the
+//! spectrum's ± pairs.
+
+use femvi::chaos::{indicators, sensitivity, ChaosOptions};
+use femvi::expr::ExprLagrangian;
+use femvi::{models, solve, Element, Lagrangian, Problem, SolveOptions, Start};
+
+fn final_state<L: Lagrangian + Clone>(
+    problem: &Problem<L>,
+    el: &Element,
+    h: f64,
+    q: Vec<f64>,
+    p: Vec<f64>,
+) -> Vec<f64> {
+    let perturbed = Problem::new(
+        problem.lagrangian.clone(),
+        Start::Momentum { q, p },
+        problem.t0,
+        problem.t_end,
+    );
+    let options = SolveOptions {
+        every: 0,
+        ..SolveOptions::step(h)
+    };
+    let sol = solve(&perturbed, el, &options).unwrap();
+    assert!(sol.error.is_none());
+    let last = sol.len() - 1;
+    [sol.q_row(last).unwrap(), sol.p_row(last).unwrap()].concat()
+}
+
+/// max |M − M_fd| / max |M| with M_fd by central differences (step eps) of whole runs.
+fn fd_difference<L: Lagrangian + Clone>(problem: &Problem<L>, el: &Element, h: f64, eps: f64) -> f64 {
+    let Start::Momentum { q, p } = problem.start.clone() else {
+        panic!("momentum start")
+    };
+    let n = q.len();
+    let options = SolveOptions::step(h);
+    let (m, _) = sensitivity(problem, el, &options).unwrap();
+    let d = 2 * n;
+    let (mut worst, mut size) = (0.0f64, 0.0f64);
+    for j in 0..d {
+        let shifted = |sign: f64| {
+            let (mut q, mut p) = (q.clone(), p.clone());
+            if j < n {
+                q[j] += sign * eps;
+            } else {
+                p[j - n] += sign * eps;
+            }
+            final_state(problem, el, h, q, p)
+        };
+        let (plus, minus) = (shifted(1.0), shifted(-1.0));
+        for i in 0..d {
+            let fd = (plus[i] - minus[i]) / (2.0 * eps);
+            worst = worst.max((m[i * d + j] - fd).abs());
+            size = size.max(m[i * d + j].abs());
+        }
+    }
+    worst / size
+}
+
+#[test]
+fn tangent_maps_agree_with_finite_differences_of_whole_runs() {
+    // Hénon–Heiles (mechanical: fixed point), 1000 steps.
+    let hh = Problem::new(
+        models::henon_heiles(),
+        Start::Momentum {
+            q: vec![0.1, -0.05],
+            p: vec![0.2, 0.3],
+        },
+        0.0,
+        50.0,
+    );
+    let rel = fd_difference(&hh, &Element::with_order(6).unwrap(), 0.05, 1e-6);
+    eprintln!("Hénon–Heiles: relative difference {rel:.2e}");
+    assert!(rel <= 1e-7, "{rel:e}");
+    // A charge in a magnetic field in a Kepler well (velocity-dependent: Newton), 1000 steps.
+    let coords = ["x".to_string(), "y".to_string()];
+    let magnetic = ExprLagrangian::new(
+        "0.5*(x_dot^2 + y_dot^2) + 0.5*b*(x*y_dot - y*x_dot) + 1/sqrt(x^2 + y^2)",
+        &coords,
+        &[("b".into(), 0.7)],
+    )
+    .unwrap();
+    let mg = Problem::new(
+        magnetic,
+        Start::Momentum {
+            q: vec![0.8, 0.0],
+            p: vec![0.0, 1.3],
+        },
+        0.0,
+        20.0,
+    );
+    let rel = fd_difference(&mg, &Element::with_order(4).unwrap(), 0.02, 1e-6);
+    eprintln!("magnetic: relative difference {rel:.2e}");
+    assert!(rel <= 1e-7, "{rel:e}");
+}
+
+#[test]
+fn the_propagated_tangent_map_is_symplectic() {
+    let hh = Problem::new(
+        models::henon_heiles(),
+        Start::Momentum {
+            q: vec![0.1, -0.05],
+            p: vec![0.2, 0.3],
+        },
+        0.0,
+        1000.0,
+    );
+    let (m, _) = sensitivity(&hh, &Element::with_order(4).unwrap(), &SolveOptions::step(0.1)).unwrap();
+    let d = 4;
+    let n = 2;
+    // MᵀJM − J with J = [[0, I], [−I, 0]].
+    let j = |a: usize, b: usize| -> f64 {
+        if a < n && b == a + n {
+            1.0
+        } else if a >= n && b + n == a {
+            -1.0
+        } else {
+            0.0
+        }
+    };
+    let (mut worst, mut size) = (0.0f64, 0.0f64);
+    for a in 0..d {
+        for b in 0..d {
+            let mut s = 0.0;
+            for k in 0..d {
+                for l in 0..d {
+                    s += m[k * d + a] * j(k, l) * m[l * d + b];
+                }
+            }
+            worst = worst.max((s - j(a, b)).abs());
+            size = size.max(m[a * d + b].abs());
+        }
+    }
+    eprintln!("symplecticity defect over 10^4 steps: {worst:.2e} (max |M| {size:.1})");
+    assert!(worst <= 1e-12 * size.max(1.0).powi(2), "{worst:e}");
+}
+
+#[test]
+fn megno_tends_to_two_on_regular_orbits() {
+    let period = 2.0 * std::f64::consts::PI;
+    let e: f64 = 0.3;
+    let kepler = Problem::new(
+        models::kepler(1.0),
+        Start::Momentum {
+            q: vec![1.0 - e, 0.0],
+            p: vec![0.0, ((1.0 + e) / (1.0 - e)).sqrt()],
+        },
+        0.0,
+        1e4 * period,
+    );
+    let el = Element::with_order(4).unwrap();
+    let r = indicators(
+        &kepler,
+        &el,
+        &SolveOptions::step(period / 40.0),
+        &ChaosOptions::default(),
+    )
+    .unwrap();
+    eprintln!(
+        "Kepler: <Y> = {:.5}, lambda = {:.2e}",
+        r.last.mean_megno, r.last.lyapunov
+    );
+    assert!((r.last.mean_megno - 2.0).abs() <= 0.02, "{}", r.last.mean_megno);
+    // A regular Hénon–Heiles orbit (E = 1/12), 10⁴ periods of ~2π.
+    let hh = Problem::new(
+        models::henon_heiles(),
+        Start::Momentum {
+            q: vec![0.0, 0.1],
+            p: vec![0.39, 0.0],
+        },
+        0.0,
+        1e4 * period,
+    );
+    let r = indicators(&hh, &el, &SolveOptions::step(0.2), &ChaosOptions::default()).unwrap();
+    eprintln!("Hénon–Heiles regular: <Y> = {:.5}", r.last.mean_megno);
+    assert!((r.last.mean_megno - 2.0).abs() <= 0.02, "{}", r.last.mean_megno);
+}
+
+/// Least-squares slope of y against x.
+fn slope(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len() as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    sxy / sxx
+}
+
+#[test]
+fn megno_grows_with_half_the_lyapunov_exponent_on_a_chaotic_orbit() {
+    // Hénon–Heiles at E = 1/6 from (0, −0.1) with p_y = 0: in the chaotic sea.
+    let (y0, energy): (f64, f64) = (-0.1, 1.0 / 6.0);
+    let v = 0.5 * y0 * y0 - y0.powi(3) / 3.0;
+    let hh = Problem::new(
+        models::henon_heiles(),
+        Start::Momentum {
+            q: vec![0.0, y0],
+            p: vec![(2.0 * (energy - v)).sqrt(), 0.0],
+        },
+        0.0,
+        T_CHAOS,
+    );
+    let chaos = ChaosOptions {
+        spectrum: true,
+        renormalize_every: 10,
+        record_every: 100,
+        ..ChaosOptions::default()
+    };
+    let r = indicators(&hh, &Element::with_order(4).unwrap(), &SolveOptions::step(0.1), &chaos).unwrap();
+    let spectrum = r.spectrum.clone().unwrap();
+    let lambda = spectrum[0];
+    // ⟨Y⟩ ≈ λ t / 2 + c: its slope over the second half of the run.
+    let half: Vec<_> = r.series.iter().filter(|s| s.t >= 0.5 * T_CHAOS).collect();
+    let (t, y): (Vec<f64>, Vec<f64>) = half.iter().map(|s| (s.t, s.mean_megno)).unzip();
+    let k = slope(&t, &y);
+    eprintln!(
+        "chaotic: lambda (QR) {lambda:.5}, 2 x MEGNO slope {:.5}, spectrum {spectrum:?}",
+        2.0 * k
+    );
+    assert!(lambda > 0.01, "not chaotic: {lambda}");
+    assert!((2.0 * k / lambda - 1.0).abs() <= 0.05, "{} against {lambda}", 2.0 * k);
+    // A Hamiltonian spectrum comes in ± pairs: their sum is zero exactly (det M = 1) up to
+    // round-off; each pair's sum only like 1/T (finite-time QR estimates of the
+    // near-zero pair): measured, not asserted at 1e-6.
+    let total: f64 = spectrum.iter().sum();
+    assert!(total.abs() <= 1e-6, "{spectrum:?}");
+    for i in 0..2 {
+        assert!((spectrum[i] + spectrum[3 - i]).abs() <= 2.0 / T_CHAOS, "{spectrum:?}");
+    }
+}
+
+/// Length of the chaotic run.
+const T_CHAOS: f64 = 5e4;
