@@ -234,3 +234,30 @@ fn megno_grows_with_half_the_lyapunov_exponent_on_a_chaotic_orbit() {
 
 /// Length of the chaotic run.
 const T_CHAOS: f64 = 5e4;
+
+#[test]
+fn a_map_gives_each_point_the_serial_result() {
+    let problem = |i: usize| {
+        let x = -0.3 + 0.1 * i as f64;
+        let py = (0.25 - x * x).sqrt();
+        Problem::new(
+            models::henon_heiles(),
+            Start::Momentum {
+                q: vec![x, 0.0],
+                p: vec![0.0, py],
+            },
+            0.0,
+            100.0,
+        )
+    };
+    let (el, options, chaos) = (
+        Element::with_order(4).unwrap(),
+        SolveOptions::step(0.2),
+        ChaosOptions::default(),
+    );
+    let parallel = femvi::chaos::map(7, problem, &el, &options, &chaos, 2).unwrap();
+    for (i, p) in parallel.iter().enumerate() {
+        let serial = indicators(&problem(i), &el, &options, &chaos).unwrap();
+        assert_eq!(p.as_ref().unwrap(), &serial, "point {i}");
+    }
+}

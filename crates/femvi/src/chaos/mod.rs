@@ -8,6 +8,9 @@
 //! Jacobian per step, on top of the step itself.
 
 mod accumulate;
+mod map;
+
+pub use map::map;
 
 use crate::discrete::Element;
 use crate::error::{invalid, Error, Result};
