@@ -5,6 +5,7 @@
 //! catalogue's text), [`plot`]. `main.rs` is only the argument parsing and exit codes.
 
 pub mod bvp;
+pub mod chaos;
 pub mod check;
 pub mod convergence;
 pub mod models;

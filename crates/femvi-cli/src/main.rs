@@ -53,6 +53,28 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Chaos indicators (MEGNO, largest Lyapunov exponent, FLI, spectrum) of a problem, or a
+    /// map of them over a grid of initial conditions (chaos_map.csv/.npy), in parallel.
+    Chaos {
+        /// The problem file (TOML).
+        problem: PathBuf,
+        /// Indicators, comma-separated: megno, lyapunov, fli, spectrum (default: the first three).
+        #[arg(long, value_delimiter = ',')]
+        indicator: Vec<String>,
+        /// A map axis NAME=LO:HI:N over a coordinate, p_<coordinate> or <coordinate>_dot of
+        /// the initial condition (repeatable).
+        #[arg(long)]
+        grid: Vec<String>,
+        /// Print one JSON object (single point).
+        #[arg(long)]
+        json: bool,
+        /// Output directory (chaos.json, or the map).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Threads for maps (0: all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+    },
     /// Solve a two-point boundary value problem ([boundary] table) by the discrete variational
     /// principle; writes trajectory.csv and summary.json.
     Bvp {
@@ -134,6 +156,31 @@ fn dispatch(cli: Cli) -> ExitCode {
             Err(code) => code,
         },
         Command::Check { problem, json, out } => cmd_check(&problem, json, out),
+        Command::Chaos {
+            problem,
+            indicator,
+            grid,
+            json,
+            out,
+            threads,
+        } => {
+            let args = femvi_cli::chaos::ChaosArgs {
+                indicators: indicator,
+                grid,
+                json,
+                out,
+                threads,
+            };
+            match load(&problem).map(|p| femvi_cli::chaos::cmd_chaos(&p, &args)) {
+                Ok(Ok(true)) => ExitCode::SUCCESS,
+                Ok(Ok(false)) => ExitCode::from(NUMERICAL),
+                Ok(Err((msg, code))) => {
+                    eprintln!("error: {}: {msg}", problem.display());
+                    ExitCode::from(code)
+                }
+                Err(code) => code,
+            }
+        }
         Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
         Command::Models { name } => models::cmd_models(name.as_deref()),
         Command::Convergence {

@@ -103,13 +103,22 @@ pub fn indicators<L: Lagrangian>(
     chaos: &ChaosOptions,
 ) -> Result<ChaosReport> {
     let mut it = integrator(problem, element, options)?;
-    let d = 2 * problem.lagrangian.dim();
+    indicators_on(&mut it, chaos)
+}
+
+/// [`indicators`] on an integrator set up by the caller (with steps as parameters), from its
+/// current node to the end of its grid; time is counted from that node.
+///
+/// # Errors
+/// An initial vector of the wrong length or zero.
+pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOptions) -> Result<ChaosReport> {
+    let d = 2 * it.lagrangian().dim();
     let mut u = initial_vector(chaos, d)?;
     let k = if chaos.spectrum { d } else { 0 };
     // The spectrum's vectors start as the identity (column-major).
     let mut w: Vec<f64> = (0..k * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
     let (mut logs, mut sums, mut tmp) = (vec![0.0; k], vec![0.0; k], vec![0.0; d]);
-    let (t0, mut growth) = (problem.t0, Growth::new());
+    let (t0, mut growth) = (it.node().t, Growth::new());
     let (mut steps, mut series, mut error) = (0, vec![], None);
     let sample = |g: &Growth, t: f64| ChaosSample {
         t,

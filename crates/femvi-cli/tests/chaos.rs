@@ -1,0 +1,124 @@
+//! `femvi chaos` driven as a user would: one orbit's indicators as JSON (equal to the
+//! library's on the same problem, bit for bit), a map over two axes (CSV and NPY with the
+//! expected shape, the same numbers on 1 and 2 threads), and bad input.
+
+use assert_cmd::Command;
+use femvi::chaos::{indicators, ChaosOptions};
+use femvi::{models, Element, Problem, SolveOptions, Start};
+
+fn femvi() -> Command {
+    Command::cargo_bin("femvi").unwrap()
+}
+
+const FILE: &str = "[system]\nmodel = \"henon-heiles\"\n[initial]\nq = [0.0, -0.1]\np = [0.5, 0.1]\n[scheme]\norder = 4\n[time]\nstep = 0.1\nend = 300.0\n";
+
+#[test]
+fn one_orbit_as_json_equals_the_library() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hh.toml");
+    std::fs::write(&path, FILE).unwrap();
+    let out = femvi()
+        .args([
+            "chaos",
+            path.to_str().unwrap(),
+            "--json",
+            "--indicator",
+            "megno,lyapunov,fli,spectrum",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    // The numbers as printed, read with the standard (correctly rounded) parser: serde_json's
+    // own float parsing may be off by an ulp.
+    let raw = |key: &str| -> f64 {
+        let at = text.find(&format!("\"{key}\": ")).unwrap() + key.len() + 4;
+        let end = text[at..].find([',', '\n']).unwrap();
+        text[at..at + end].trim().parse().unwrap()
+    };
+    let start = Start::Momentum {
+        q: vec![0.0, -0.1],
+        p: vec![0.5, 0.1],
+    };
+    let problem = Problem::new(models::henon_heiles(), start, 0.0, 300.0);
+    let chaos = ChaosOptions {
+        spectrum: true,
+        ..ChaosOptions::default()
+    };
+    let r = indicators(
+        &problem,
+        &Element::with_order(4).unwrap(),
+        &SolveOptions::step(0.1),
+        &chaos,
+    )
+    .unwrap();
+    assert_eq!(raw("megno"), r.last.mean_megno);
+    assert_eq!(raw("lyapunov"), r.last.lyapunov);
+    assert_eq!(raw("fli"), r.last.fli);
+    let spectrum = r.spectrum.unwrap();
+    let got = v["spectrum"].as_array().unwrap();
+    assert_eq!(got.len(), 4);
+    for (g, want) in got.iter().zip(&spectrum) {
+        assert!((g.as_f64().unwrap() - want).abs() <= 4.0 * f64::EPSILON * want.abs());
+    }
+    assert_eq!(v["steps"].as_u64().unwrap(), 3000);
+}
+
+#[test]
+fn a_map_over_two_axes_is_written_and_independent_of_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hh.toml");
+    let file = FILE
+        .replace("end = 300.0", "end = 50.0")
+        .replace("p = [0.5, 0.1]", "p = [0.3, 0.1]");
+    std::fs::write(&path, file).unwrap();
+    let map = |threads: &str, out: &str| {
+        let out_dir = dir.path().join(out);
+        femvi()
+            .args([
+                "chaos",
+                path.to_str().unwrap(),
+                "--grid",
+                "x=-0.2:0.2:5",
+                "--grid",
+                "p_y=0.1:0.3:3",
+            ])
+            .args(["--threads", threads, "--out", out_dir.to_str().unwrap()])
+            .assert()
+            .success();
+        std::fs::read_to_string(out_dir.join("chaos_map.csv")).unwrap()
+    };
+    let one = map("1", "one");
+    assert_eq!(one, map("2", "two"));
+    let lines: Vec<&str> = one.lines().collect();
+    assert_eq!(lines[0], "x,p_y,megno,lyapunov,fli");
+    assert_eq!(lines.len(), 1 + 15);
+    // The first axis varies fastest.
+    assert!(lines[1].starts_with("-0.2,0.1,") && lines[2].starts_with("-0.1,0.1,"));
+    let npy = std::fs::read(dir.path().join("one").join("chaos_map.npy")).unwrap();
+    assert!(npy.starts_with(b"\x93NUMPY"));
+    assert!(String::from_utf8_lossy(&npy[..128]).contains("(15, 5, )"));
+}
+
+#[test]
+fn bad_axes_and_indicators_are_input_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hh.toml");
+    std::fs::write(&path, FILE).unwrap();
+    for args in [
+        vec!["--grid", "z=0:1:3"],
+        vec!["--grid", "x=0:1"],
+        vec!["--grid", "x=0:nan:3"],
+        vec!["--indicator", "entropy"],
+        vec!["--grid", "x_dot=0:1:3"],
+    ] {
+        let out = femvi()
+            .args(["chaos", path.to_str().unwrap()])
+            .args(&args)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(String::from_utf8_lossy(&out.stderr).starts_with("error: "), "{args:?}");
+    }
+}
