@@ -231,3 +231,31 @@ fn a_failed_run_keeps_what_it_computed() {
     assert!(sol.len() > 10);
     assert!(sol.q.iter().chain(&sol.p).all(|x| x.is_finite()));
 }
+
+#[test]
+fn an_owned_integrator_runs_on_another_thread_with_the_same_numbers() {
+    let make_start = || Start::Velocity {
+        q: vec![0.4, 0.0],
+        v: vec![0.0, 2.0],
+    };
+    let grid = || femvi::TimeGrid::uniform(0.0, 0.01, 10.0).unwrap();
+    let (kep, el) = (models::kepler(1.0), Element::with_order(6).unwrap());
+    let mut borrowed = femvi::Integrator::new(&kep, &el, grid(), make_start(), Default::default()).unwrap();
+    while borrowed.step().unwrap() {}
+    let mut owned = femvi::Integrator::owned(
+        models::kepler(1.0),
+        Element::with_order(6).unwrap(),
+        grid(),
+        make_start(),
+        Default::default(),
+    )
+    .unwrap();
+    let (q, p) = std::thread::spawn(move || {
+        while owned.step().unwrap() {}
+        (owned.node().q.to_vec(), owned.node().p.to_vec())
+    })
+    .join()
+    .unwrap();
+    assert_eq!(q, borrowed.node().q);
+    assert_eq!(p, borrowed.node().p);
+}

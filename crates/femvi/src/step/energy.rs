@@ -187,10 +187,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     fn element_energies(&mut self, t: f64, h: f64, base: &[f64]) -> (f64, f64, f64) {
         let autonomous = self.lag.is_autonomous();
         let n = self.state.n;
-        let b = buffers(&mut self.bufs, self.element, n);
+        let b = buffers(&mut self.bufs, &self.element, n);
         let (ework, grad) = (&mut b.ework, &mut b.grad);
         self.element
-            .gradient_in_place(self.lag, t, h, base, &self.inc.incr, !autonomous, ework, grad);
+            .gradient_in_place(&*self.lag, t, h, base, &self.inc.incr, !autonomous, ework, grad);
         let (em, ep) = self.element.energies(h, ework);
         let mut mag = 0.0;
         for (i, pd) in ework.pts.iter().enumerate() {

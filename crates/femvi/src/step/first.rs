@@ -29,7 +29,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
                 check_len("initial v", n, v.len())?;
                 finite("initial q", &q)?;
                 finite("initial v", &v)?;
-                check_regular(self.lag, t0, &q, &v)?;
+                check_regular(&*self.lag, t0, &q, &v)?;
                 self.lag.first_derivatives(t0, &q, &v, false, &mut work);
                 self.state.p.copy_from_slice(work.l_v());
                 self.state.q = q;
@@ -41,8 +41,8 @@ impl<L: Lagrangian> Integrator<'_, L> {
                 finite("initial q", &q)?;
                 finite("initial p", &p)?;
                 let mut v = vec![0.0; n];
-                velocity_from_momentum(self.lag, t0, &q, &p, &mut v, &mut work)?;
-                check_regular(self.lag, t0, &q, &v)?;
+                velocity_from_momentum(&*self.lag, t0, &q, &p, &mut v, &mut work)?;
+                check_regular(&*self.lag, t0, &q, &v)?;
                 self.state.q = q;
                 self.state.p = p;
                 self.state.v0 = v;
@@ -57,7 +57,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
                     .next(0, t0)
                     .ok_or_else(|| invalid("time span", "no first step"))?;
                 let v: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| (b - a) / h).collect();
-                check_regular(self.lag, t0, &q0, &v)?;
+                check_regular(&*self.lag, t0, &q0, &v)?;
                 let (p0, p1) = self.solve_first_element(h, &q0, &q1)?;
                 self.state.q = q0;
                 self.state.p = p0;
@@ -84,7 +84,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
         let dim = (s - 1) * n;
         let mut x: Vec<f64> = incr[n..s * n].to_vec();
         let mut work = DenseNewtonWork::new(dim);
-        let (lag, element, tol) = (self.lag, self.element, self.opts.tolerance);
+        let (lag, element, tol) = (&*self.lag, &*self.element, self.opts.tolerance);
         let (ework, grad, hess) = buffers(&mut self.bufs, element, n).with_hessian();
         let scale = q0.iter().chain(q1).fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
         let w = (s + 1) * n;

@@ -14,6 +14,36 @@ use crate::discrete::Element;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
 
+/// A Lagrangian or element the integrator borrows, or owns (`Integrator::owned`, so that it
+/// can be returned from a function or moved to another thread).
+pub(super) enum Held<'a, T> {
+    Borrowed(&'a T),
+    Owned(Box<T>),
+}
+
+impl<T> std::ops::Deref for Held<'_, T> {
+    type Target = T;
+    #[inline]
+    fn deref(&self) -> &T {
+        match self {
+            Held::Borrowed(r) => r,
+            Held::Owned(b) => b,
+        }
+    }
+}
+
+/// What every solver reads besides the state, borrowing only the fields it names (so that
+/// the state and the solver can be borrowed mutably beside it).
+macro_rules! context {
+    ($s:expr) => {
+        StepContext {
+            lag: &*$s.lag,
+            element: &*$s.element,
+            opts: $s.opts,
+        }
+    };
+}
+
 /// Integrates the discrete Euler–Lagrange equations of an element over a time grid.
 ///
 /// # Example
@@ -34,8 +64,8 @@ use crate::lagrangian::Lagrangian;
 /// # Ok::<(), femvi::Error>(())
 /// ```
 pub struct Integrator<'a, L: Lagrangian> {
-    pub(super) lag: &'a L,
-    pub(super) element: &'a Element,
+    pub(super) lag: Held<'a, L>,
+    pub(super) element: Held<'a, Element>,
     pub(super) grid: TimeGrid,
     pub(super) opts: SolverOptions,
     pub(super) state: RunState,
@@ -58,11 +88,21 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// does not fit the Lagrangian, or (for the start from (q0, q1)) a failed solve of the
     /// first element.
     pub fn new(lag: &'a L, element: &'a Element, grid: TimeGrid, start: Start, opts: SolverOptions) -> Result<Self> {
+        Self::build(Held::Borrowed(lag), Held::Borrowed(element), grid, start, opts)
+    }
+
+    fn build(
+        lag: Held<'a, L>,
+        element: Held<'a, Element>,
+        grid: TimeGrid,
+        start: Start,
+        opts: SolverOptions,
+    ) -> Result<Self> {
         opts.validate()?;
         element.check_nondegenerate()?;
         let n = lag.dim();
         let s = element.degree();
-        let solver = Solver::new(choose(opts.method, lag, element)?, element, n)?;
+        let solver = Solver::new(choose(opts.method, &*lag, &element)?, &element, n)?;
         let t0 = grid.t0();
         let mut me = Self {
             lag,
@@ -79,14 +119,6 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         };
         me.start(start)?;
         Ok(me)
-    }
-
-    pub(super) fn context(&self) -> StepContext<'a, L> {
-        StepContext {
-            lag: self.lag,
-            element: self.element,
-            opts: self.opts,
-        }
     }
 
     /// The current node.
@@ -117,7 +149,14 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let n = self.state.n;
         let mut v = self.state.v0.clone();
         let mut work = crate::lagrangian::PointDerivatives::new(n);
-        crate::lagrangian::hamiltonian(self.lag, self.state.t, &self.state.q, &self.state.p, &mut v, &mut work)
+        crate::lagrangian::hamiltonian(
+            &*self.lag,
+            self.state.t,
+            &self.state.q,
+            &self.state.p,
+            &mut v,
+            &mut work,
+        )
     }
 
     /// The element solved by the last step, if any.
@@ -132,7 +171,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// The Lagrangian.
     pub fn lagrangian(&self) -> &L {
-        self.lag
+        &self.lag
     }
 
     /// Mean solver iterations per step so far (0 for explicit steps).
@@ -183,7 +222,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// Solves the step equations from the current node with step h into `inc`, without
     /// moving the state.
     pub(super) fn solve_at(&mut self, h: f64) -> Result<()> {
-        let cx = self.context();
+        let cx = context!(self);
         let iterations = self
             .solver
             .solve(&cx, &self.state, &mut self.last, &mut self.bufs, h, &mut self.inc)?;
@@ -193,7 +232,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// Moves the state to the node solved by [`Self::solve_at`] with step h.
     pub(super) fn commit(&mut self, h: f64, t_next: f64) -> Result<()> {
-        let cx = self.context();
+        let cx = context!(self);
         self.solver.accepted(&cx, self.state.n);
         let swap = self.solver.kind() != Kind::Explicit;
         self.state.commit(&mut self.last, &mut self.inc, swap, h, t_next)
@@ -247,7 +286,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             return None;
         }
         let mass = self.lag.mass_matrix()?;
-        let (lag, grid, state, last) = (self.lag, &self.grid, &mut self.state, &mut self.last);
+        let (lag, grid, state, last) = (&*self.lag, &self.grid, &mut self.state, &mut self.last);
         // The dimension and whether M = I fixed at compile time: the loop has no branch on the
         // mass and its arrays live in registers.
         macro_rules! fast {
@@ -268,5 +307,44 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             (6, false) => fast!(6, false),
             _ => return None,
         })
+    }
+}
+
+impl<L: Lagrangian> Integrator<'static, L> {
+    /// As [`Integrator::new`], owning the Lagrangian and the element: the integrator has no
+    /// borrowed lifetime, so it can be returned from a function or moved to another thread
+    /// (it is `Send` when L is `Send + Sync`).
+    ///
+    /// # Errors
+    /// As [`Integrator::new`].
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::{models, Element, Integrator, Mechanical, SolverOptions, Start, TimeGrid};
+    ///
+    /// fn pendulum_run() -> femvi::Result<Integrator<'static, Mechanical<models::PendulumPotential>>> {
+    ///     let start = Start::Velocity { q: vec![1.0], v: vec![0.0] };
+    ///     Integrator::owned(models::pendulum(1.0, 1.0, 1.0)?, Element::with_order(4)?, TimeGrid::uniform(0.0, 0.1, 5.0)?, start, SolverOptions::default())
+    /// }
+    ///
+    /// let mut it = pendulum_run()?;
+    /// let q = std::thread::spawn(move || -> femvi::Result<f64> {
+    ///     while it.step()? {}
+    ///     Ok(it.node().q[0])
+    /// })
+    /// .join()
+    /// .expect("no panic")?;
+    /// assert!(q.abs() < 1.0);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn owned(lag: L, element: Element, grid: TimeGrid, start: Start, opts: SolverOptions) -> Result<Self> {
+        Self::build(
+            Held::Owned(Box::new(lag)),
+            Held::Owned(Box::new(element)),
+            grid,
+            start,
+            opts,
+        )
     }
 }

@@ -40,9 +40,9 @@ impl<L: Lagrangian> Integrator<'_, L> {
         let s = self.element.degree();
         let w = (s + 1) * n;
         let (t, h) = (self.last.t, self.last.h);
-        let (ework, grad, hess) = buffers(&mut self.bufs, self.element, n).with_hessian();
+        let (ework, grad, hess) = buffers(&mut self.bufs, &self.element, n).with_hessian();
         self.element
-            .hessian_in_place(self.lag, t, h, &self.last.base, &self.last.incr, ework, grad, hess);
+            .hessian_in_place(&*self.lag, t, h, &self.last.base, &self.last.incr, ework, grad, hess);
         let hess = &*hess;
         let dim = s * n;
         let jac = nalgebra::DMatrix::from_fn(dim, dim, |a, b| hess[a * w + n + b]);
@@ -109,7 +109,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
         let (t0, h) = (self.last.t, self.last.h);
         let (_, _, f) = self
             .element
-            .full_hessian(self.lag, t0, h, &self.last.base, &self.last.incr);
+            .full_hessian(&*self.lag, t0, h, &self.last.base, &self.last.incr);
         let m = 2 + (s + 1) * n;
         let fz = |a: usize, b: usize| f[a * m + b];
         // Indices into z: τ0 = 0, τ1 = 1, Q^j component c = 2 + j n + c.
