@@ -4,7 +4,8 @@
 //! overflow, an abort on a failed allocation, a hang or a panic; see the commit messages).
 
 use femvi::expr::ExprLagrangian;
-use femvi::Lagrangian;
+use femvi::{models, Element, Integrator, Lagrangian, Scalar, SolverOptions, Start, TimeGrid};
+use std::time::Duration;
 
 /// Runs `f` in a thread with a 256 KiB stack: deep recursion overflows it and aborts the test.
 fn on_small_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
@@ -63,4 +64,96 @@ fn long_sums_and_products_compile_and_evaluate() {
         let got: f64 = on_small_stack(move || lag.value(0.0, &[0.5], &[0.0]));
         assert!((got - want).abs() <= 1e-9 * want, "{op}: {got} != {want}");
     }
+}
+
+// ---- 2. Large systems: O(n) set-up ------------------------------------------------------
+
+fn setup<L: Lagrangian>(lag: &L, n: usize) -> Duration {
+    let element = Element::with_order(4).unwrap();
+    let grid = TimeGrid::uniform(0.0, 0.01, 1.0).unwrap();
+    let q: Vec<f64> = (0..n).map(|i| 1e-3 * ((i * 7919) % 1000) as f64).collect();
+    let start = Start::Velocity { q, v: vec![0.0; n] };
+    let clock = std::time::Instant::now();
+    Integrator::new(lag, &element, grid, start, SolverOptions::default()).unwrap();
+    clock.elapsed()
+}
+
+/// Bodies on a lattice (no two at the same place), unit masses, in 3-D.
+fn lattice(bodies: usize) -> Vec<f64> {
+    (0..bodies)
+        .flat_map(|b| [(b % 10) as f64, ((b / 10) % 10) as f64, (b / 100) as f64])
+        .collect()
+}
+
+#[test]
+fn the_largest_documented_systems_set_up_in_linear_memory() {
+    let fpu = models::fpu(100_000, 0.25, 0.0);
+    setup(&fpu, 100_000);
+    let bodies = 10_000;
+    let sys = models::n_body(1.0, vec![1.0; bodies], 3).unwrap();
+    let element = Element::with_order(2).unwrap();
+    let grid = TimeGrid::uniform(0.0, 0.01, 1.0).unwrap();
+    let start = Start::Momentum {
+        q: lattice(bodies),
+        p: vec![0.0; 3 * bodies],
+    };
+    Integrator::new(&sys, &element, grid, start, SolverOptions::default()).unwrap();
+}
+
+/// Set-up times of large systems; run one case per process, e.g.
+/// `FEMVI_SETUP="fpu 100000" cargo test --test hostile -- --ignored setup_time --nocapture`.
+#[test]
+#[ignore]
+fn setup_time() {
+    let case = std::env::var("FEMVI_SETUP").unwrap_or_else(|_| "fpu 1000".into());
+    let mut words = case.split_whitespace();
+    let (kind, size): (&str, usize) = (words.next().unwrap(), words.next().unwrap().parse().unwrap());
+    let elapsed = match kind {
+        "fpu" => setup(&models::fpu(size, 0.25, 0.0), size),
+        _ => {
+            let sys = models::n_body(1.0, vec![1.0; size], 3).unwrap();
+            let element = Element::with_order(4).unwrap();
+            let grid = TimeGrid::uniform(0.0, 0.01, 1.0).unwrap();
+            let start = Start::Velocity {
+                q: lattice(size),
+                v: vec![0.0; 3 * size],
+            };
+            let clock = std::time::Instant::now();
+            Integrator::new(&sys, &element, grid, start, SolverOptions::default()).unwrap();
+            clock.elapsed()
+        }
+    };
+    println!("SETUP {kind} {size}: {:.3} s", elapsed.as_secs_f64());
+}
+
+// ---- 4. Bad arguments -------------------------------------------------------------------
+
+/// A Lagrangian with no coordinate at all.
+struct Empty;
+impl Lagrangian for Empty {
+    fn dim(&self) -> usize {
+        0
+    }
+    fn value<D: Scalar>(&self, t: D, _q: &[D], _v: &[D]) -> D {
+        t
+    }
+}
+
+#[test]
+fn zero_dimensional_systems_are_rejected() {
+    let element = Element::with_order(2).unwrap();
+    let grid = || TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
+    for start in [
+        Start::Velocity { q: vec![], v: vec![] },
+        Start::Momentum { q: vec![], p: vec![] },
+        Start::Positions { q0: vec![], q1: vec![] },
+    ] {
+        let e = Integrator::new(&Empty, &element, grid(), start.clone(), SolverOptions::default()).err();
+        assert!(e.is_some(), "{start:?}");
+        let fpu = models::fpu(0, 0.0, 0.0);
+        assert!(Integrator::new(&fpu, &element, grid(), start, SolverOptions::default()).is_err());
+    }
+    let no_coordinates = ExprLagrangian::new("t", &[], &[]).unwrap();
+    let start = Start::Velocity { q: vec![], v: vec![] };
+    assert!(Integrator::new(&no_coordinates, &element, grid(), start, SolverOptions::default()).is_err());
 }
