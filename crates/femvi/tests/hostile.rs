@@ -157,3 +157,44 @@ fn zero_dimensional_systems_are_rejected() {
     let start = Start::Velocity { q: vec![], v: vec![] };
     assert!(Integrator::new(&no_coordinates, &element, grid(), start, SolverOptions::default()).is_err());
 }
+
+#[test]
+fn model_constructors_reject_bad_parameters() {
+    assert!(models::n_body(1.0, vec![1.0, 2.0], 7).is_err());
+    assert!(models::n_body(1.0, vec![1.0, 2.0], 0).is_err());
+    assert!(models::n_body(f64::NAN, vec![1.0, 2.0], 2).is_err());
+    assert!(models::harmonic(1.0, f64::NAN).is_err());
+    assert!(models::harmonic(f64::INFINITY, 1.0).is_err());
+    assert!(models::pendulum(1.0, f64::NAN, 1.0).is_err());
+    assert!(models::pendulum(1.0, 1.0, f64::INFINITY).is_err());
+    assert!(models::forced_oscillator(1.0, 1.0, f64::NAN, 1.0).is_err());
+    assert!(models::forced_oscillator(1.0, 1.0, 1.0, f64::NEG_INFINITY).is_err());
+    assert!(models::DoublePendulum::new(1.0, 1.0, 1.0, f64::NAN, 1.0).is_err());
+    assert!(models::DoublePendulum::new(1.0, 0.0, 1.0, 1.0, 1.0).is_err());
+    assert!(models::KeplerPotential::new(f64::NAN).is_err());
+    assert!(models::FpuPotential::new(0, 0.25, 0.0).is_err());
+    assert!(models::FpuPotential::new(8, f64::INFINITY, 0.0).is_err());
+    // A potential built by hand with a dimension the force does not handle: NaN, no panic.
+    let odd = models::GravityPotential {
+        g: 1.0,
+        masses: vec![1.0, 1.0],
+        dim: 7,
+    };
+    let mut force = [0.0; 14];
+    femvi::Potential::force(&odd, 0.0, &[0.5; 14], &mut force);
+    assert!(force.iter().all(|f| f.is_nan()));
+}
+
+#[test]
+fn model_coordinates_with_short_parameter_lists() {
+    for model in ["fpu", "n-body", "nope"] {
+        for p in [&[][..], &[f64::NAN, 2.0], &[1e300, 3.0], &[-1.0, 2.0], &[2.5, 2.0]] {
+            assert_eq!(models::coordinates(model, p), Vec::<String>::new(), "{model} {p:?}");
+            assert!(models::try_coordinates(model, p).is_err(), "{model} {p:?}");
+        }
+    }
+    assert!(models::try_coordinates("n-body", &[2.0, 7.0]).is_err());
+    assert!(models::try_coordinates("n-body", &[2.0]).is_err());
+    assert_eq!(models::coordinates("harmonic", &[]), ["x"]);
+    assert_eq!(models::try_coordinates("fpu", &[2.0]).unwrap(), ["q1", "q2"]);
+}
