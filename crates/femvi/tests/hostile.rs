@@ -5,6 +5,7 @@
 
 use femvi::expr::ExprLagrangian;
 use femvi::{models, Element, Integrator, Lagrangian, Scalar, SolverOptions, Start, TimeGrid};
+use std::sync::mpsc;
 use std::time::Duration;
 
 /// Runs `f` in a thread with a 256 KiB stack: deep recursion overflows it and aborts the test.
@@ -15,6 +16,16 @@ fn on_small_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> 
         .unwrap()
         .join()
         .unwrap()
+}
+
+/// Runs `f` in a thread and fails if it has not returned within `seconds` (a hang).
+fn within<T: Send + 'static>(seconds: u64, f: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    rx.recv_timeout(Duration::from_secs(seconds))
+        .unwrap_or_else(|_| panic!("did not return within {seconds} s"))
 }
 
 fn x() -> Vec<String> {
@@ -124,6 +135,33 @@ fn setup_time() {
         }
     };
     println!("SETUP {kind} {size}: {:.3} s", elapsed.as_secs_f64());
+}
+
+// ---- 3. Time grids ----------------------------------------------------------------------
+
+#[test]
+fn counting_a_long_cyclic_grid_does_not_walk_it() {
+    let count = within(20, || TimeGrid::steps(0.0, vec![0.5, 0.25], 1e12).unwrap().count());
+    // 1e12 / 0.75 = 1 333 333 333 333.33 cycles of two steps, then one shortened step.
+    assert!(count.abs_diff(2_666_666_666_667) <= 1, "{count}");
+    // Small grids keep their exact count.
+    assert_eq!(TimeGrid::steps(0.0, vec![0.1, 0.2], 1.0).unwrap().count(), 7);
+}
+
+#[test]
+fn steps_that_do_not_move_the_time_are_rejected() {
+    // t + h == t at the start.
+    assert!(TimeGrid::uniform(1e17, 1.0, 1e17 + 1e6).is_err());
+    assert!(TimeGrid::steps(1e17, vec![1.0, 64.0], 1e17 + 1e6).is_err());
+    assert!(TimeGrid::steps(-1e17, vec![4.0, 1.0], 0.0).is_err());
+    // Only near the end: a list of steps would stand still there (a run would never end).
+    let stalls = TimeGrid::steps(0.0, vec![1.0, 2.0], 1e17);
+    assert!(stalls.is_err(), "{stalls:?}");
+    // Steps that do move it are kept, and a uniform grid, whose nodes t0 + k h are computed
+    // from k, only rounds near the end.
+    assert!(TimeGrid::uniform(1e15, 1.0, 1e15 + 1e6).is_ok());
+    assert!(TimeGrid::steps(1e15, vec![1.0, 2.0], 1e15 + 1e6).is_ok());
+    assert!(TimeGrid::uniform(0.0, 1.0, 1e17).is_ok());
 }
 
 // ---- 4. Bad arguments -------------------------------------------------------------------
