@@ -79,17 +79,25 @@ fn long_sums_and_products_compile_and_evaluate() {
 
 // ---- 2. Large systems: O(n) set-up ------------------------------------------------------
 
-fn setup<L: Lagrangian>(lag: &L, n: usize) -> Duration {
+/// Time of `Integrator::new` for `lag` from q at rest (degree 2, the fixed-point solver).
+fn setup<L: Lagrangian>(lag: &L, q: Vec<f64>) -> Duration {
     let element = Element::with_order(4).unwrap();
     let grid = TimeGrid::uniform(0.0, 0.01, 1.0).unwrap();
-    let q: Vec<f64> = (0..n).map(|i| 1e-3 * ((i * 7919) % 1000) as f64).collect();
-    let start = Start::Velocity { q, v: vec![0.0; n] };
+    let start = Start::Velocity {
+        v: vec![0.0; q.len()],
+        q,
+    };
     let clock = std::time::Instant::now();
     Integrator::new(lag, &element, grid, start, SolverOptions::default()).unwrap();
     clock.elapsed()
 }
 
-/// Bodies on a lattice (no two at the same place), unit masses, in 3-D.
+/// A chain of n masses slightly displaced.
+fn chain(n: usize) -> Vec<f64> {
+    (0..n).map(|i| 1e-3 * ((i * 7919) % 1000) as f64).collect()
+}
+
+/// Bodies on a lattice in 3-D (no two at the same place).
 fn lattice(bodies: usize) -> Vec<f64> {
     (0..bodies)
         .flat_map(|b| [(b % 10) as f64, ((b / 10) % 10) as f64, (b / 100) as f64])
@@ -98,41 +106,25 @@ fn lattice(bodies: usize) -> Vec<f64> {
 
 #[test]
 fn the_largest_documented_systems_set_up_in_linear_memory() {
-    let fpu = models::fpu(100_000, 0.25, 0.0);
-    setup(&fpu, 100_000);
-    let bodies = 10_000;
-    let sys = models::n_body(1.0, vec![1.0; bodies], 3).unwrap();
-    let element = Element::with_order(2).unwrap();
-    let grid = TimeGrid::uniform(0.0, 0.01, 1.0).unwrap();
-    let start = Start::Momentum {
-        q: lattice(bodies),
-        p: vec![0.0; 3 * bodies],
-    };
-    Integrator::new(&sys, &element, grid, start, SolverOptions::default()).unwrap();
+    setup(
+        &models::fpu(models::MAX_FPU_MASSES, 0.25, 0.0),
+        chain(models::MAX_FPU_MASSES),
+    );
+    let bodies = models::MAX_BODIES;
+    setup(&models::n_body(1.0, vec![1.0; bodies], 3).unwrap(), lattice(bodies));
 }
 
-/// Set-up times of large systems; run one case per process, e.g.
+/// Set-up times of large systems, one case per process, e.g.
 /// `FEMVI_SETUP="fpu 100000" cargo test --test hostile -- --ignored setup_time --nocapture`.
 #[test]
 #[ignore]
 fn setup_time() {
     let case = std::env::var("FEMVI_SETUP").unwrap_or_else(|_| "fpu 1000".into());
-    let mut words = case.split_whitespace();
-    let (kind, size): (&str, usize) = (words.next().unwrap(), words.next().unwrap().parse().unwrap());
+    let (kind, size) = case.split_once(' ').unwrap();
+    let size: usize = size.parse().unwrap();
     let elapsed = match kind {
-        "fpu" => setup(&models::fpu(size, 0.25, 0.0), size),
-        _ => {
-            let sys = models::n_body(1.0, vec![1.0; size], 3).unwrap();
-            let element = Element::with_order(4).unwrap();
-            let grid = TimeGrid::uniform(0.0, 0.01, 1.0).unwrap();
-            let start = Start::Velocity {
-                q: lattice(size),
-                v: vec![0.0; 3 * size],
-            };
-            let clock = std::time::Instant::now();
-            Integrator::new(&sys, &element, grid, start, SolverOptions::default()).unwrap();
-            clock.elapsed()
-        }
+        "fpu" => setup(&models::fpu(size, 0.25, 0.0), chain(size)),
+        _ => setup(&models::n_body(1.0, vec![1.0; size], 3).unwrap(), lattice(size)),
     };
     println!("SETUP {kind} {size}: {:.3} s", elapsed.as_secs_f64());
 }
@@ -235,4 +227,42 @@ fn model_coordinates_with_short_parameter_lists() {
     assert!(models::try_coordinates("n-body", &[2.0]).is_err());
     assert_eq!(models::coordinates("harmonic", &[]), ["x"]);
     assert_eq!(models::try_coordinates("fpu", &[2.0]).unwrap(), ["q1", "q2"]);
+}
+
+#[test]
+fn boundary_value_problems_with_huge_meshes_are_rejected_before_allocating() {
+    use femvi::bvp::{line_guess, node_times, solve, BoundaryValues, BvpOptions};
+    let lag = models::harmonic(1.0, 1.0).unwrap();
+    let element = Element::with_order(4).unwrap();
+    for elements in [usize::MAX, usize::MAX / 2, 1 << 40, 1_000_000_000] {
+        let bv = BoundaryValues {
+            t0: 0.0,
+            q0: vec![1.0],
+            t1: 1.0,
+            q1: vec![0.0],
+            elements,
+        };
+        assert!(node_times(&bv, &element).len() < 1000, "{elements}");
+        assert!(line_guess(&bv, &element).len() < 1000, "{elements}");
+        assert!(solve(&lag, &element, &bv, &[1.0, 0.5, 0.0], BvpOptions::default()).is_err());
+    }
+}
+
+#[test]
+fn band_matrices_check_their_arguments() {
+    use femvi::solve::BandMatrix;
+    assert!(BandMatrix::zeros(usize::MAX / 2, 1, 1).is_err());
+    assert!(BandMatrix::zeros(1 << 40, 1 << 20, 0).is_err());
+    let mut band = BandMatrix::zeros(4, 1, 1).unwrap();
+    assert!(band.add(3, 0, 1.0).is_err() && band.add(0, 2, 1.0).is_err() && band.add(4, 4, 1.0).is_err());
+    assert_eq!(band.get(9, 9), 0.0);
+    let mut b = [1.0; 4];
+    assert!(band.solve(&mut b).is_err(), "solve before factor");
+    for i in 0..4 {
+        band.add(i, i, 2.0).unwrap();
+    }
+    assert!(band.factor());
+    assert!(band.solve(&mut [1.0; 3]).is_err());
+    band.solve(&mut b).unwrap();
+    assert_eq!(b, [0.5; 4]);
 }
