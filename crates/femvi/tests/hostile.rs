@@ -249,6 +249,47 @@ fn boundary_value_problems_with_huge_meshes_are_rejected_before_allocating() {
 }
 
 #[test]
+fn element_functions_with_buffers_of_the_wrong_length_do_not_panic() {
+    use femvi::ElementWork;
+    let lag = models::kepler(1.0);
+    let el = Element::with_order(4).unwrap();
+    let (base, incr) = ([1.0, 0.0], [0.0, 0.0, 0.0, 0.1, 0.0, 0.2]);
+    let mut work = ElementWork::new(&el, 2);
+    // A gradient buffer, increments and scratch of the wrong sizes.
+    let mut short = [0.0; 3];
+    let ld = el.gradient_in_place(&lag, 0.0, 0.2, &base, &incr, false, &mut work, &mut short);
+    assert!(ld.is_nan());
+    let ld = el.gradient_in_place(&lag, 0.0, 0.2, &base, &incr[..4], false, &mut work, &mut [0.0; 6]);
+    assert!(ld.is_nan());
+    let mut small = ElementWork::new(&Element::with_order(2).unwrap(), 2);
+    let ld = el.gradient_in_place(&lag, 0.0, 0.2, &base, &incr, false, &mut small, &mut [0.0; 6]);
+    assert!(ld.is_nan());
+    let (em, ep) = el.energies(0.2, &small);
+    assert!(em.is_nan() && ep.is_nan());
+    let e = el.check_buffers(&base, &incr, &small, &[0.0; 6], None).unwrap_err();
+    assert!(e.to_string().contains("element work"), "{e}");
+    assert!(el.check_buffers(&base, &incr, &work, &short, None).is_err());
+    assert!(el
+        .check_buffers(&base, &incr, &work, &[0.0; 6], Some(&[0.0; 35]))
+        .is_err());
+    assert!(el
+        .check_buffers(&base, &incr, &work, &[0.0; 6], Some(&[0.0; 36]))
+        .is_ok());
+    let (ld, grad, hess) = el.full_hessian(&lag, 0.0, 0.2, &base, &incr[..5]);
+    assert!(ld.is_nan() && grad.len() == 8 && hess.len() == 64);
+    assert!(el.action_generic(&lag, 0.0, 0.2, &incr[..5]).is_nan());
+    let mut hess = [0.0; 35];
+    let ld = el.hessian_in_place(&lag, 0.0, 0.2, &base, &incr, &mut work, &mut [0.0; 6], &mut hess);
+    assert!(ld.is_nan());
+    el.points_in_place(0.0, 0.2, &base, &incr[..5], &mut work);
+    el.points_in_place(0.0, 0.2, &base, &incr, &mut small);
+    let mut vals = [0.0; 7];
+    el.basis.values_in_place(0.3, &mut vals);
+    el.basis.derivatives_in_place(0.3, &mut vals);
+    assert!(el.phi(9, 0).is_nan() && el.dphi(0, 9).is_nan());
+}
+
+#[test]
 fn band_matrices_check_their_arguments() {
     use femvi::solve::BandMatrix;
     assert!(BandMatrix::zeros(usize::MAX / 2, 1, 1).is_err());
@@ -265,4 +306,60 @@ fn band_matrices_check_their_arguments() {
     assert!(band.solve(&mut [1.0; 3]).is_err());
     band.solve(&mut b).unwrap();
     assert_eq!(b, [0.5; 4]);
+}
+
+#[test]
+fn huge_elements_rules_and_newton_sizes_are_errors() {
+    use femvi::fem::{LagrangeBasis, NodeFamily, QuadratureKind, QuadratureRule};
+    use femvi::solve::{newton_dense, DenseNewtonWork};
+    let gauss = QuadratureKind::GaussLegendre;
+    assert!(within(20, move || QuadratureRule::new(gauss(1_000_000)).is_err()));
+    assert!(within(20, || LagrangeBasis::new(1_000_000_000, NodeFamily::Lobatto).is_err()));
+    assert!(within(20, || Element::with_order(2_000_000).is_err()));
+    assert!(DenseNewtonWork::try_new(usize::MAX / 4).is_err());
+    // A work space made for another size is made again, not indexed past its end.
+    let mut work = DenseNewtonWork::new(1);
+    let mut x = [3.0, 4.0];
+    let solved = newton_dense(
+        &mut x,
+        1e-14,
+        20,
+        |_| 1.0,
+        &mut work,
+        |x, r, jac| {
+            r[0] = x[0] - 1.0;
+            r[1] = x[1] - 2.0;
+            if let Some(j) = jac {
+                j.copy_from_slice(&[1.0, 0.0, 0.0, 1.0]);
+            }
+        },
+    );
+    assert!(solved.is_ok() && x == [1.0, 2.0], "{solved:?} {x:?}");
+    let rule = QuadratureRule {
+        kind: gauss(0),
+        nodes: vec![],
+        weights: vec![],
+    };
+    assert_eq!(rule.exact_degree(), 0);
+}
+
+#[test]
+fn elements_changed_after_construction_are_rejected() {
+    let lag = models::kepler(1.0);
+    let start = || Start::Momentum {
+        q: vec![1.0, 0.0],
+        p: vec![0.0, 1.0],
+    };
+    let grid = || TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
+    let corruptions: [fn(&mut Element); 4] = [
+        |e| e.rule.weights.truncate(1),
+        |e| e.basis.nodes.push(2.0),
+        |e| e.basis.degree = 5,
+        |e| e.rule.nodes.push(0.5),
+    ];
+    for corrupt in corruptions {
+        let mut element = Element::with_order(4).unwrap();
+        corrupt(&mut element);
+        assert!(Integrator::new(&lag, &element, grid(), start(), SolverOptions::default()).is_err());
+    }
 }

@@ -87,6 +87,10 @@ impl PointDerivatives {
         }
         ok
     }
+    /// The dimension n of the configuration space these buffers are for.
+    pub fn dim(&self) -> usize {
+        self.n
+    }
     /// Number of entries of z.
     pub fn width(&self) -> usize {
         2 * self.n + 1
