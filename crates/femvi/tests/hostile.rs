@@ -249,6 +249,40 @@ fn boundary_value_problems_with_huge_meshes_are_rejected_before_allocating() {
 }
 
 #[test]
+fn check_rejects_symmetries_that_do_not_fit_the_system() {
+    use femvi::diagnostics::{check, Symmetry};
+    let kepler = models::kepler(1.0);
+    let element = Element::with_order(2).unwrap();
+    for sym in [
+        Symmetry::Rotation(0, 2),
+        Symmetry::Rotation(5, 0),
+        Symmetry::Rotations(vec![(0, 1), (1, 9)], "bad".into()),
+        Symmetry::Translation(vec![1.0]),
+        Symmetry::Translation(vec![1.0, 0.0, 0.0]),
+        Symmetry::Translation(vec![f64::NAN, 0.0]),
+    ] {
+        let grid = TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
+        let start = Start::Momentum {
+            q: vec![1.0, 0.0],
+            p: vec![0.0, 1.0],
+        };
+        let got = check(
+            &kepler,
+            &element,
+            grid,
+            start,
+            SolverOptions::default(),
+            None,
+            std::slice::from_ref(&sym),
+        );
+        assert!(got.is_err(), "{sym:?}");
+        assert!(sym.validate(2).is_err());
+        assert!(sym.momentum(&[1.0, 0.0], &[0.0, 1.0]).is_nan());
+        let _ = sym.label(&["x".into()]);
+    }
+}
+
+#[test]
 fn element_functions_with_buffers_of_the_wrong_length_do_not_panic() {
     use femvi::ElementWork;
     let lag = models::kepler(1.0);
@@ -362,4 +396,29 @@ fn elements_changed_after_construction_are_rejected() {
         corrupt(&mut element);
         assert!(Integrator::new(&lag, &element, grid(), start(), SolverOptions::default()).is_err());
     }
+}
+
+#[test]
+fn trajectories_and_defects_with_wrong_sizes() {
+    use femvi::diagnostics::{symplecticity_defect, PiecewiseTrajectory};
+    let lag = models::kepler(1.0);
+    let element = Element::with_order(4).unwrap();
+    let start = || Start::Momentum {
+        q: vec![1.0, 0.0],
+        p: vec![0.0, 1.0],
+    };
+    let grid = || TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
+    let mut it = Integrator::new(&lag, &element, grid(), start(), SolverOptions::default()).unwrap();
+    assert!(PiecewiseTrajectory::record(&mut it, &element.basis, 3).is_err());
+    let mut it = Integrator::new(&lag, &element, grid(), start(), SolverOptions::default()).unwrap();
+    let other = femvi::fem::LagrangeBasis::new(5, femvi::NodeFamily::Equispaced).unwrap();
+    assert!(PiecewiseTrajectory::record(&mut it, &other, 2).is_err());
+    let mut it = Integrator::new(&lag, &element, grid(), start(), SolverOptions::default()).unwrap();
+    let traj = PiecewiseTrajectory::record(&mut it, &element.basis, 2).unwrap();
+    let mut out = [0.0; 5];
+    traj.eval(0.5, &mut out);
+    assert!(out.iter().all(|x| x.is_nan()));
+    assert!(traj.l2_distance(usize::MAX, |_, q| q.fill(0.0)).is_finite());
+    assert!(symplecticity_defect(&[1.0, 0.0, 0.0], 1).is_nan());
+    assert!(symplecticity_defect(&[], usize::MAX).is_nan());
 }
