@@ -13,10 +13,21 @@
 //! p_{k+1}⁺ = ∂L_d/∂Q^s, the paper's D_2 and D_4/D_5 terms of (2.3)/(2.40)), its Hessian
 //! (for Newton, tangent maps and boundary value problems) and the discrete energies
 //! E_k⁻ = ∂L_d/∂t_k, E_{k+1}⁺ = −∂L_d/∂t_{k+1} of §3.
+//!
+//! The evaluations write into caller-owned buffers and are called in the step loop, so they
+//! stay infallible: buffers of the wrong size (checked in O(r), `discrete/checks.rs`) give
+//! NaN instead of a panic, and [`Element::check_buffers`] names the wrong one as a typed
+//! error, once, before a loop.
+
+mod checks;
+mod generic;
+mod work;
+
+pub use work::ElementWork;
 
 use crate::error::{invalid, Result};
 use crate::fem::{LagrangeBasis, NodeFamily, QuadratureKind, QuadratureRule};
-use crate::lagrangian::{Lagrangian, PointDerivatives, Scalar};
+use crate::lagrangian::Lagrangian;
 
 /// A finite element: a Lagrange basis of degree s and a quadrature rule, with the basis
 /// values ℓ_j(c_i) and derivatives ℓ_j'(c_i) tabulated once at the quadrature nodes.
@@ -89,16 +100,26 @@ impl Element {
         self.rule.len()
     }
 
-    /// ℓ_j(c_i).
+    /// ℓ_j(c_i) (NaN for i or j out of range).
     #[inline]
     pub fn phi(&self, i: usize, j: usize) -> f64 {
-        self.phi[i * self.nodes() + j]
+        self.table(&self.phi, i, j)
     }
 
-    /// ℓ_j'(c_i).
+    /// ℓ_j'(c_i) (NaN for i or j out of range).
     #[inline]
     pub fn dphi(&self, i: usize, j: usize) -> f64 {
-        self.dphi[i * self.nodes() + j]
+        self.table(&self.dphi, i, j)
+    }
+
+    #[inline]
+    fn table(&self, tab: &[f64], i: usize, j: usize) -> f64 {
+        let w = self.nodes();
+        if i < self.points() && j < w {
+            tab.get(i * w + j).copied().unwrap_or(f64::NAN)
+        } else {
+            f64::NAN
+        }
     }
 
     /// The element stiffness K_jm = Σ_i b_i ℓ_j'(c_i) ℓ_m'(c_i), row-major (s+1)².
@@ -109,7 +130,7 @@ impl Element {
             let b = self.rule.weights[i];
             for j in 0..w {
                 for m in 0..w {
-                    k[j * w + m] += b * self.dphi(i, j) * self.dphi(i, m);
+                    k[j * w + m] += b * self.dphi[i * w + j] * self.dphi[i * w + m];
                 }
             }
         }
@@ -117,8 +138,18 @@ impl Element {
     }
 
     /// Fills the time, position and velocity at each quadrature point of the element
-    /// [t0, t0 + h] with nodal values `base` + `incr[j]` (incr has (s+1)·n entries).
+    /// [t0, t0 + h] with nodal values `base` + `incr[j]` (incr has (s+1)·n entries for
+    /// n = `base.len()`, and `work` is made for this element and n; otherwise the points are
+    /// NaN).
     pub fn points_in_place(&self, t0: f64, h: f64, base: &[f64], incr: &[f64], work: &mut ElementWork) {
+        if !self.fits(base.len(), incr, work) {
+            work.poison();
+            return;
+        }
+        self.points_unchecked(t0, h, base, incr, work);
+    }
+
+    fn points_unchecked(&self, t0: f64, h: f64, base: &[f64], incr: &[f64], work: &mut ElementWork) {
         let n = base.len();
         let w = self.nodes();
         for i in 0..self.points() {
@@ -128,7 +159,7 @@ impl Element {
             let vi = &mut work.vc[i * n..(i + 1) * n];
             vi.iter_mut().for_each(|x| *x = 0.0);
             for j in 0..w {
-                let (a, d) = (self.phi(i, j), self.dphi(i, j) / h);
+                let (a, d) = (self.phi[i * w + j], self.dphi[i * w + j] / h);
                 let dj = &incr[j * n..(j + 1) * n];
                 for c in 0..n {
                     qi[c] += a * dj[c];
@@ -140,6 +171,7 @@ impl Element {
 
     /// The discrete Lagrangian L_d and its gradient ∂L_d/∂Q^j into `grad` ((s+1)·n entries).
     /// With `with_t`, ∂L/∂t is also evaluated at the points (needed by [`Element::energies`]).
+    /// Buffers that do not fit (see [`Element::check_buffers`]) give NaN, and a NaN `grad`.
     #[allow(clippy::too_many_arguments)]
     pub fn gradient_in_place<L: Lagrangian>(
         &self,
@@ -153,7 +185,12 @@ impl Element {
         grad: &mut [f64],
     ) -> f64 {
         let n = base.len();
-        self.points_in_place(t0, h, base, incr, work);
+        if !(self.fits(n, incr, work) && grad.len() == incr.len() && lag.dim() == n) {
+            grad.iter_mut().for_each(|g| *g = f64::NAN);
+            return f64::NAN;
+        }
+        let w = self.nodes();
+        self.points_unchecked(t0, h, base, incr, work);
         grad.iter_mut().for_each(|g| *g = 0.0);
         let mut ld = 0.0;
         for i in 0..self.points() {
@@ -167,11 +204,10 @@ impl Element {
             );
             let b = self.rule.weights[i];
             ld += b * pd.value;
-            for j in 0..self.nodes() {
-                let (a, d) = (b * h * self.phi(i, j), b * self.dphi(i, j));
-                let gj = &mut grad[j * n..(j + 1) * n];
-                for c in 0..n {
-                    gj[c] += a * pd.l_q()[c] + d * pd.l_v()[c];
+            for (j, gj) in grad.chunks_exact_mut(n).enumerate() {
+                let (a, d) = (b * h * self.phi[i * w + j], b * self.dphi[i * w + j]);
+                for ((g, lq), lv) in gj.iter_mut().zip(pd.l_q()).zip(pd.l_v()) {
+                    *g += a * lq + d * lv;
                 }
             }
         }
@@ -179,6 +215,7 @@ impl Element {
     }
 
     /// L_d, its gradient and its Hessian ∂²L_d/∂Q^j∂Q^m (row-major ((s+1)n)², into `hess`).
+    /// Buffers that do not fit give NaN, as for [`Element::gradient_in_place`].
     #[allow(clippy::too_many_arguments)]
     pub fn hessian_in_place<L: Lagrangian>(
         &self,
@@ -194,7 +231,12 @@ impl Element {
         let n = base.len();
         let w = self.nodes();
         let dim = w * n;
-        self.points_in_place(t0, h, base, incr, work);
+        let fits = self.fits(n, incr, work) && grad.len() == dim && lag.dim() == n;
+        if !(fits && dim.checked_mul(dim) == Some(hess.len())) {
+            grad.iter_mut().chain(hess.iter_mut()).for_each(|g| *g = f64::NAN);
+            return f64::NAN;
+        }
+        self.points_unchecked(t0, h, base, incr, work);
         grad.iter_mut().for_each(|g| *g = 0.0);
         hess.iter_mut().for_each(|g| *g = 0.0);
         let mut ld = 0.0;
@@ -210,12 +252,12 @@ impl Element {
             let b = self.rule.weights[i];
             ld += b * pd.value;
             for j in 0..w {
-                let (aj, dj) = (self.phi(i, j), self.dphi(i, j));
+                let (aj, dj) = (self.phi[i * w + j], self.dphi[i * w + j]);
                 for c in 0..n {
                     grad[j * n + c] += b * (h * aj * pd.l_q()[c] + dj * pd.l_v()[c]);
                 }
                 for m in 0..w {
-                    let (am, dm) = (self.phi(i, m), self.dphi(i, m));
+                    let (am, dm) = (self.phi[i * w + m], self.dphi[i * w + m]);
                     let (qq, qv, vq, vv) = (b * h * aj * am, b * aj * dm, b * dj * am, b * dj * dm / h);
                     for c in 0..n {
                         let row = &mut hess[(j * n + c) * dim + m * n..(j * n + c) * dim + m * n + n];
@@ -237,8 +279,12 @@ impl Element {
     ///   E⁻ = Σ b_i (v_i·∂L/∂v − L)_i + h Σ b_i (1 − c_i) ∂L/∂t_i,
     ///   E⁺ = Σ b_i (v_i·∂L/∂v − L)_i − h Σ b_i c_i ∂L/∂t_i.
     /// For autonomous L both equal the quadrature average of the energy function.
+    /// (NaN, NaN) if `work` was not made for this element.
     pub fn energies(&self, h: f64, work: &ElementWork) -> (f64, f64) {
         let n = work.n;
+        if !work.fits(self.points(), n) {
+            return (f64::NAN, f64::NAN);
+        }
         let (mut e, mut lt_minus, mut lt_plus) = (0.0, 0.0, 0.0);
         for i in 0..self.points() {
             let pd = &work.pts[i];
@@ -256,85 +302,15 @@ impl Element {
         (e + h * lt_minus, e - h * lt_plus)
     }
 
-    /// L_d(t_k, t_k + h; Q) evaluated for any scalar type (for derivatives with respect to the
-    /// times and nodal values together, e.g. by hyper-dual numbers). `nodes` holds Q^0 … Q^s.
-    /// The step is passed itself, not as a difference of times, so that it keeps its digits.
-    pub fn action_generic<D: Scalar, L: Lagrangian>(&self, lag: &L, t0: D, h: D, nodes: &[D]) -> D {
-        let n = nodes.len() / self.nodes();
-        let mut q = vec![D::from(0.0); n];
-        let mut v = vec![D::from(0.0); n];
-        let mut sum = D::from(0.0);
-        for i in 0..self.points() {
-            q.iter_mut().for_each(|x| *x = D::from(0.0));
-            v.iter_mut().for_each(|x| *x = D::from(0.0));
-            for j in 0..self.nodes() {
-                let (a, d) = (self.phi(i, j), self.dphi(i, j));
-                for c in 0..n {
-                    q[c] += nodes[j * n + c] * a;
-                    v[c] += nodes[j * n + c] * d;
-                }
-            }
-            for x in v.iter_mut() {
-                *x /= h;
-            }
-            sum += lag.value(t0 + h * self.rule.nodes[i], &q, &v) * self.rule.weights[i];
-        }
-        sum * h
-    }
-
-    /// Value, gradient and Hessian of L_d with respect to z = (t_k, t_{k+1}, Q^0 … Q^s), by
-    /// hyper-dual numbers (one pass per pair of variables): the derivatives that the energy
-    /// equations, the extended tangent map and the moving mesh need. Row-major, m = 2 + (s+1)n.
-    pub fn full_hessian<L: Lagrangian>(
-        &self,
-        lag: &L,
-        t0: f64,
-        h: f64,
-        base: &[f64],
-        incr: &[f64],
-    ) -> (f64, Vec<f64>, Vec<f64>) {
-        let t1 = t0 + h;
-        use num_dual::HyperDual64;
-        let n = base.len();
-        let m = 2 + incr.len();
-        let mut z: Vec<HyperDual64> = Vec::with_capacity(m);
-        z.push(HyperDual64::from(t0));
-        z.push(HyperDual64::from(t1));
-        for j in 0..self.nodes() {
-            for c in 0..n {
-                z.push(HyperDual64::from(base[c] + incr[j * n + c]));
-            }
-        }
-        let mut grad = vec![0.0; m];
-        let mut hess = vec![0.0; m * m];
-        let mut value = 0.0;
-        for a in 0..m {
-            for b in a..m {
-                z[a].eps1 = 1.0;
-                z[b].eps2 = 1.0;
-                // h = t_{k+1} − t_k: its real part exact, its dual parts the difference.
-                let hd = HyperDual64::new(h, z[1].eps1 - z[0].eps1, z[1].eps2 - z[0].eps2, 0.0);
-                let r = self.action_generic(lag, z[0], hd, &z[2..]);
-                z[a].eps1 = 0.0;
-                z[b].eps2 = 0.0;
-                if a == b {
-                    grad[a] = r.eps1;
-                    value = r.re;
-                }
-                hess[a * m + b] = r.eps1eps2;
-                hess[b * m + a] = r.eps1eps2;
-            }
-        }
-        (value, grad, hess)
-    }
-
     /// Checks that the element is usable for a Lagrangian whose kinetic part is quadratic:
     /// the stiffness K must have rank s (only constants in its kernel), otherwise the
     /// discrete Lagrangian is degenerate (e.g. degree 2 with the one-point midpoint rule).
     ///
     /// # Errors
-    /// [`crate::Error::Invalid`] naming the element and rule.
+    /// [`crate::Error::Invalid`] naming the element and rule, or an element whose public
+    /// fields were changed after construction so that they disagree.
     pub fn check_nondegenerate(&self) -> Result<()> {
+        self.check_consistent()?;
         let w = self.nodes();
         let s = self.degree();
         let k = self.stiffness();
@@ -352,33 +328,5 @@ impl Element {
             ));
         }
         Ok(())
-    }
-}
-
-/// Scratch space for element evaluations: quadrature-point values and derivatives.
-#[derive(Debug, Clone)]
-pub struct ElementWork {
-    n: usize,
-    /// Times t_k + c_i h.
-    pub tc: Vec<f64>,
-    /// Positions at the points, row-major r×n.
-    pub qc: Vec<f64>,
-    /// Velocities at the points, row-major r×n.
-    pub vc: Vec<f64>,
-    /// Lagrangian derivatives at the points.
-    pub pts: Vec<PointDerivatives>,
-}
-
-impl ElementWork {
-    /// Scratch for `element` and configuration dimension `n`.
-    pub fn new(element: &Element, n: usize) -> Self {
-        let r = element.points();
-        Self {
-            n,
-            tc: vec![0.0; r],
-            qc: vec![0.0; r * n],
-            vc: vec![0.0; r * n],
-            pts: (0..r).map(|_| PointDerivatives::new(n)).collect(),
-        }
     }
 }

@@ -5,7 +5,13 @@
 //! mechanical structure, L = ½vᵀMv − V(t, q) with constant M ([`Mechanical`]): then the fast
 //! solvers need only the force −∇V, which the user may hand-code for large systems.
 
-use crate::error::{Error, Result};
+mod mass;
+mod point;
+
+pub use mass::MassMatrix;
+pub use point::PointDerivatives;
+
+use crate::error::{check_len, invalid, Error, Result};
 use num_dual::{Dual64, DualNum, HyperDual64};
 
 /// The number types a Lagrangian is evaluated with: f64 and num-dual's forward-mode numbers.
@@ -34,12 +40,15 @@ pub trait Lagrangian {
 
     /// The generalised force ∂L/∂q at v = 0 (for a mechanical Lagrangian, −∇V(t, q)).
     /// The default differentiates [`Lagrangian::value`]; mechanical systems override it.
+    ///
+    /// Like every method of this trait, it is called by the library with slices of length
+    /// [`Lagrangian::dim`] only; implementations may assume so (and may panic otherwise).
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
         let n = self.dim();
         let mut d = PointDerivatives::new(n);
         let zeros = vec![0.0; n];
         self.first_derivatives(t, q, &zeros, false, &mut d);
-        out.copy_from_slice(d.l_q());
+        out.iter_mut().zip(d.l_q()).for_each(|(o, f)| *o = *f);
     }
 
     /// The forces at several points at once: for point i, `out[i n..(i + 1) n]` is
@@ -48,6 +57,9 @@ pub trait Lagrangian {
     /// vectorise across points. Default: one `force` call per point.
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         let n = self.dim();
+        if n == 0 {
+            return;
+        }
         for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
             self.force(ti, qi, oi);
         }
@@ -64,236 +76,8 @@ pub trait Lagrangian {
     }
 }
 
-/// Value, gradient and Hessian of L at one point with respect to z = (t, q, v), m = 2n + 1
-/// entries: index 0 is t, 1 ..= n are q, n + 1 ..= 2n are v. Holds its own AD scratch so
-/// that repeated evaluations do not allocate.
-#[derive(Debug, Clone)]
-pub struct PointDerivatives {
-    n: usize,
-    /// L at the point.
-    pub value: f64,
-    /// ∂L/∂z (length 2n + 1).
-    pub grad: Vec<f64>,
-    /// ∂²L/∂z∂z, row-major (2n + 1)².
-    pub hess: Vec<f64>,
-    d1: Vec<Dual64>,
-    d2: Vec<HyperDual64>,
-}
-
-impl PointDerivatives {
-    /// Buffers for a configuration space of dimension n.
-    pub fn new(n: usize) -> Self {
-        let m = 2 * n + 1;
-        Self {
-            n,
-            value: 0.0,
-            grad: vec![0.0; m],
-            hess: vec![0.0; m * m],
-            d1: vec![Dual64::from(0.0); m],
-            d2: vec![HyperDual64::from(0.0); m],
-        }
-    }
-
-    /// ∂L/∂t.
-    pub fn l_t(&self) -> f64 {
-        self.grad[0]
-    }
-    /// ∂L/∂q.
-    pub fn l_q(&self) -> &[f64] {
-        &self.grad[1..=self.n]
-    }
-    /// ∂L/∂v.
-    pub fn l_v(&self) -> &[f64] {
-        &self.grad[self.n + 1..]
-    }
-    /// ∂²L/∂z_a∂z_b with z = (t, q, v).
-    pub fn h(&self, a: usize, b: usize) -> f64 {
-        self.hess[a * (2 * self.n + 1) + b]
-    }
-    /// Number of entries of z.
-    pub fn width(&self) -> usize {
-        2 * self.n + 1
-    }
-
-    fn load<D: Scalar>(buf: &mut [D], t: f64, q: &[f64], v: &[f64]) {
-        buf[0] = D::from(t);
-        for (b, &x) in buf[1..].iter_mut().zip(q.iter().chain(v)) {
-            *b = D::from(x);
-        }
-    }
-
-    /// Fills value and gradient by forward-mode AD, one pass per direction.
-    pub fn first_by_ad<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], with_t: bool) {
-        let n = self.n;
-        let m = 2 * n + 1;
-        Self::load(&mut self.d1, t, q, v);
-        let with_t = with_t && !lag.is_autonomous();
-        let start = if with_t { 0 } else { 1 };
-        if !with_t {
-            self.grad[0] = 0.0;
-        }
-        for a in start..m {
-            self.d1[a].eps = 1.0;
-            let (zt, rest) = self.d1.split_at(1);
-            let r = lag.value(zt[0], &rest[..n], &rest[n..]);
-            self.d1[a].eps = 0.0;
-            self.value = r.re;
-            self.grad[a] = r.eps;
-        }
-    }
-
-    /// Fills value, gradient and Hessian by hyper-dual numbers, one pass per pair of directions.
-    pub fn second_by_ad<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], with_t: bool) {
-        let n = self.n;
-        let m = 2 * n + 1;
-        Self::load(&mut self.d2, t, q, v);
-        let with_t = with_t && !lag.is_autonomous();
-        let start = if with_t { 0 } else { 1 };
-        if !with_t {
-            self.grad[0] = 0.0;
-            for a in 0..m {
-                self.hess[a] = 0.0;
-                self.hess[a * m] = 0.0;
-            }
-        }
-        for a in start..m {
-            for b in a..m {
-                self.d2[a].eps1 = 1.0;
-                self.d2[b].eps2 = 1.0;
-                let (zt, rest) = self.d2.split_at(1);
-                let r = lag.value(zt[0], &rest[..n], &rest[n..]);
-                self.d2[a].eps1 = 0.0;
-                self.d2[b].eps2 = 0.0;
-                self.value = r.re;
-                if a == b {
-                    self.grad[a] = r.eps1;
-                }
-                self.hess[a * m + b] = r.eps1eps2;
-                self.hess[b * m + a] = r.eps1eps2;
-            }
-        }
-    }
-}
-
-/// A constant symmetric positive definite mass matrix, with its inverse.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MassMatrix {
-    n: usize,
-    /// Row-major entries.
-    m: Vec<f64>,
-    /// Row-major inverse.
-    inv: Vec<f64>,
-    /// Diagonal matrices (the identity among them) are applied entry by entry.
-    diagonal: Option<Vec<f64>>,
-    /// Reciprocals of the diagonal, so that solves multiply instead of dividing.
-    inv_diagonal: Option<Vec<f64>>,
-    identity: bool,
-}
-
-impl MassMatrix {
-    /// The n×n identity.
-    pub fn identity(n: usize) -> Self {
-        Self::diagonal(vec![1.0; n]).unwrap_or_else(|_| unreachable!("ones are positive"))
-    }
-
-    /// A diagonal mass matrix.
-    ///
-    /// # Errors
-    /// A diagonal entry that is not positive and finite.
-    pub fn diagonal(d: Vec<f64>) -> Result<Self> {
-        if d.iter().any(|&x| !(x > 0.0 && x.is_finite())) {
-            return Err(Error::MassNotPositiveDefinite);
-        }
-        let n = d.len();
-        let mut m = vec![0.0; n * n];
-        let mut inv = vec![0.0; n * n];
-        for i in 0..n {
-            m[i * n + i] = d[i];
-            inv[i * n + i] = 1.0 / d[i];
-        }
-        let identity = d.iter().all(|&x| x == 1.0);
-        let inv_d = d.iter().map(|x| 1.0 / x).collect();
-        Ok(Self {
-            n,
-            m,
-            inv,
-            diagonal: Some(d),
-            inv_diagonal: Some(inv_d),
-            identity,
-        })
-    }
-
-    /// A dense mass matrix from its row-major entries.
-    ///
-    /// # Errors
-    /// Wrong length, not symmetric, or not positive definite (Cholesky fails).
-    pub fn dense(n: usize, m: Vec<f64>) -> Result<Self> {
-        crate::error::check_len("mass matrix", n * n, m.len())?;
-        let mat = nalgebra::DMatrix::from_row_slice(n, n, &m);
-        if (&mat - mat.transpose()).amax() > 1e-14 * mat.amax() || m.iter().any(|x| !x.is_finite()) {
-            return Err(Error::MassNotPositiveDefinite);
-        }
-        let chol = nalgebra::Cholesky::new(mat).ok_or(Error::MassNotPositiveDefinite)?;
-        let inv = chol.inverse();
-        let is_diag = (0..n).all(|i| (0..n).all(|j| i == j || m[i * n + j] == 0.0));
-        if is_diag {
-            return Self::diagonal((0..n).map(|i| m[i * n + i]).collect());
-        }
-        Ok(Self {
-            n,
-            inv: inv.transpose().as_slice().to_vec(),
-            m,
-            diagonal: None,
-            inv_diagonal: None,
-            identity: false,
-        })
-    }
-
-    /// Dimension.
-    pub fn dim(&self) -> usize {
-        self.n
-    }
-
-    /// Entry (i, j).
-    pub fn get(&self, i: usize, j: usize) -> f64 {
-        self.m[i * self.n + j]
-    }
-
-    /// out = M x.
-    pub fn apply(&self, x: &[f64], out: &mut [f64]) {
-        match &self.diagonal {
-            Some(d) => out.iter_mut().zip(x).zip(d).for_each(|((o, x), d)| *o = d * x),
-            None => matvec(&self.m, x, out),
-        }
-    }
-
-    /// out = M⁻¹ x.
-    #[inline]
-    pub fn solve(&self, x: &[f64], out: &mut [f64]) {
-        if self.identity {
-            out.copy_from_slice(x);
-            return;
-        }
-        match &self.inv_diagonal {
-            Some(d) => out.iter_mut().zip(x).zip(d).for_each(|((o, x), d)| *o = x * d),
-            None => matvec(&self.inv, x, out),
-        }
-    }
-
-    /// Whether M is the identity.
-    pub fn is_identity(&self) -> bool {
-        self.identity
-    }
-}
-
-fn matvec(a: &[f64], x: &[f64], out: &mut [f64]) {
-    let n = x.len();
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = a[i * n..(i + 1) * n].iter().zip(x).map(|(a, x)| a * x).sum();
-    }
-}
-
-/// A potential V(t, q) for a mechanical Lagrangian.
+/// A potential V(t, q) for a mechanical Lagrangian. As for [`Lagrangian`], the library calls
+/// its methods with slices of length [`Potential::dim`] only.
 pub trait Potential {
     /// Dimension n.
     fn dim(&self) -> usize;
@@ -321,9 +105,9 @@ pub trait Potential {
         for (b, &x) in buf.iter_mut().zip(q) {
             *b = Dual64::from(x);
         }
-        for i in 0..n {
+        for (i, o) in out.iter_mut().enumerate().take(n) {
             buf[i].eps = 1.0;
-            out[i] = -self.value(Dual64::from(t), buf).eps;
+            *o = -self.value(Dual64::from(t), buf).eps;
             buf[i].eps = 0.0;
         }
     }
@@ -332,6 +116,9 @@ pub trait Potential {
     /// [`Potential::force`] call per point.
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         let n = self.dim();
+        if n == 0 {
+            return;
+        }
         for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
             self.force(ti, qi, oi);
         }
@@ -340,6 +127,10 @@ pub trait Potential {
     /// The Jacobian of the force, −∇²V, row-major n×n into `out`. Default: hyper-dual AD.
     fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) {
         let n = q.len();
+        if out.len() != n * n {
+            out.iter_mut().for_each(|x| *x = f64::NAN);
+            return;
+        }
         let mut buf: Vec<HyperDual64> = q.iter().map(|&x| HyperDual64::from(x)).collect();
         for i in 0..n {
             for j in i..n {
@@ -386,15 +177,23 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
     }
 
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
-        let n = self.dim();
         let mut kin = D::from(0.0);
-        for i in 0..n {
-            for j in 0..n {
-                let mij = self.mass.get(i, j);
-                if mij != 0.0 {
-                    kin += v[i] * v[j] * mij;
+        match (self.mass.diagonal_entries(), self.mass.dense_entries()) {
+            (Some(d), _) => {
+                for (&vi, &mi) in v.iter().zip(d) {
+                    kin += vi * vi * mi;
                 }
             }
+            (None, Some(m)) => {
+                for (&vi, row) in v.iter().zip(m.chunks_exact(self.mass.dim().max(1))) {
+                    for (&vj, &mij) in v.iter().zip(row) {
+                        if mij != 0.0 {
+                            kin += vi * vj * mij;
+                        }
+                    }
+                }
+            }
+            (None, None) => {}
         }
         kin * 0.5 - self.potential.value(t, q)
     }
@@ -417,6 +216,9 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
 
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         let n = self.dim();
+        if !out.fits(self, q, v) {
+            return;
+        }
         let (gt, rest) = out.grad.split_at_mut(1);
         let (gq, gv) = rest.split_at_mut(n);
         self.potential.force(t, q, gq);
@@ -444,16 +246,21 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
             out.second_by_ad(self, t, q, v, true);
             return;
         }
-        self.first_derivatives(t, q, v, false, out);
         let n = self.dim();
         let m = 2 * n + 1;
+        out.hessian_mut();
+        if !out.fits(self, q, v) {
+            out.hess.iter_mut().for_each(|h| *h = f64::NAN);
+            return;
+        }
+        self.first_derivatives(t, q, v, false, out);
         out.hess.iter_mut().for_each(|h| *h = 0.0);
         let mut jac = vec![0.0; n * n];
         self.potential.force_jacobian(t, q, &mut jac);
         for i in 0..n {
             for j in 0..n {
                 out.hess[(1 + i) * m + 1 + j] = jac[i * n + j];
-                out.hess[(1 + n + i) * m + 1 + n + j] = self.mass.get(i, j);
+                out.hess[(1 + n + i) * m + 1 + n + j] = self.mass.get(i, j).unwrap_or(0.0);
             }
         }
     }
@@ -463,7 +270,9 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
 /// receives the answer): the inverse Legendre transform.
 ///
 /// # Errors
-/// [`Error::DegenerateLagrangian`] if ∂²L/∂v² is singular or Newton does not converge.
+/// [`Error::DegenerateLagrangian`] if ∂²L/∂v² is singular or Newton does not converge;
+/// [`Error::Invalid`] for a system without coordinates; [`Error::Dimension`] if q, p, v or
+/// `work` do not have the Lagrangian's dimension.
 pub fn velocity_from_momentum<L: Lagrangian>(
     lag: &L,
     t: f64,
@@ -472,11 +281,13 @@ pub fn velocity_from_momentum<L: Lagrangian>(
     v: &mut [f64],
     work: &mut PointDerivatives,
 ) -> Result<()> {
+    let n = check_point(lag, q, ("v", v.len()))?;
+    check_len("p", n, p.len())?;
+    check_len("derivative buffers", n, work.n)?;
     if let Some(mass) = lag.mass_matrix() {
         mass.solve(p, v);
         return Ok(());
     }
-    let n = lag.dim();
     let mut hvv = nalgebra::DMatrix::zeros(n, n);
     let mut rhs = nalgebra::DVector::zeros(n);
     for _ in 0..50 {
@@ -535,12 +346,31 @@ pub fn hamiltonian<L: Lagrangian>(
     Ok(pv - lag.value(t, q, v))
 }
 
-/// Checks that ∂²L/∂v² is non-singular at a point (the Lagrangian is regular there).
+/// The dimension n of `lag` after checking that it is at least 1 and that q and the other
+/// vector named in `other` (name, length) have n entries.
+fn check_point<L: Lagrangian>(lag: &L, q: &[f64], other: (&str, usize)) -> Result<usize> {
+    let n = lag.dim();
+    if n == 0 {
+        return Err(invalid("dimension", "the system has no coordinates (dimension 0)"));
+    }
+    check_len("q", n, q.len())?;
+    check_len(other.0, n, other.1)?;
+    Ok(n)
+}
+
+/// Checks that ∂²L/∂v² is non-singular at a point (the Lagrangian is regular there). A
+/// Lagrangian with a constant mass matrix is regular everywhere (the matrix was checked to be
+/// symmetric positive definite when it was built), so nothing is evaluated then: no Hessian,
+/// no singular values, O(1) work for any n.
 ///
 /// # Errors
-/// [`Error::DegenerateLagrangian`] if it is singular or not finite.
+/// [`Error::DegenerateLagrangian`] if it is singular or not finite; [`Error::Invalid`] for a
+/// system without coordinates; [`Error::Dimension`] if q or v do not have its dimension.
 pub fn check_regular<L: Lagrangian>(lag: &L, t: f64, q: &[f64], v: &[f64]) -> Result<()> {
-    let n = lag.dim();
+    let n = check_point(lag, q, ("v", v.len()))?;
+    if lag.mass_matrix().is_some() {
+        return Ok(());
+    }
     let mut work = PointDerivatives::new(n);
     lag.second_derivatives(t, q, v, false, &mut work);
     let hvv = nalgebra::DMatrix::from_fn(n, n, |i, j| work.h(1 + n + i, 1 + n + j));

@@ -205,7 +205,8 @@ fn scatter(layout: &Layout, k: usize, m: usize, grad: &[f64], hess: &[f64], r: &
         r[row] += grad[a];
         for c in 0..m {
             if let Some(col) = layout.local(k, c) {
-                band.add(row, col, hess[a * m + c]);
+                let added = band.add(row, col, hess[a * m + c]);
+                debug_assert!(added.is_ok(), "the layout keeps an element's entries in the band");
             }
         }
     }
@@ -266,7 +267,7 @@ mod tests {
                 x[layout.time(k).unwrap()] = asm.times[k];
             }
             let bw = layout.bandwidth();
-            let mut band = BandMatrix::zeros(len, bw, bw);
+            let mut band = BandMatrix::zeros(len, bw, bw).unwrap();
             let mut r = vec![0.0; len];
             asm.eval(&x, &mut r, Some(&mut band)).unwrap();
             let (mut rp, mut rm) = (vec![0.0; len], vec![0.0; len]);

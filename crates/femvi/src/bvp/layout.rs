@@ -60,6 +60,24 @@ impl Layout {
             (self.elements * self.s - 1) * self.n
         }
     }
+    /// The number of unknowns and of entries of the banded Jacobian (size × (3 bandwidth + 1),
+    /// see `BandMatrix::zeros`), or None if they overflow; the arithmetic of [`Layout::len`]
+    /// and [`Layout::bandwidth`], checked.
+    pub(super) fn checked_size(&self) -> Option<(usize, usize)> {
+        let (n, s, big_n) = (self.n, self.s, self.elements);
+        let (unknowns, bandwidth) = if self.moving {
+            let block = s.checked_mul(n)?.checked_add(1)?;
+            let first = s.checked_sub(1)?.checked_mul(n)?;
+            let rest = big_n.checked_sub(1)?.checked_mul(block)?;
+            (first.checked_add(rest)?, block.checked_add(n)?)
+        } else {
+            let nodes = big_n.checked_mul(s)?.checked_sub(1)?;
+            (nodes.checked_mul(n)?, s.checked_add(1)?.checked_mul(n)?.checked_sub(1)?)
+        };
+        let width = bandwidth.checked_mul(3)?.checked_add(1)?;
+        Some((unknowns, unknowns.max(1).checked_mul(width)?))
+    }
+
     /// Lower (= upper) bandwidth of ∂²S.
     pub(super) fn bandwidth(&self) -> usize {
         if self.moving {

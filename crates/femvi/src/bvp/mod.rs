@@ -24,7 +24,13 @@ use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
 use eval::Assembly;
+use layout::Layout;
 use newton::{inf_norm, newton};
+
+/// The most numbers the banded Jacobian of a boundary value problem may hold (2²⁸, 2 GiB):
+/// [`solve`] rejects a larger problem before allocating anything, and [`node_times`] and
+/// [`line_guess`] return nothing for a mesh of more nodal values.
+pub const MAX_JACOBIAN_ENTRIES: usize = 1 << 28;
 
 /// The data of a two-point boundary value problem on a uniform mesh of elements.
 #[derive(Debug, Clone, PartialEq)]
@@ -45,8 +51,11 @@ impl BoundaryValues {
     /// Checks the data against a dimension.
     ///
     /// # Errors
-    /// Wrong lengths, non-finite values, t1 ≤ t0 or no element.
+    /// Dimension 0, wrong lengths, non-finite values, t1 ≤ t0 or no element.
     pub fn validate(&self, n: usize) -> Result<()> {
+        if n == 0 {
+            return Err(invalid("dimension", "the system has no coordinates (dimension 0)"));
+        }
         check_len("boundary q0", n, self.q0.len())?;
         check_len("boundary q1", n, self.q1.len())?;
         if self.q0.iter().chain(&self.q1).any(|x| !x.is_finite()) || !self.t0.is_finite() || !self.t1.is_finite() {
@@ -70,22 +79,37 @@ impl BoundaryValues {
     }
 }
 
-/// Times of all global nodes (element ends and internal nodes), in order: N·s + 1 of them.
+/// The number of global nodes, N·s + 1, if their `n` values each fit the limit
+/// [`MAX_JACOBIAN_ENTRIES`].
+fn global_nodes(bv: &BoundaryValues, element: &Element, n: usize) -> Option<usize> {
+    let globals = bv.elements.checked_mul(element.degree())?.checked_add(1)?;
+    (globals.checked_mul(n)? <= MAX_JACOBIAN_ENTRIES).then_some(globals)
+}
+
+/// Times of all global nodes (element ends and internal nodes), in order: N·s + 1 of them
+/// (none if they would be more than [`MAX_JACOBIAN_ENTRIES`]).
 pub fn node_times(bv: &BoundaryValues, element: &Element) -> Vec<f64> {
     let (s, h) = (element.degree(), bv.step());
-    let mut t = Vec::with_capacity(bv.elements * s + 1);
+    let Some(globals) = global_nodes(bv, element, 1) else {
+        return Vec::new();
+    };
+    let mut t = Vec::with_capacity(globals);
     for k in 0..bv.elements {
         let tk = bv.t0 + k as f64 * h;
-        for j in 0..s {
-            t.push(tk + element.basis.nodes[j] * h);
+        for tau in element.basis.nodes.iter().take(s) {
+            t.push(tk + tau * h);
         }
     }
     t.push(bv.t1);
     t
 }
 
-/// The straight line between the boundary values at every global node (row-major by node).
+/// The straight line between the boundary values at every global node (row-major by node);
+/// none if the nodal values would be more than [`MAX_JACOBIAN_ENTRIES`].
 pub fn line_guess(bv: &BoundaryValues, element: &Element) -> Vec<f64> {
+    if global_nodes(bv, element, bv.q0.len()).is_none() {
+        return Vec::new();
+    }
     let span = bv.t1 - bv.t0;
     node_times(bv, element)
         .iter()
@@ -146,9 +170,10 @@ pub struct BvpSolution {
 /// row-major (N·s+1)×n, e.g. [`line_guess`]; its end values are replaced by q0 and q1).
 ///
 /// # Errors
-/// Invalid data, or a Newton iteration that fails (singular Jacobian, non-finite values, a
-/// line search that cannot decrease the residual, the iteration cap): a [`StepError`] whose
-/// `residual` is the residual norm reached.
+/// Invalid data (also a problem whose Jacobian would hold more than
+/// [`MAX_JACOBIAN_ENTRIES`] numbers), or a Newton iteration that fails (singular Jacobian,
+/// non-finite values, a line search that cannot decrease the residual, the iteration cap): a
+/// [`StepError`] whose `residual` is the residual norm reached.
 pub fn solve<L: Lagrangian>(
     lag: &L,
     element: &Element,
@@ -157,6 +182,9 @@ pub fn solve<L: Lagrangian>(
     options: BvpOptions,
 ) -> Result<BvpSolution> {
     let n = lag.dim();
+    bv.validate(n)?;
+    element.check_nondegenerate()?;
+    check_size(n, element, bv, options.moving_mesh)?;
     let nodes = initial_nodes(n, element, bv, guess)?;
     let uniform = uniform_times(bv);
     let mut x: Vec<f64> = nodes[n..nodes.len() - n].to_vec();
@@ -172,10 +200,36 @@ pub fn solve<L: Lagrangian>(
     finish(&mut asm, &x, iterations)
 }
 
-/// Checks the data and returns the guess with its end values replaced by q0 and q1.
+/// Checks that the problem's Jacobian (on the moving mesh too, if asked for) fits
+/// [`MAX_JACOBIAN_ENTRIES`].
+fn check_size(n: usize, element: &Element, bv: &BoundaryValues, moving: bool) -> Result<()> {
+    let s = element.degree();
+    let layouts = [false, moving && bv.elements > 1].map(|moving| Layout {
+        n,
+        s,
+        elements: bv.elements,
+        moving,
+    });
+    for layout in layouts {
+        match layout.checked_size() {
+            Some((_, entries)) if entries <= MAX_JACOBIAN_ENTRIES => {}
+            _ => {
+                return Err(invalid(
+                    "elements",
+                    format!(
+                        "{} elements of degree {s} in dimension {n}: the Jacobian would hold more than {MAX_JACOBIAN_ENTRIES} numbers",
+                        bv.elements
+                    ),
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Returns the guess (checked) with its end values replaced by q0 and q1; the data were
+/// checked by [`solve`].
 fn initial_nodes(n: usize, element: &Element, bv: &BoundaryValues, guess: &[f64]) -> Result<Vec<f64>> {
-    bv.validate(n)?;
-    element.check_nondegenerate()?;
     let globals = bv.elements * element.degree() + 1;
     check_len("initial guess", globals * n, guess.len())?;
     if guess.iter().any(|x| !x.is_finite()) {

@@ -35,7 +35,7 @@ pub(super) fn newton<L: Lagrangian>(
         r_trial: vec![0.0; unknowns],
         trial: x.clone(),
         dx: vec![0.0; unknowns],
-        band: BandMatrix::zeros(unknowns.max(1), bw, bw),
+        band: BandMatrix::zeros(unknowns.max(1), bw, bw)?,
     };
     let mut iterations = 0;
     if unknowns == 0 {
@@ -105,7 +105,7 @@ impl<L: Lagrangian> Newton<'_, '_, L> {
             return Err(self.fail(StepFailure::Singular, rnorm, iterations, 0));
         }
         self.dx.iter_mut().zip(&self.r).for_each(|(d, v)| *d = -v);
-        self.band.solve(&mut self.dx);
+        self.band.solve(&mut self.dx)?;
         if !inf_norm(&self.dx).is_finite() {
             return Err(self.fail(StepFailure::NonFinite, rnorm, iterations, 0));
         }

@@ -4,6 +4,7 @@
 //! schemes. The command `femvi check` prints this report.
 
 use super::symplecticity_defect;
+pub use super::Symmetry;
 use crate::error::Result;
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::step::{EnergyOptions, Integrator, SolverOptions, Start, TimeGrid};
@@ -11,48 +12,6 @@ use crate::Element;
 
 /// At most this many steps get their tangent map checked (evenly spaced).
 pub const MAX_SAMPLES: usize = 1000;
-
-/// A continuous symmetry of a Lagrangian, whose Noether momentum the discrete flow of a
-/// symmetric discrete Lagrangian conserves.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Symmetry {
-    /// Invariance under translations along d: momentum p·d.
-    Translation(Vec<f64>),
-    /// Invariance under rotations in the plane of coordinates (i, j): q_i p_j − q_j p_i.
-    Rotation(usize, usize),
-    /// Invariance under simultaneous rotations of several planes (e.g. the same plane of every
-    /// body): Σ (q_i p_j − q_j p_i), with a label.
-    Rotations(Vec<(usize, usize)>, String),
-}
-
-impl Symmetry {
-    /// The Noether momentum at (q, p).
-    pub fn momentum(&self, q: &[f64], p: &[f64]) -> f64 {
-        match self {
-            Symmetry::Translation(d) => d.iter().zip(p).map(|(a, b)| a * b).sum(),
-            Symmetry::Rotation(i, j) => q[*i] * p[*j] - q[*j] * p[*i],
-            Symmetry::Rotations(planes, _) => planes.iter().map(|(i, j)| q[*i] * p[*j] - q[*j] * p[*i]).sum(),
-        }
-    }
-
-    /// A label such as "rotation(x,y)" or "translation(x0,x1)" from coordinate names.
-    pub fn label(&self, names: &[String]) -> String {
-        match self {
-            Symmetry::Translation(d) => {
-                // The coordinates it moves, with their weights where these are not 1.
-                let parts: Vec<String> = d
-                    .iter()
-                    .zip(names)
-                    .filter(|(w, _)| **w != 0.0)
-                    .map(|(w, n)| if *w == 1.0 { n.clone() } else { format!("{w}*{n}") })
-                    .collect();
-                format!("translation({})", parts.join(","))
-            }
-            Symmetry::Rotation(i, j) => format!("rotation({},{})", names[*i], names[*j]),
-            Symmetry::Rotations(_, label) => label.clone(),
-        }
-    }
-}
 
 /// The two-form coefficient of the paper's examples, computed and predicted.
 #[derive(Debug, Clone, PartialEq)]
@@ -148,7 +107,8 @@ pub struct CheckReport {
 /// given) and measures the report's quantities.
 ///
 /// # Errors
-/// Any error of the run, the tangent maps or the Legendre transform.
+/// A symmetry that does not fit the system ([`Symmetry::validate`]), or any error of the run,
+/// the tangent maps or the Legendre transform.
 #[allow(clippy::too_many_arguments)]
 pub fn check<L: Lagrangian>(
     lag: &L,
@@ -160,6 +120,9 @@ pub fn check<L: Lagrangian>(
     symmetries: &[Symmetry],
 ) -> Result<CheckReport> {
     let n = lag.dim();
+    for symmetry in symmetries {
+        symmetry.validate(n)?;
+    }
     let mut notes = vec![];
     let total = match energy {
         None => grid.count(),

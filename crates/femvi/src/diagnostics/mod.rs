@@ -5,15 +5,20 @@
 
 pub mod check;
 pub mod exact;
+mod symmetry;
 pub mod trajectory;
 
-pub use check::{check, CheckReport, Symmetry, TwoFormCheck};
+pub use check::{check, CheckReport, TwoFormCheck};
+pub use symmetry::Symmetry;
 pub use trajectory::PiecewiseTrajectory;
 
 /// max |MᵀJM − J| for a row-major 2n×2n tangent map M in variables (q, p), with
-/// J = [[0, I], [−I, 0]]. Zero for a symplectic map (up to round-off).
+/// J = [[0, I], [−I, 0]]. Zero for a symplectic map (up to round-off); NaN if `m` does not
+/// have (2n)² entries.
 pub fn symplecticity_defect(m: &[f64], n: usize) -> f64 {
-    let d = 2 * n;
+    let Some(d) = n.checked_mul(2).filter(|d| d.checked_mul(*d) == Some(m.len())) else {
+        return f64::NAN;
+    };
     let j = |a: usize, b: usize| -> f64 {
         if a < n && b == a + n {
             1.0

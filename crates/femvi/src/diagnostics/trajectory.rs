@@ -2,8 +2,8 @@
 //! recorded element by element, evaluated anywhere, and its L² distance to a reference — the
 //! norm of the paper's error estimates (2.33) and (2.56).
 
-use crate::error::Result;
-use crate::fem::{LagrangeBasis, QuadratureKind, QuadratureRule};
+use crate::error::{check_len, Result};
+use crate::fem::{LagrangeBasis, QuadratureKind, QuadratureRule, MAX_POINTS};
 use crate::lagrangian::Lagrangian;
 use crate::step::Integrator;
 
@@ -19,11 +19,14 @@ pub struct PiecewiseTrajectory {
 }
 
 impl PiecewiseTrajectory {
-    /// Runs `it` to its end, recording every element.
+    /// Runs `it` to its end, recording every element; `basis` is its element's basis and n
+    /// its dimension.
     ///
     /// # Errors
-    /// Any step error.
+    /// [`crate::Error::Dimension`] if n is not the integrator's dimension or the basis not its
+    /// element's; any step error.
     pub fn record<L: Lagrangian>(it: &mut Integrator<L>, basis: &LagrangeBasis, n: usize) -> Result<Self> {
+        check_len("trajectory dimension", it.node().q.len(), n)?;
         let mut me = Self {
             n,
             basis: basis.clone(),
@@ -33,6 +36,11 @@ impl PiecewiseTrajectory {
         };
         while it.step()? {
             if let Some(e) = it.last_element() {
+                check_len(
+                    "nodal values of the element (basis nodes x n)",
+                    e.incr.len(),
+                    basis.len() * n,
+                )?;
                 me.t.push(e.t);
                 me.h.push(e.h);
                 for j in 0..basis.len() {
@@ -55,9 +63,10 @@ impl PiecewiseTrajectory {
         self.t.is_empty()
     }
 
-    /// q_h(t) into `out` (t is clamped to the recorded span).
+    /// q_h(t) into `out` (t is clamped to the recorded span); NaN if nothing was recorded or
+    /// `out` does not have the trajectory's dimension.
     pub fn eval(&self, t: f64, out: &mut [f64]) {
-        if self.t.is_empty() {
+        if self.t.is_empty() || out.len() != self.n {
             out.iter_mut().for_each(|x| *x = f64::NAN);
             return;
         }
@@ -73,10 +82,10 @@ impl PiecewiseTrajectory {
     }
 
     /// (∫ |q_h(t) − q_ref(t)|² dt)^½ over the recorded span, by a Gauss rule of `points` points
-    /// per element; `reference(t, out)` writes q_ref(t).
+    /// per element (clamped to 1 ..= [`MAX_POINTS`]); `reference(t, out)` writes q_ref(t).
     pub fn l2_distance(&self, points: usize, mut reference: impl FnMut(f64, &mut [f64])) -> f64 {
-        let rule = QuadratureRule::new(QuadratureKind::GaussLegendre(points.max(1)))
-            .unwrap_or_else(|_| unreachable!("at least one point"));
+        let rule = QuadratureRule::new(QuadratureKind::GaussLegendre(points.clamp(1, MAX_POINTS)))
+            .unwrap_or_else(|_| unreachable!("1 ..= MAX_POINTS points"));
         let (mut qh, mut qr) = (vec![0.0; self.n], vec![0.0; self.n]);
         let mut sum = 0.0;
         for k in 0..self.t.len() {

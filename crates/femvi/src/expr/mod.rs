@@ -5,13 +5,19 @@
 //! postfix program with constants folded, then evaluated generically over num-dual scalars, so
 //! its derivatives come from the same automatic differentiation as Rust Lagrangians.
 //!
+//! Hostile input is safe: sums and products of any length compile and evaluate without
+//! recursion (`parse.rs` emits postfix items, `compile.rs` folds them in one loop), and
+//! nesting (parentheses, calls, signs, powers) deeper than [`MAX_NESTING`] levels is an
+//! [`ExprError`], so the parser's recursion stays within a small stack.
+//!
 //! Hand-written: expression crates evaluate in f64 only, and we need both generic evaluation
 //! and errors that point at the offending character.
 
+mod compile;
 mod parse;
 mod program;
 
-pub use parse::ExprError;
+pub use parse::{ExprError, MAX_NESTING};
 pub use program::Program;
 
 use crate::lagrangian::{Lagrangian, Scalar};
@@ -28,7 +34,8 @@ impl ExprLagrangian {
     ///
     /// # Errors
     /// [`ExprError`] with the position of a syntax error, an unknown symbol, a wrong number of
-    /// function arguments, or a name clash between coordinates and parameters.
+    /// function arguments, nesting deeper than [`MAX_NESTING`], or a name clash between
+    /// coordinates and parameters.
     ///
     /// # Example
     ///

@@ -1,6 +1,7 @@
-//! Tokenizer and recursive-descent parser of expressions into a small syntax tree.
-//! Precedence, loosest first: `+ -`; `* /`; unary minus; `^` (right associative), so
-//! `-x^2 = -(x^2)` and `2^-1 = 0.5`.
+//! Tokenizer and recursive-descent parser of expressions into a postfix list of items (no
+//! syntax tree, so nothing downstream recurses). Precedence, loosest first: `+ -`; `* /`;
+//! unary minus; `^` (right associative), so `-x^2 = -(x^2)` and `2^-1 = 0.5`. Nesting is
+//! limited to [`MAX_NESTING`] levels, which bounds the parser's recursion.
 
 /// An error in an expression, with its position (1-based line and column, in characters).
 #[derive(Debug, Clone, PartialEq)]
@@ -19,7 +20,10 @@ pub struct ExprError {
 
 impl ExprError {
     pub(crate) fn at(source: &str, offset: usize, message: impl Into<String>) -> Self {
-        let offset = offset.min(source.len());
+        let mut offset = offset.min(source.len());
+        while !source.is_char_boundary(offset) {
+            offset -= 1;
+        }
         let before = &source[..offset];
         let line = before.matches('\n').count() + 1;
         let line_start = before.rfind('\n').map_or(0, |i| i + 1);
@@ -42,7 +46,7 @@ impl ExprError {
             self.line,
             self.column,
             self.source_line,
-            " ".repeat(self.column - 1)
+            " ".repeat(self.column.saturating_sub(1))
         )
     }
 }
@@ -121,139 +125,170 @@ fn tokenize(src: &str) -> Result<Vec<(Tok, usize)>, ExprError> {
     Ok(out)
 }
 
-/// A syntax tree node with its source offset.
+/// Deepest nesting of parentheses, function calls, signs and powers that an expression may
+/// have. The parser recurses once per level, so the limit bounds its stack (a few hundred
+/// bytes a level); sums and products of any length are parsed by loops, not recursion.
+pub const MAX_NESTING: usize = 200;
+
+/// One item of the expression in postfix order (operands before their operator), with the
+/// source offset where a name or a call can be reported.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Ast {
+pub(crate) enum Item {
     Num(f64),
     Name(String, usize),
-    Neg(Box<Ast>),
-    Bin(char, Box<Ast>, Box<Ast>),
-    Call(String, Vec<Ast>, usize),
+    Neg,
+    Bin(char),
+    Call(String, usize, usize),
 }
 
 pub(crate) struct Parser<'s> {
     src: &'s str,
     toks: Vec<(Tok, usize)>,
     pos: usize,
+    depth: usize,
+    out: Vec<Item>,
 }
 
 impl<'s> Parser<'s> {
-    pub(crate) fn parse(src: &'s str) -> Result<Ast, ExprError> {
+    /// Parses `src` into its items in postfix order.
+    pub(crate) fn parse(src: &'s str) -> Result<Vec<Item>, ExprError> {
         let toks = tokenize(src)?;
-        let mut p = Parser { src, toks, pos: 0 };
-        let ast = p.expr()?;
+        let mut p = Parser {
+            src,
+            toks,
+            pos: 0,
+            depth: 0,
+            out: Vec::new(),
+        };
+        p.expr()?;
         match p.peek() {
-            Tok::End => Ok(ast),
+            Tok::End => Ok(p.out),
             t => Err(p.err(format!("expected an operator or the end, found {}", describe(t)))),
         }
     }
 
     fn peek(&self) -> &Tok {
-        &self.toks[self.pos].0
+        self.toks.get(self.pos).map_or(&Tok::End, |t| &t.0)
     }
     fn offset(&self) -> usize {
-        self.toks[self.pos].1
+        self.toks.get(self.pos).map_or(self.src.len(), |t| t.1)
     }
     fn err(&self, msg: String) -> ExprError {
         ExprError::at(self.src, self.offset(), msg)
     }
     fn bump(&mut self) -> Tok {
-        let t = self.toks[self.pos].0.clone();
+        let t = self.peek().clone();
         if self.pos + 1 < self.toks.len() {
             self.pos += 1;
         }
         t
     }
 
-    fn expr(&mut self) -> Result<Ast, ExprError> {
-        let mut lhs = self.term()?;
+    fn expr(&mut self) -> Result<(), ExprError> {
+        self.term()?;
         while let Tok::Op(c @ ('+' | '-')) = *self.peek() {
             self.bump();
-            let rhs = self.term()?;
-            lhs = Ast::Bin(c, Box::new(lhs), Box::new(rhs));
+            self.term()?;
+            self.out.push(Item::Bin(c));
         }
-        Ok(lhs)
+        Ok(())
     }
 
-    fn term(&mut self) -> Result<Ast, ExprError> {
-        let mut lhs = self.unary()?;
+    fn term(&mut self) -> Result<(), ExprError> {
+        self.unary()?;
         while let Tok::Op(c @ ('*' | '/')) = *self.peek() {
             self.bump();
-            let rhs = self.unary()?;
-            lhs = Ast::Bin(c, Box::new(lhs), Box::new(rhs));
+            self.unary()?;
+            self.out.push(Item::Bin(c));
         }
-        Ok(lhs)
+        Ok(())
     }
 
-    fn unary(&mut self) -> Result<Ast, ExprError> {
-        match self.peek() {
+    /// Every recursion of the parser passes through here, which counts the nesting.
+    fn unary(&mut self) -> Result<(), ExprError> {
+        if self.depth >= MAX_NESTING {
+            return Err(self.err(format!(
+                "the expression is nested deeper than {MAX_NESTING} levels (parentheses, function calls, signs and powers)"
+            )));
+        }
+        self.depth += 1;
+        let result = match self.peek() {
             Tok::Op('-') => {
                 self.bump();
-                Ok(Ast::Neg(Box::new(self.unary()?)))
+                self.unary().map(|()| self.out.push(Item::Neg))
             }
             Tok::Op('+') => {
                 self.bump();
                 self.unary()
             }
             _ => self.power(),
-        }
+        };
+        self.depth -= 1;
+        result
     }
 
-    fn power(&mut self) -> Result<Ast, ExprError> {
-        let base = self.primary()?;
+    fn power(&mut self) -> Result<(), ExprError> {
+        self.primary()?;
         if let Tok::Op('^') = self.peek() {
             self.bump();
-            let exp = self.unary()?;
-            return Ok(Ast::Bin('^', Box::new(base), Box::new(exp)));
+            self.unary()?;
+            self.out.push(Item::Bin('^'));
         }
-        Ok(base)
+        Ok(())
     }
 
-    fn primary(&mut self) -> Result<Ast, ExprError> {
+    fn primary(&mut self) -> Result<(), ExprError> {
         let at = self.offset();
         match self.bump() {
-            Tok::Num(v) => Ok(Ast::Num(v)),
+            Tok::Num(v) => self.out.push(Item::Num(v)),
             Tok::Ident(name) => {
                 if let Tok::LParen = self.peek() {
                     self.bump();
-                    let mut args = Vec::new();
-                    if *self.peek() != Tok::RParen {
-                        loop {
-                            args.push(self.expr()?);
-                            match self.peek() {
-                                Tok::Comma => {
-                                    self.bump();
-                                }
-                                Tok::RParen => break,
-                                t => return Err(self.err(format!("expected ',' or ')', found {}", describe(t)))),
-                            }
-                        }
-                    }
-                    self.bump();
-                    Ok(Ast::Call(name, args, at))
+                    let args = self.arguments()?;
+                    self.out.push(Item::Call(name, args, at));
                 } else {
-                    Ok(Ast::Name(name, at))
+                    self.out.push(Item::Name(name, at));
                 }
             }
             Tok::LParen => {
-                let e = self.expr()?;
+                self.expr()?;
                 match self.peek() {
                     Tok::RParen => {
                         self.bump();
-                        Ok(e)
                     }
-                    t => Err(self.err(format!("expected ')', found {}", describe(t)))),
+                    t => return Err(self.err(format!("expected ')', found {}", describe(t)))),
                 }
             }
             t => {
                 self.pos = self.pos.saturating_sub(usize::from(t != Tok::End));
-                Err(ExprError::at(
+                return Err(ExprError::at(
                     self.src,
                     at,
                     format!("expected a number, a name or '(', found {}", describe(&t)),
-                ))
+                ));
             }
         }
+        Ok(())
+    }
+
+    /// The arguments of a call after its '(', through the closing ')'; returns their number.
+    fn arguments(&mut self) -> Result<usize, ExprError> {
+        let mut args = 0;
+        if *self.peek() != Tok::RParen {
+            loop {
+                self.expr()?;
+                args += 1;
+                match self.peek() {
+                    Tok::Comma => {
+                        self.bump();
+                    }
+                    Tok::RParen => break,
+                    t => return Err(self.err(format!("expected ',' or ')', found {}", describe(t)))),
+                }
+            }
+        }
+        self.bump();
+        Ok(args)
     }
 }
 

@@ -1,11 +1,12 @@
-//! Compilation of a syntax tree into a postfix program with constants folded, and its
-//! evaluation over any scalar type without allocation (a fixed stack for the usual depths).
+//! A compiled expression: a postfix program with constants folded (built by `compile.rs`), and
+//! its evaluation over any scalar type without allocation (a fixed stack for the usual depths).
 
-use super::parse::{Ast, ExprError, Parser};
+use super::compile::Compiler;
+use super::parse::{ExprError, Parser};
 use crate::lagrangian::Scalar;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum F1 {
+pub(super) enum F1 {
     Sin,
     Cos,
     Tan,
@@ -22,7 +23,7 @@ enum F1 {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum F2 {
+pub(super) enum F2 {
     Atan2,
     Pow,
     Min,
@@ -30,7 +31,7 @@ enum F2 {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Op {
+pub(super) enum Op {
     Const(f64),
     Var(usize),
     Neg,
@@ -44,7 +45,7 @@ enum Op {
     Call2(F2),
 }
 
-const FUNCS1: &[(&str, F1)] = &[
+pub(super) const FUNCS1: &[(&str, F1)] = &[
     ("sin", F1::Sin),
     ("cos", F1::Cos),
     ("tan", F1::Tan),
@@ -60,7 +61,7 @@ const FUNCS1: &[(&str, F1)] = &[
     ("acos", F1::Acos),
     ("atan", F1::Atan),
 ];
-const FUNCS2: &[(&str, F2)] = &[
+pub(super) const FUNCS2: &[(&str, F2)] = &[
     ("atan2", F2::Atan2),
     ("pow", F2::Pow),
     ("min", F2::Min),
@@ -74,26 +75,12 @@ pub struct Program {
     depth: usize,
 }
 
-/// Folded constant or code.
-enum Node {
-    Const(f64),
-    Code(Vec<Op>, usize),
-}
-
-impl Node {
-    fn into_code(self) -> (Vec<Op>, usize) {
-        match self {
-            Node::Const(c) => (vec![Op::Const(c)], 1),
-            Node::Code(ops, d) => (ops, d),
-        }
-    }
-}
-
 impl Program {
     /// Compiles `source`; `vars[i]` names variable i, `params` are folded as constants.
     ///
     /// # Errors
-    /// Syntax errors, unknown symbols and functions, wrong argument counts, name clashes.
+    /// Syntax errors, unknown symbols and functions, wrong argument counts, name clashes, and
+    /// nesting deeper than [`MAX_NESTING`](super::MAX_NESTING).
     pub fn compile(source: &str, vars: &[String], params: &[(String, f64)]) -> Result<Self, ExprError> {
         for (name, _) in params {
             if vars.contains(name) {
@@ -104,125 +91,18 @@ impl Program {
                 ));
             }
         }
-        let ast = Parser::parse(source)?;
-        let node = Self::lower(source, &ast, vars, params)?;
-        let (ops, depth) = node.into_code();
+        let items = Parser::parse(source)?;
+        let mut compiler = Compiler::new(source, items.len());
+        for item in &items {
+            compiler.item(item, vars, params)?;
+        }
+        let (ops, depth) = compiler.finish()?;
         Ok(Self { ops, depth })
     }
 
     /// Whether variable `i` occurs.
     pub fn uses_variable(&self, i: usize) -> bool {
         self.ops.contains(&Op::Var(i))
-    }
-
-    fn lower(src: &str, ast: &Ast, vars: &[String], params: &[(String, f64)]) -> Result<Node, ExprError> {
-        Ok(match ast {
-            Ast::Num(v) => Node::Const(*v),
-            Ast::Name(name, at) => {
-                if let Some(i) = vars.iter().position(|v| v == name) {
-                    Node::Code(vec![Op::Var(i)], 1)
-                } else if let Some((_, v)) = params.iter().find(|(p, _)| p == name) {
-                    Node::Const(*v)
-                } else if name == "pi" {
-                    Node::Const(std::f64::consts::PI)
-                } else {
-                    return Err(ExprError::at(src, *at, format!("unknown symbol '{name}'")));
-                }
-            }
-            Ast::Neg(a) => match Self::lower(src, a, vars, params)? {
-                Node::Const(c) => Node::Const(-c),
-                n => Self::combine(vec![n], Op::Neg),
-            },
-            Ast::Bin(op, a, b) => {
-                let (a, b) = (Self::lower(src, a, vars, params)?, Self::lower(src, b, vars, params)?);
-                if let (Node::Const(x), Node::Const(y)) = (&a, &b) {
-                    return Ok(Node::Const(apply_f64(*op, *x, *y)));
-                }
-                if *op == '^' {
-                    if let Node::Const(e) = b {
-                        let op = if e.fract() == 0.0 && e.abs() <= 64.0 {
-                            Op::PowI(e as i32)
-                        } else {
-                            Op::PowF(e)
-                        };
-                        return Ok(Self::combine(vec![a], op));
-                    }
-                    return Ok(Self::combine(vec![a, b], Op::Call2(F2::Pow)));
-                }
-                let op = match op {
-                    '+' => Op::Add,
-                    '-' => Op::Sub,
-                    '*' => Op::Mul,
-                    _ => Op::Div,
-                };
-                Self::combine(vec![a, b], op)
-            }
-            Ast::Call(name, args, at) => {
-                let lowered: Vec<Node> = args
-                    .iter()
-                    .map(|a| Self::lower(src, a, vars, params))
-                    .collect::<Result<_, _>>()?;
-                let arity = |want: usize| {
-                    if args.len() == want {
-                        Ok(())
-                    } else {
-                        let s = if want == 1 { "" } else { "s" };
-                        Err(ExprError::at(
-                            src,
-                            *at,
-                            format!("function '{name}' takes {want} argument{s}, found {}", args.len()),
-                        ))
-                    }
-                };
-                if let Some((_, f)) = FUNCS1.iter().find(|(n, _)| n == name) {
-                    arity(1)?;
-                    Self::combine(lowered, Op::Call1(*f))
-                } else if let Some((_, f)) = FUNCS2.iter().find(|(n, _)| n == name) {
-                    arity(2)?;
-                    if *f == F2::Pow {
-                        if let Node::Const(e) = lowered[1] {
-                            let base = lowered.into_iter().next().unwrap_or(Node::Const(0.0));
-                            let op = if e.fract() == 0.0 && e.abs() <= 64.0 {
-                                Op::PowI(e as i32)
-                            } else {
-                                Op::PowF(e)
-                            };
-                            return Ok(Self::combine(vec![base], op));
-                        }
-                    }
-                    Self::combine(lowered, Op::Call2(*f))
-                } else {
-                    return Err(ExprError::at(src, *at, format!("unknown function '{name}'")));
-                }
-            }
-        })
-    }
-
-    /// Code of the operands in order, then `op`; folds when all operands are constant.
-    fn combine(args: Vec<Node>, op: Op) -> Node {
-        if args.iter().all(|a| matches!(a, Node::Const(_))) {
-            let vals: Vec<f64> = args
-                .iter()
-                .map(|a| match a {
-                    Node::Const(c) => *c,
-                    Node::Code(..) => 0.0,
-                })
-                .collect();
-            let p = Program {
-                ops: vals.iter().map(|&c| Op::Const(c)).chain([op]).collect(),
-                depth: vals.len().max(1),
-            };
-            return Node::Const(p.eval::<f64>(|_| 0.0));
-        }
-        let mut ops = Vec::new();
-        let mut depth = 0;
-        for (k, a) in args.into_iter().enumerate() {
-            let (code, d) = a.into_code();
-            depth = depth.max(k + d);
-            ops.extend(code);
-        }
-        ops.push(op);
-        Node::Code(ops, depth.max(1))
     }
 
     /// Evaluates with variable values from `var`.
@@ -246,36 +126,10 @@ impl Program {
                     stack[sp] = var(i);
                     sp += 1;
                 }
-                Op::Neg => stack[sp - 1] = -stack[sp - 1],
-                Op::PowI(e) => stack[sp - 1] = stack[sp - 1].powi(e),
-                Op::PowF(e) => stack[sp - 1] = stack[sp - 1].powf(e),
-                Op::Call1(f) => stack[sp - 1] = call1(f, stack[sp - 1]),
+                Op::Neg | Op::PowI(_) | Op::PowF(_) | Op::Call1(_) => stack[sp - 1] = unary(*op, stack[sp - 1]),
                 Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Call2(_) => {
-                    let (a, b) = (stack[sp - 2], stack[sp - 1]);
                     sp -= 1;
-                    stack[sp - 1] = match *op {
-                        Op::Add => a + b,
-                        Op::Sub => a - b,
-                        Op::Mul => a * b,
-                        Op::Div => a / b,
-                        Op::Call2(F2::Atan2) => a.atan2(b),
-                        Op::Call2(F2::Pow) => a.powd(b),
-                        Op::Call2(F2::Min) => {
-                            if b.re() < a.re() {
-                                b
-                            } else {
-                                a
-                            }
-                        }
-                        Op::Call2(F2::Max) => {
-                            if b.re() > a.re() {
-                                b
-                            } else {
-                                a
-                            }
-                        }
-                        _ => a,
-                    };
+                    stack[sp - 1] = binary(*op, stack[sp - 1], stack[sp]);
                 }
             }
         }
@@ -283,13 +137,53 @@ impl Program {
     }
 }
 
-fn apply_f64(op: char, x: f64, y: f64) -> f64 {
+/// An operation on one operand (`Neg`, `PowI`, `PowF`, `Call1`); `x` itself for the others.
+#[inline]
+pub(super) fn unary<D: Scalar>(op: Op, x: D) -> D {
     match op {
-        '+' => x + y,
-        '-' => x - y,
-        '*' => x * y,
-        '/' => x / y,
-        _ => x.powf(y),
+        Op::Neg => -x,
+        Op::PowI(e) => x.powi(e),
+        Op::PowF(e) => x.powf(e),
+        Op::Call1(f) => call1(f, x),
+        _ => x,
+    }
+}
+
+/// An operation on two operands (`Add`, `Sub`, `Mul`, `Div`, `Call2`); `a` for the others.
+#[inline]
+pub(super) fn binary<D: Scalar>(op: Op, a: D, b: D) -> D {
+    match op {
+        Op::Add => a + b,
+        Op::Sub => a - b,
+        Op::Mul => a * b,
+        Op::Div => a / b,
+        Op::Call2(F2::Atan2) => a.atan2(b),
+        Op::Call2(F2::Pow) => a.powd(b),
+        Op::Call2(F2::Min) => {
+            if b.re() < a.re() {
+                b
+            } else {
+                a
+            }
+        }
+        Op::Call2(F2::Max) => {
+            if b.re() > a.re() {
+                b
+            } else {
+                a
+            }
+        }
+        _ => a,
+    }
+}
+
+/// The operation of a power with a constant exponent: repeated multiplication for small
+/// integers (exact derivatives at zero), `powf` otherwise.
+pub(super) fn pow_op(e: f64) -> Op {
+    if e.fract() == 0.0 && e.abs() <= 64.0 {
+        Op::PowI(e as i32)
+    } else {
+        Op::PowF(e)
     }
 }
 

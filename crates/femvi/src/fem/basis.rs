@@ -9,6 +9,10 @@
 use super::quadrature::{QuadratureKind, QuadratureRule};
 use crate::error::{invalid, Result};
 
+/// The highest degree of a basis (and so of an element): tabulation costs O(r s²) and the
+/// step O(r s n), and equispaced nodes are useless far below it.
+pub const MAX_DEGREE: usize = 100;
+
 /// How the nodes τ_0 = 0 < τ_1 < … < τ_s = 1 of an element are placed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NodeFamily {
@@ -33,10 +37,16 @@ impl LagrangeBasis {
     /// The basis of degree `degree` on nodes of the given family.
     ///
     /// # Errors
-    /// Degree 0 is rejected.
+    /// Degree 0, or a degree above [`MAX_DEGREE`].
     pub fn new(degree: usize, family: NodeFamily) -> Result<Self> {
         if degree == 0 {
             return Err(invalid("element degree", "the degree must be at least 1"));
+        }
+        if degree > MAX_DEGREE {
+            return Err(invalid(
+                "element degree",
+                format!("{degree} is above the largest supported degree, {MAX_DEGREE}"),
+            ));
         }
         let nodes = match family {
             NodeFamily::Equispaced => (0..=degree).map(|j| j as f64 / degree as f64).collect(),
@@ -55,9 +65,13 @@ impl LagrangeBasis {
         self.nodes.is_empty()
     }
 
-    /// ℓ_j(τ) for all j, written into `out` (length s + 1).
+    /// ℓ_j(τ) for all j, written into `out` (length s + 1; any other length gets NaN).
     pub fn values_in_place(&self, tau: f64, out: &mut [f64]) {
         let nodes = &self.nodes;
+        if out.len() != nodes.len() {
+            out.iter_mut().for_each(|o| *o = f64::NAN);
+            return;
+        }
         for (j, o) in out.iter_mut().enumerate() {
             let mut v = 1.0;
             for (m, &tm) in nodes.iter().enumerate() {
@@ -69,9 +83,13 @@ impl LagrangeBasis {
         }
     }
 
-    /// ℓ_j'(τ) for all j, written into `out` (length s + 1).
+    /// ℓ_j'(τ) for all j, written into `out` (length s + 1; any other length gets NaN).
     pub fn derivatives_in_place(&self, tau: f64, out: &mut [f64]) {
         let nodes = &self.nodes;
+        if out.len() != nodes.len() {
+            out.iter_mut().for_each(|o| *o = f64::NAN);
+            return;
+        }
         for (j, o) in out.iter_mut().enumerate() {
             let mut sum = 0.0;
             for (m, &tm) in nodes.iter().enumerate() {
@@ -112,6 +130,9 @@ impl LagrangeBasis {
 /// Makes `row` sum to `target` in floating point by setting its largest entry to the target
 /// minus the sum of the others (the smallest relative change).
 fn fix_sum(row: &mut [f64], target: f64) {
+    if row.is_empty() {
+        return;
+    }
     let big = (0..row.len())
         .max_by(|&a, &b| row[a].abs().total_cmp(&row[b].abs()))
         .unwrap_or(0);

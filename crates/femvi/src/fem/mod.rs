@@ -6,5 +6,5 @@ pub mod basis;
 pub(crate) mod dd;
 pub mod quadrature;
 
-pub use basis::{LagrangeBasis, NodeFamily};
-pub use quadrature::{QuadratureKind, QuadratureRule};
+pub use basis::{LagrangeBasis, NodeFamily, MAX_DEGREE};
+pub use quadrature::{QuadratureKind, QuadratureRule, MAX_POINTS};

@@ -12,6 +12,10 @@ use crate::error::{invalid, Result};
 
 use super::dd::Dd;
 
+/// The most points of a Gauss rule: computing one costs O(r²) double-double operations
+/// (about a second at this limit), and no element needs more.
+pub const MAX_POINTS: usize = 1000;
+
 /// Which quadrature family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum QuadratureKind {
@@ -42,8 +46,17 @@ impl QuadratureRule {
     /// Builds the rule of the given kind.
     ///
     /// # Errors
-    /// A Gauss–Legendre rule with no point, or a Gauss–Lobatto rule with fewer than two.
+    /// A Gauss–Legendre rule with no point, a Gauss–Lobatto rule with fewer than two, or a
+    /// Gauss rule with more than [`MAX_POINTS`].
     pub fn new(kind: QuadratureKind) -> Result<Self> {
+        if let QuadratureKind::GaussLegendre(r) | QuadratureKind::GaussLobatto(r) = kind {
+            if r > MAX_POINTS {
+                return Err(invalid(
+                    "quadrature points",
+                    format!("{r} is more than the largest supported rule, {MAX_POINTS} points"),
+                ));
+            }
+        }
         let (nodes, weights) = match kind {
             QuadratureKind::Midpoint => (vec![0.5], vec![1.0]),
             QuadratureKind::Trapezoid => (vec![0.0, 1.0], vec![0.5, 0.5]),
@@ -79,8 +92,8 @@ impl QuadratureRule {
         match self.kind {
             QuadratureKind::Midpoint | QuadratureKind::Trapezoid => 1,
             QuadratureKind::Simpson => 3,
-            QuadratureKind::GaussLegendre(r) => 2 * r - 1,
-            QuadratureKind::GaussLobatto(r) => 2 * r - 3,
+            QuadratureKind::GaussLegendre(r) => r.saturating_mul(2).saturating_sub(1),
+            QuadratureKind::GaussLobatto(r) => r.saturating_mul(2).saturating_sub(3),
         }
     }
 }

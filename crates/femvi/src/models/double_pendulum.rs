@@ -6,6 +6,8 @@
 //! `mass_matrix`, no hand-coded force): every derivative comes from automatic differentiation
 //! of `value`.
 
+use super::finite;
+use crate::error::{invalid, Result};
 use crate::lagrangian::{Lagrangian, Scalar};
 
 /// The planar double pendulum, angles from the downward vertical.
@@ -21,6 +23,24 @@ pub struct DoublePendulum {
     pub l2: f64,
     /// Gravity.
     pub g: f64,
+}
+
+impl DoublePendulum {
+    /// The double pendulum with masses m1, m2, rods l1, l2 and gravity g.
+    ///
+    /// # Errors
+    /// A parameter that is not finite, or a mass or rod that is not positive (the kinetic
+    /// energy would not be positive definite).
+    pub fn new(m1: f64, m2: f64, l1: f64, l2: f64, g: f64) -> Result<Self> {
+        finite(
+            "double-pendulum",
+            &[("m1", m1), ("m2", m2), ("l1", l1), ("l2", l2), ("g", g)],
+        )?;
+        if [m1, m2, l1, l2].iter().any(|&x| x <= 0.0) {
+            return Err(invalid("double-pendulum", "masses and rods must be positive"));
+        }
+        Ok(Self { m1, m2, l1, l2, g })
+    }
 }
 
 impl Lagrangian for DoublePendulum {

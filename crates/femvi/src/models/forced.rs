@@ -3,6 +3,7 @@
 //! (not autonomous: its energy is not conserved, and `femvi check` skips the time-reversal
 //! test for it).
 
+use super::finite;
 use crate::error::Result;
 use crate::lagrangian::{MassMatrix, Mechanical, Potential, Scalar};
 
@@ -32,7 +33,8 @@ impl Potential for ForcedPotential {
 /// The forced oscillator.
 ///
 /// # Errors
-/// A mass that is not positive.
+/// A parameter that is not finite, or a mass that is not positive.
 pub fn forced_oscillator(m: f64, k: f64, f0: f64, omega: f64) -> Result<Mechanical<ForcedPotential>> {
+    finite("forced-oscillator", &[("m", m), ("k", k), ("f0", f0), ("omega", omega)])?;
     Mechanical::new(ForcedPotential { k, f0, omega }, MassMatrix::diagonal(vec![m])?)
 }

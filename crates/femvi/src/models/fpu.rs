@@ -4,6 +4,8 @@
 //! d_i = q_{i+1} − q_i (the α-chain for β = 0, the β-chain for α = 0), so that
 //! q̈_i = V'(d_i) − V'(d_{i−1}) with V'(d) = d + α d² + β d³. The dimension n is a parameter.
 
+use super::finite;
+use crate::error::{invalid, Result};
 use crate::lagrangian::{Mechanical, Potential, Scalar};
 
 /// The α/β Fermi–Pasta–Ulam–Tsingou chain with fixed ends q_0 = q_{n+1} = 0:
@@ -16,6 +18,20 @@ pub struct FpuPotential {
     pub alpha: f64,
     /// Quartic coefficient.
     pub beta: f64,
+}
+
+impl FpuPotential {
+    /// The chain of n masses with coefficients α and β.
+    ///
+    /// # Errors
+    /// n = 0, or α or β not finite.
+    pub fn new(n: usize, alpha: f64, beta: f64) -> Result<Self> {
+        if n == 0 {
+            return Err(invalid("fpu", "the chain needs at least one mass (n >= 1)"));
+        }
+        finite("fpu", &[("alpha", alpha), ("beta", beta)])?;
+        Ok(Self { n, alpha, beta })
+    }
 }
 
 impl Potential for FpuPotential {
@@ -52,7 +68,13 @@ impl Potential for FpuPotential {
     }
 }
 
-/// The FPUT chain with unit masses.
+/// The FPUT chain with unit masses (O(n) memory: the identity mass matrix is stored by its
+/// diagonal).
+///
+/// It does not check its arguments (its signature is kept for existing callers): n = 0 gives
+/// a system without coordinates, which an integrator rejects, and α or β not finite give
+/// non-finite forces. [`FpuPotential::new`] checks them:
+/// `Mechanical::unit_mass(FpuPotential::new(n, alpha, beta)?)`.
 pub fn fpu(n: usize, alpha: f64, beta: f64) -> Mechanical<FpuPotential> {
     Mechanical::unit_mass(FpuPotential { n, alpha, beta })
 }

@@ -5,7 +5,8 @@
 //! (Hairer, Lubich and Wanner, Geometric Numerical Integration, Sect. I.2.4) is the instance
 //! with the data of `models::outer_solar_system`.
 
-use crate::error::Result;
+use super::finite;
+use crate::error::{invalid, Result};
 use crate::lagrangian::{MassMatrix, Mechanical, Potential, Scalar};
 
 /// V = −G Σ_{i<j} m_i m_j / |x_i − x_j| for bodies in `dim` dimensions.
@@ -15,7 +16,7 @@ pub struct GravityPotential {
     pub g: f64,
     /// Masses.
     pub masses: Vec<f64>,
-    /// 2 or 3.
+    /// 1, 2 or 3 ([`n_body`] checks it; with another value the force is NaN).
     pub dim: usize,
 }
 
@@ -43,6 +44,10 @@ impl Potential for GravityPotential {
     }
     fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         let (nb, d) = (self.masses.len(), self.dim);
+        if !(1..=3).contains(&d) {
+            out.iter_mut().for_each(|x| *x = f64::NAN);
+            return;
+        }
         out.iter_mut().for_each(|x| *x = 0.0);
         for i in 0..nb {
             for j in i + 1..nb {
@@ -62,11 +67,23 @@ impl Potential for GravityPotential {
     }
 }
 
-/// The gravitational n-body problem.
+/// The gravitational n-body problem of the bodies with `masses` in `dim` = 1, 2 or 3
+/// dimensions (O(n) memory: the mass matrix is stored by its diagonal).
 ///
 /// # Errors
-/// A mass that is not positive.
+/// A dimension other than 1, 2 or 3, no body, G not finite, or a mass that is not positive
+/// and finite.
 pub fn n_body(g: f64, masses: Vec<f64>, dim: usize) -> Result<Mechanical<GravityPotential>> {
+    if !(1..=3).contains(&dim) {
+        return Err(invalid(
+            "n-body",
+            format!("dim = {dim}: the bodies move in 1, 2 or 3 dimensions"),
+        ));
+    }
+    if masses.is_empty() {
+        return Err(invalid("n-body", "there is no body"));
+    }
+    finite("n-body", &[("G", g)])?;
     let diag: Vec<f64> = masses.iter().flat_map(|m| std::iter::repeat_n(*m, dim)).collect();
     Mechanical::new(GravityPotential { g, masses, dim }, MassMatrix::diagonal(diag)?)
 }

@@ -29,6 +29,34 @@ pub use simple::{
 
 use crate::error::{invalid, Result};
 
+/// The largest FPUT chain that [`parameters`] accepts (n).
+pub const MAX_FPU_MASSES: usize = 100_000;
+/// The most bodies that [`parameters`] accepts for n-body.
+pub const MAX_BODIES: usize = 10_000;
+
+/// Checks that every named parameter of `model` is finite.
+fn finite(model: &str, params: &[(&str, f64)]) -> Result<()> {
+    match params.iter().find(|(_, v)| !v.is_finite()) {
+        Some((name, v)) => Err(invalid(model, format!("parameter {name} = {v} is not finite"))),
+        None => Ok(()),
+    }
+}
+
+/// Entry i of `vals` as a count: an integer from `lo` to `hi`.
+fn count(vals: &[f64], i: usize, what: &str, lo: usize, hi: usize) -> Result<usize> {
+    let v = vals
+        .get(i)
+        .copied()
+        .ok_or_else(|| invalid("parameter", format!("{what} is missing")))?;
+    if v.fract() != 0.0 || !(v >= lo as f64 && v <= hi as f64) {
+        return Err(invalid(
+            "parameter",
+            format!("{what} = {v} must be an integer from {lo} to {hi}"),
+        ));
+    }
+    Ok(v as usize)
+}
+
 /// Metadata of a built-in model: name, coordinates and parameters with defaults.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModelInfo {
@@ -113,16 +141,6 @@ pub fn info(name: &str) -> Option<&'static ModelInfo> {
 pub fn parameters(model: &str, given: &[(String, f64)]) -> Result<Vec<f64>> {
     let m = info(model).ok_or_else(|| invalid("model", format!("unknown model '{model}'")))?;
     let mut vals: Vec<f64> = m.parameters.iter().map(|p| p.1).collect();
-    let count = |vals: &[f64], i: usize, what: &str, lo: f64, hi: f64| -> Result<usize> {
-        let v = vals[i];
-        if v.fract() != 0.0 || v < lo || v > hi {
-            return Err(invalid(
-                "parameter",
-                format!("{what} = {v} must be an integer from {lo} to {hi}"),
-            ));
-        }
-        Ok(v as usize)
-    };
     if model == "n-body" {
         // Fixed parameters first, then the masses.
         for (name, v) in given.iter().filter(|(n, _)| !n.starts_with('m')) {
@@ -137,8 +155,8 @@ pub fn parameters(model: &str, given: &[(String, f64)]) -> Result<Vec<f64>> {
             }
             vals[i] = *v;
         }
-        let bodies = count(&vals, 0, "bodies", 1.0, 10_000.0)?;
-        count(&vals, 1, "dim", 2.0, 3.0)?;
+        let bodies = count(&vals, 0, "bodies", 1, MAX_BODIES)?;
+        count(&vals, 1, "dim", 2, 3)?;
         let mut masses = vec![1.0; bodies];
         for (name, v) in given.iter().filter(|(n, _)| n.starts_with('m')) {
             let i: usize = name[1..]
@@ -171,27 +189,39 @@ pub fn parameters(model: &str, given: &[(String, f64)]) -> Result<Vec<f64>> {
         vals[i] = *v;
     }
     if model == "fpu" {
-        count(&vals, 0, "n", 1.0, 100_000.0)?;
+        count(&vals, 0, "n", 1, MAX_FPU_MASSES)?;
     }
     Ok(vals)
 }
 
-/// Coordinate names of `model` with resolved parameters `p` (from [`parameters`]).
+/// Coordinate names of `model` with resolved parameters `p` (from [`parameters`]); empty
+/// for an unknown model or a list that [`parameters`] would not produce (too short, or a
+/// count out of its range), for which [`try_coordinates`] says what is wrong.
 pub fn coordinates(model: &str, p: &[f64]) -> Vec<String> {
-    match model {
-        "fpu" => (1..=p[0] as usize).map(|i| format!("q{i}")).collect(),
-        "n-body" => nbody_names(p[0] as usize, p[1] as usize),
+    try_coordinates(model, p).unwrap_or_default()
+}
+
+/// Coordinate names of `model` with resolved parameters `p` (from [`parameters`]).
+///
+/// # Errors
+/// An unknown model, or a parameter list that [`parameters`] would not produce: a missing
+/// count, or a count (fpu's n, n-body's bodies and dim) that is not an integer in its range.
+pub fn try_coordinates(model: &str, p: &[f64]) -> Result<Vec<String>> {
+    let m = info(model).ok_or_else(|| invalid("model", format!("unknown model '{model}'")))?;
+    Ok(match model {
+        "fpu" => (1..=count(p, 0, "n", 1, MAX_FPU_MASSES)?)
+            .map(|i| format!("q{i}"))
+            .collect(),
+        "n-body" => nbody_names(count(p, 0, "bodies", 1, MAX_BODIES)?, count(p, 1, "dim", 2, 3)?),
         "outer-solar-system" => nbody_names(6, 3),
-        _ => info(model)
-            .map(|m| m.coordinates.iter().map(|s| s.to_string()).collect())
-            .unwrap_or_default(),
-    }
+        _ => m.coordinates.iter().map(|s| s.to_string()).collect(),
+    })
 }
 
 fn nbody_names(bodies: usize, dim: usize) -> Vec<String> {
     let axes = ["x", "y", "z"];
     (0..bodies)
-        .flat_map(|b| axes[..dim].iter().map(move |a| format!("{a}{b}")))
+        .flat_map(|b| axes.iter().take(dim).map(move |a| format!("{a}{b}")))
         .collect()
 }
 

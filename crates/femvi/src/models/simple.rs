@@ -11,6 +11,7 @@
 //! - the Hénon–Heiles system, L = |v|²/2 − (x² + y²)/2 − x²y + y³/3 (Hénon and Heiles,
 //!   Astron. J. 69, 1964).
 
+use super::finite;
 use crate::error::Result;
 use crate::lagrangian::{MassMatrix, Mechanical, Potential, Scalar};
 
@@ -82,6 +83,17 @@ pub struct KeplerPotential {
     pub mu: f64,
 }
 
+impl KeplerPotential {
+    /// The potential with gravitational parameter μ.
+    ///
+    /// # Errors
+    /// μ not finite.
+    pub fn new(mu: f64) -> Result<Self> {
+        finite("kepler", &[("mu", mu)])?;
+        Ok(Self { mu })
+    }
+}
+
 impl Potential for KeplerPotential {
     fn is_autonomous(&self) -> bool {
         true
@@ -136,16 +148,18 @@ impl Potential for HenonHeilesPotential {
 /// The harmonic oscillator with mass m and spring constant k.
 ///
 /// # Errors
-/// A mass that is not positive.
+/// A parameter that is not finite, or a mass that is not positive.
 pub fn harmonic(m: f64, k: f64) -> Result<Mechanical<HarmonicPotential>> {
+    finite("harmonic", &[("m", m), ("k", k)])?;
     Mechanical::new(HarmonicPotential { k }, MassMatrix::diagonal(vec![m])?)
 }
 
 /// The pendulum with mass m, gravity g and length l.
 ///
 /// # Errors
-/// m l² not positive.
+/// A parameter that is not finite, or m l² not positive.
 pub fn pendulum(m: f64, g: f64, l: f64) -> Result<Mechanical<PendulumPotential>> {
+    finite("pendulum", &[("m", m), ("g", g), ("l", l)])?;
     Mechanical::new(
         PendulumPotential { mgl: m * g * l },
         MassMatrix::diagonal(vec![m * l * l])?,
@@ -153,6 +167,10 @@ pub fn pendulum(m: f64, g: f64, l: f64) -> Result<Mechanical<PendulumPotential>>
 }
 
 /// Kepler's problem with gravitational parameter μ, unit mass.
+///
+/// It does not check μ (its signature is kept for existing callers); a μ that is not finite
+/// gives non-finite forces, which a run reports as a step error. [`KeplerPotential::new`]
+/// checks it: `Mechanical::unit_mass(KeplerPotential::new(mu)?)`.
 pub fn kepler(mu: f64) -> Mechanical<KeplerPotential> {
     Mechanical::unit_mass(KeplerPotential { mu })
 }

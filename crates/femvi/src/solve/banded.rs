@@ -2,6 +2,12 @@
 //! for the block-banded Jacobians of boundary value problems: O(M·kl·(kl + ku)) work, so a
 //! Newton iteration costs O(N) in the number of elements. Hand-written: nalgebra has no banded
 //! solver and faer's sparse LU, which would also do, costs far more to build than these lines.
+//!
+//! Every entry point checks its arguments: a size whose storage does not fit in memory, an
+//! entry outside the band, a right-hand side of the wrong length or a solve before a
+//! successful factorisation are typed errors, not panics.
+
+use crate::error::{check_len, invalid, Result};
 
 /// A square banded matrix with lower bandwidth kl and upper bandwidth ku, stored row by row
 /// with room for the fill of partial pivoting (upper bandwidth kl + ku after factorisation).
@@ -13,20 +19,43 @@ pub struct BandMatrix {
     width: usize,
     data: Vec<f64>,
     pivots: Vec<usize>,
+    /// Whether `data` holds a successful factorisation (and `pivots` its row swaps).
+    factored: bool,
 }
 
 impl BandMatrix {
-    /// A zero matrix of size m with the given bandwidths.
-    pub fn zeros(m: usize, kl: usize, ku: usize) -> Self {
-        let width = 2 * kl + ku + 1;
-        Self {
+    /// A zero matrix of size m with the given bandwidths: m·(2 kl + ku + 1) numbers.
+    ///
+    /// # Errors
+    /// A size whose storage overflows or cannot be allocated.
+    pub fn zeros(m: usize, kl: usize, ku: usize) -> Result<Self> {
+        let too_big = || {
+            invalid(
+                "band matrix",
+                format!("size {m} with bandwidths {kl}, {ku} does not fit in memory"),
+            )
+        };
+        let width = kl
+            .checked_mul(2)
+            .and_then(|w| w.checked_add(ku))
+            .and_then(|w| w.checked_add(1))
+            .ok_or_else(too_big)?;
+        let len = m.checked_mul(width).ok_or_else(too_big)?;
+        let mut data = Vec::new();
+        data.try_reserve_exact(len).map_err(|_| too_big())?;
+        data.resize(len, 0.0);
+        let mut pivots = Vec::new();
+        pivots.try_reserve_exact(m).map_err(|_| too_big())?;
+        pivots.resize(m, 0);
+        Ok(Self {
             m,
             kl,
             ku,
             width,
-            data: vec![0.0; m * width],
-            pivots: vec![0; m],
-        }
+            data,
+            pivots,
+            factored: false,
+        })
     }
 
     /// Size.
@@ -39,30 +68,55 @@ impl BandMatrix {
         i * self.width + (j + self.kl - i)
     }
 
+    /// Whether (i, j) lies in the matrix and in its band (|i − j| within kl, ku).
+    #[inline]
+    fn in_band(&self, i: usize, j: usize) -> bool {
+        i < self.m && j < self.m && j.saturating_add(self.kl) >= i && j <= i.saturating_add(self.ku)
+    }
+
     /// Sets every entry to zero (keeping the allocation).
     pub fn clear(&mut self) {
         self.data.iter_mut().for_each(|x| *x = 0.0);
+        self.factored = false;
     }
 
-    /// Entry (i, j) before factorisation (zero outside the band).
+    /// Entry (i, j) before factorisation (zero outside the band or the matrix).
     pub fn get(&self, i: usize, j: usize) -> f64 {
-        if j + self.kl >= i && j <= i + self.ku {
+        if self.in_band(i, j) {
             self.data[self.idx(i, j)]
         } else {
             0.0
         }
     }
 
-    /// Adds `v` to entry (i, j), which must lie in the band (|i − j| within kl, ku).
+    /// Adds `v` to entry (i, j).
+    ///
+    /// # Errors
+    /// (i, j) outside the matrix or outside the band (|i − j| beyond kl below or ku above).
     #[inline]
-    pub fn add(&mut self, i: usize, j: usize, v: f64) {
-        debug_assert!(j + self.kl >= i && j <= i + self.ku);
+    pub fn add(&mut self, i: usize, j: usize, v: f64) -> Result<()> {
+        if !self.in_band(i, j) {
+            return Err(invalid(
+                "band matrix entry",
+                format!(
+                    "({i}, {j}) is outside a matrix of size {} with bandwidths {}, {}",
+                    self.m, self.kl, self.ku
+                ),
+            ));
+        }
         let k = self.idx(i, j);
         self.data[k] += v;
+        self.factored = false;
+        Ok(())
     }
 
     /// Factorises in place. Returns false if a pivot is zero or not finite (singular matrix).
     pub fn factor(&mut self) -> bool {
+        self.factored = self.factor_in_place();
+        self.factored
+    }
+
+    fn factor_in_place(&mut self) -> bool {
         let (m, kl, ku) = (self.m, self.kl, self.ku);
         for j in 0..m {
             let last = (j + kl).min(m - 1);
@@ -103,7 +157,14 @@ impl BandMatrix {
     }
 
     /// Solves A x = b in place with the factorisation.
-    pub fn solve(&self, b: &mut [f64]) {
+    ///
+    /// # Errors
+    /// No successful [`BandMatrix::factor`] since the last change, or `b` not of length m.
+    pub fn solve(&self, b: &mut [f64]) -> Result<()> {
+        if !self.factored {
+            return Err(invalid("band matrix", "solve needs a successful factor() first"));
+        }
+        check_len("right-hand side", self.m, b.len())?;
         let (m, kl, ku) = (self.m, self.kl, self.ku);
         for j in 0..m {
             let p = self.pivots[j];
@@ -122,6 +183,7 @@ impl BandMatrix {
             }
             b[i] = acc / self.data[self.idx(i, i)];
         }
+        Ok(())
     }
 }
 
@@ -133,7 +195,7 @@ mod tests {
     fn matches_a_dense_solve_with_pivoting() {
         // A banded matrix whose leading entries are zero, so pivoting is needed.
         let (m, kl, ku) = (9, 2, 1);
-        let mut band = BandMatrix::zeros(m, kl, ku);
+        let mut band = BandMatrix::zeros(m, kl, ku).unwrap();
         let mut dense = nalgebra::DMatrix::<f64>::zeros(m, m);
         for i in 0..m {
             for j in i.saturating_sub(kl)..=(i + ku).min(m - 1) {
@@ -142,14 +204,14 @@ mod tests {
                 } else {
                     ((i * 7 + j * 3) % 11) as f64 - 5.0
                 };
-                band.add(i, j, v);
+                band.add(i, j, v).unwrap();
                 dense[(i, j)] = v;
             }
         }
         let b: Vec<f64> = (0..m).map(|i| (i as f64).sin()).collect();
         let mut x = b.clone();
         assert!(band.factor());
-        band.solve(&mut x);
+        band.solve(&mut x).unwrap();
         let want = dense.lu().solve(&nalgebra::DVector::from_vec(b)).unwrap();
         for i in 0..m {
             assert!(
@@ -163,10 +225,10 @@ mod tests {
 
     #[test]
     fn singular_is_reported() {
-        let mut band = BandMatrix::zeros(3, 1, 1);
-        band.add(0, 0, 1.0);
-        band.add(1, 1, 0.0);
-        band.add(2, 2, 1.0);
+        let mut band = BandMatrix::zeros(3, 1, 1).unwrap();
+        band.add(0, 0, 1.0).unwrap();
+        band.add(1, 1, 0.0).unwrap();
+        band.add(2, 2, 1.0).unwrap();
         assert!(!band.factor());
     }
 }

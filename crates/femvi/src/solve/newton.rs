@@ -2,7 +2,7 @@
 //! step equations (2.40)–(2.42) of general Lagrangians and for the start from (q0, q1).
 //! The caller evaluates the residual and Jacobian into buffers owned by [`DenseNewtonWork`].
 
-use crate::error::StepFailure;
+use crate::error::{invalid, StepFailure};
 use nalgebra::{DMatrix, DVector};
 
 /// Buffers of a dense Newton iteration of a fixed size.
@@ -19,7 +19,8 @@ pub struct DenseNewtonWork {
 }
 
 impl DenseNewtonWork {
-    /// Buffers for `dim` unknowns.
+    /// Buffers for `dim` unknowns (dim² numbers for the Jacobian, twice: like any allocation,
+    /// this aborts if they do not fit in memory; [`DenseNewtonWork::try_new`] checks first).
     pub fn new(dim: usize) -> Self {
         Self {
             r: vec![0.0; dim],
@@ -29,6 +30,37 @@ impl DenseNewtonWork {
             mat: DMatrix::zeros(dim, dim),
             rhs: DVector::zeros(dim),
         }
+    }
+
+    /// Buffers for `dim` unknowns, if the two dim × dim matrices can be allocated.
+    ///
+    /// # Errors
+    /// dim² overflows or cannot be reserved.
+    pub fn try_new(dim: usize) -> crate::Result<Self> {
+        let too_big = || {
+            invalid(
+                "Newton unknowns",
+                format!("{dim} x {dim} Jacobians do not fit in memory"),
+            )
+        };
+        let entries = dim.checked_mul(dim).ok_or_else(too_big)?;
+        let mut probe: Vec<f64> = Vec::new();
+        probe
+            .try_reserve_exact(entries.checked_mul(2).ok_or_else(too_big)?)
+            .map_err(|_| too_big())?;
+        drop(probe);
+        Ok(Self::new(dim))
+    }
+
+    /// Whether the buffers are for `dim` unknowns.
+    fn fits(&self, dim: usize) -> bool {
+        let square = dim.checked_mul(dim);
+        self.r.len() == dim
+            && self.trial.len() == dim
+            && self.r_trial.len() == dim
+            && self.rhs.len() == dim
+            && Some(self.jac.len()) == square
+            && self.mat.shape() == (dim, dim)
     }
 }
 
@@ -59,7 +91,8 @@ fn inf_norm(x: &[f64]) -> f64 {
 
 /// Solves r(x) = 0 from the guess in `x`. `eval(x, r, jac)` writes the residual into `r` and,
 /// when `jac` is `Some`, the row-major Jacobian into it. Converged when the Newton correction
-/// is at most `tol · scale(x)` in the infinity norm.
+/// is at most `tol · scale(x)` in the infinity norm. `work` made for another number of
+/// unknowns than `x.len()` is made again for it.
 ///
 /// # Errors
 /// [`NewtonFailure`] on a singular Jacobian, a non-finite value, a line search that cannot
@@ -87,6 +120,9 @@ where
             iterations: 0,
             last_increment: 0.0,
         });
+    }
+    if !work.fits(dim) {
+        *work = DenseNewtonWork::new(dim);
     }
     eval(x, &mut work.r, Some(&mut work.jac));
     for it in 1..=max_iterations {

@@ -1,5 +1,10 @@
 //! Time grids for steps as parameters: uniform, or a list of steps used in turn
 //! (variable h_k, the paper's generalised Veselov mechanics (2.1)–(2.3)).
+//!
+//! A grid never has to be walked to be known: [`TimeGrid::count`] divides the span by a
+//! step or by the sum of one cycle of steps. Construction rejects steps too small to move
+//! the time (t + h == t in floating point) anywhere in the span, which would make a run
+//! stand still.
 
 use crate::error::{invalid, Result};
 
@@ -15,11 +20,16 @@ pub struct TimeGrid {
 /// Relative slack below which a remaining interval counts as zero (the run is at `end`).
 const SNAP: f64 = 1e-9;
 
+/// Grids of up to this many steps are counted by walking them (exactly as a run steps);
+/// longer ones by whole cycles.
+const WALKED_COUNT: f64 = (1u64 << 20) as f64;
+
 impl TimeGrid {
-    /// Uniform steps h from t0 to end.
+    /// Uniform steps h from t0 to end: the nodes are t0 + k h, computed from k.
     ///
     /// # Errors
-    /// A step that is not positive and finite, or an end not after t0.
+    /// A step that is not positive and finite, an end not after t0, or a step too small to
+    /// move the time at t0 (t0 + h == t0).
     ///
     /// # Example
     ///
@@ -37,7 +47,9 @@ impl TimeGrid {
     /// Steps taken from `steps` in turn, cyclically, from t0 to end.
     ///
     /// # Errors
-    /// An empty list, a step that is not positive and finite, or an end not after t0.
+    /// An empty list, a step that is not positive and finite, an end not after t0, or a step
+    /// too small to move the time (t + h == t) at t0 or, for a list of several steps, near
+    /// the end.
     ///
     /// # Example
     ///
@@ -63,6 +75,21 @@ impl TimeGrid {
                 "time span",
                 format!("end = {end} is not after the start t = {t0}"),
             ));
+        }
+        // The spacing of floating-point numbers grows with |t|, so the ends of the span are
+        // where a step is most likely to vanish; the smallest step is the one to check. A list
+        // of steps advances by t + h and would stand still there; a uniform grid computes its
+        // nodes as t0 + k h, which only round to the spacing near the end, so there only the
+        // first step is checked.
+        let h = steps.iter().fold(f64::INFINITY, |m, &h| m.min(h));
+        let near_end = if steps.len() > 1 { (end - h).max(t0) } else { t0 };
+        for t in [t0, near_end] {
+            if t + h == t {
+                return Err(invalid(
+                    "time step",
+                    format!("{h} is too small to move the time at t = {t} (t + h == t in floating point)"),
+                ));
+            }
         }
         Ok(Self { t0, end, steps })
     }
@@ -131,15 +158,32 @@ impl TimeGrid {
         })
     }
 
-    /// Number of steps of the whole run (counted by walking the grid).
+    /// Number of steps of the whole run, in O(1) for a uniform grid and O(length of the list)
+    /// otherwise: a list of up to 2²⁰ steps is walked as a run steps (exact), a longer one is
+    /// counted by whole cycles of the list (the span divided by the sum of one cycle) and a
+    /// walk of the last, partial cycle, which can differ by one from the steps a run takes
+    /// when rounding puts the end within a few ulps of a node. Saturates at `usize::MAX`.
     pub fn count(&self) -> usize {
         if self.is_uniform() {
             let h = self.steps[0];
             return ((self.end - self.t0) / h - SNAP).ceil().max(1.0) as usize;
         }
-        let (mut k, mut t) = (0, self.t0);
+        let len = self.steps.len();
+        let cycle: f64 = self.steps.iter().sum();
+        let cycles = ((self.end - self.t0) / cycle).floor();
+        let (mut k, mut t) = (0usize, self.t0);
+        if cycles * len as f64 > WALKED_COUNT {
+            // Whole cycles by division, but not past the end (then walk from one cycle before).
+            let whole = if self.t0 + cycles * cycle < self.end {
+                cycles
+            } else {
+                cycles - 1.0
+            };
+            k = (whole as usize).saturating_mul(len);
+            t = self.t0 + whole * cycle;
+        }
         while let Some((_, tn)) = self.next(k, t) {
-            k += 1;
+            k = k.saturating_add(1);
             t = tn;
         }
         k
