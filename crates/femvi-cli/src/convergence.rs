@@ -248,14 +248,18 @@ pub fn plot(dir: &std::path::Path, study: &Study, f: crate::plot::Format) -> Res
             points: fit_line(&l2, o),
         });
     }
-    let title = format!("{}: convergence", study.name);
-    plot::log_lines(
+    // Measured series at even positions carry markers; the fits (odd) are plain lines.
+    let steps: Vec<String> = study.runs.iter().map(|r| format!("{}", r.step)).collect();
+    let title = format!(
+        "{}: convergence, {}, h = {}",
+        study.name,
+        study.scheme,
+        steps.join(", ")
+    );
+    plot::log_log_measured(
         &plot::file(dir, "convergence", f),
         f,
-        &title,
-        "step h",
-        "error",
+        (&title, "step h", "error"),
         &series,
-        true,
     )
 }

@@ -23,8 +23,12 @@ struct Cli {
 enum Command {
     /// Integrate a problem file; writes trajectory.csv and summary.json.
     Run {
-        /// The problem file (TOML).
+        /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Output directory (default: the `directory` of the output table, else out/NAME).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -44,8 +48,12 @@ enum Command {
     /// Run a problem and measure symplecticity, energy error and drift, Noether momenta and
     /// time reversal.
     Check {
-        /// The problem file (TOML).
+        /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Print one JSON object on standard output.
         #[arg(long)]
         json: bool,
@@ -56,14 +64,24 @@ enum Command {
     /// Solve a two-point boundary value problem ([boundary] table) by the discrete variational
     /// principle; writes trajectory.csv and summary.json.
     Bvp {
-        /// The problem file (TOML) with a [boundary] table.
+        /// The problem file (TOML; - reads standard input) with a [boundary] table.
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Output directory (default: the problem's output directory).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print nothing but errors.
         #[arg(long)]
         quiet: bool,
+        /// Draw coordinates.svg (coordinates against t) and, with a moving mesh, steps.svg.
+        #[arg(long)]
+        plot: bool,
+        /// Image format of the plots: svg or png.
+        #[arg(long, default_value = "svg")]
+        plot_format: String,
     },
     /// List the built-in models, or print a complete problem file for one
     /// (`femvi models kepler > k.toml && femvi run k.toml`).
@@ -73,8 +91,12 @@ enum Command {
     },
     /// Measure convergence orders over several step sizes.
     Convergence {
-        /// The problem file (TOML).
+        /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Step sizes, comma-separated (e.g. 0.1,0.05,0.025).
         #[arg(long, value_delimiter = ',', required = true)]
         steps: Vec<f64>,
@@ -124,20 +146,37 @@ fn dispatch(cli: Cli) -> ExitCode {
     match cli.command {
         Command::Run {
             problem,
+            set,
             out,
             quiet,
             format,
             plot,
             plot_format,
         } => match plot_format_of(&plot_format) {
-            Ok(f) => cmd_run(&problem, out, quiet, &format, plot, f),
+            Ok(f) => cmd_run(&problem, &set, out, quiet, &format, plot.then_some(f)),
             Err(code) => code,
         },
-        Command::Check { problem, json, out } => cmd_check(&problem, json, out),
-        Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
+        Command::Check {
+            problem,
+            set,
+            json,
+            out,
+        } => cmd_check(&problem, &set, json, out),
+        Command::Bvp {
+            problem,
+            set,
+            out,
+            quiet,
+            plot,
+            plot_format,
+        } => match plot_format_of(&plot_format) {
+            Ok(f) => cmd_bvp(&problem, &set, out, quiet, plot.then_some(f)),
+            Err(code) => code,
+        },
         Command::Models { name } => models::cmd_models(name.as_deref()),
         Command::Convergence {
             problem,
+            set,
             steps,
             reference,
             json,
@@ -146,14 +185,30 @@ fn dispatch(cli: Cli) -> ExitCode {
             plot_format,
             out,
         } => match plot_format_of(&plot_format) {
-            Ok(f) => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, plot.then_some(f), out),
+            Ok(f) => {
+                let what = ConvergenceArgs {
+                    steps: &steps,
+                    reference: reference.as_deref(),
+                    json,
+                    l2,
+                    plot: plot.then_some(f),
+                    out,
+                };
+                cmd_convergence(&problem, &set, what)
+            }
             Err(code) => code,
         },
     }
 }
 
-fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCode {
-    let problem = match problem::load_bvp(path) {
+fn cmd_bvp(
+    path: &std::path::Path,
+    set: &[String],
+    out: Option<PathBuf>,
+    quiet: bool,
+    plot: Option<plot::Format>,
+) -> ExitCode {
+    let problem = match problem::load_bvp_with(path, set) {
         Ok(p) => p,
         Err(e) => {
             eprintln!("error: {e}");
@@ -161,7 +216,7 @@ fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCod
         }
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
-    match bvp::run(&problem, &dir) {
+    match bvp::run_plotted(&problem, &dir, plot) {
         Err((msg, code)) => {
             eprintln!("error: {}: {msg}", path.display());
             ExitCode::from(code)
@@ -194,15 +249,15 @@ fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCod
     }
 }
 
-fn load(path: &std::path::Path) -> Result<problem::Problem, ExitCode> {
-    problem::load(path).map_err(|e| {
+fn load(path: &std::path::Path, set: &[String]) -> Result<problem::Problem, ExitCode> {
+    problem::load_with(path, set).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(BAD_INPUT)
     })
 }
 
-fn cmd_check(path: &std::path::Path, json: bool, out: Option<PathBuf>) -> ExitCode {
-    let problem = match load(path) {
+fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<PathBuf>) -> ExitCode {
+    let problem = match load(path, set) {
         Ok(p) => p,
         Err(code) => return code,
     };
@@ -234,13 +289,21 @@ fn cmd_check(path: &std::path::Path, json: bool, out: Option<PathBuf>) -> ExitCo
             ),
             None => println!("  symplecticity defect   n/a"),
         }
-        println!("  max rel energy error   {:.3e}", report.max_rel_energy_error);
+        if report.energy_conserved {
+            println!("  max rel energy error   {:.3e}", report.max_rel_energy_error);
+        } else {
+            println!(
+                "  max rel energy change  {:.3e} (time-dependent L: H is not conserved)",
+                report.max_rel_energy_error
+            );
+        }
         println!("  energy drift           {:.3e} per unit time", report.energy_drift);
         for (k, v) in &report.momentum_drift {
             println!("  momentum drift {k:<8} {v:.3e}");
         }
-        if let Some(r) = report.time_reversal_error {
-            println!("  time reversal error    {r:.3e}");
+        match report.time_reversal_error {
+            Some(r) => println!("  time reversal error    {r:.3e}"),
+            None => println!("  time reversal error    n/a"),
         }
         if let Some(t) = &report.two_form {
             println!(
@@ -255,16 +318,26 @@ fn cmd_check(path: &std::path::Path, json: bool, out: Option<PathBuf>) -> ExitCo
     ExitCode::SUCCESS
 }
 
-fn cmd_convergence(
-    path: &std::path::Path,
-    steps: &[f64],
-    reference: Option<&str>,
+/// What `femvi convergence` was asked for.
+struct ConvergenceArgs<'a> {
+    steps: &'a [f64],
+    reference: Option<&'a str>,
     json: bool,
     l2: bool,
     plot: Option<plot::Format>,
     out: Option<PathBuf>,
-) -> ExitCode {
-    let problem = match load(path) {
+}
+
+fn cmd_convergence(path: &std::path::Path, set: &[String], what: ConvergenceArgs) -> ExitCode {
+    let ConvergenceArgs {
+        steps,
+        reference,
+        json,
+        l2,
+        plot,
+        out,
+    } = what;
+    let problem = match load(path, set) {
         Ok(p) => p,
         Err(code) => return code,
     };
@@ -350,11 +423,11 @@ fn plot_format_of(name: &str) -> Result<plot::Format, ExitCode> {
 
 fn cmd_run(
     path: &std::path::Path,
+    set: &[String],
     out: Option<PathBuf>,
     quiet: bool,
     format: &[String],
-    plot: bool,
-    plot_format: plot::Format,
+    plot: Option<plot::Format>,
 ) -> ExitCode {
     use std::io::IsTerminal;
     if let Some(f) = format.iter().find(|f| !matches!(f.as_str(), "csv" | "npy")) {
@@ -364,7 +437,7 @@ fn cmd_run(
         );
         return ExitCode::from(BAD_INPUT);
     }
-    let problem = match load(path) {
+    let problem = match load(path, set) {
         Ok(p) => p,
         Err(code) => return code,
     };
@@ -373,8 +446,8 @@ fn cmd_run(
         csv: format.iter().any(|f| f == "csv"),
         npy: format.iter().any(|f| f == "npy"),
         progress: !quiet && std::io::stderr().is_terminal(),
-        plots: plot,
-        plot_format,
+        plots: plot.is_some(),
+        plot_format: plot.unwrap_or(plot::Format::Svg),
     };
     match run::run(&problem, &dir, output) {
         Err(e) => {
@@ -402,10 +475,25 @@ fn cmd_run(
                         a.accuracy, a.degree, a.step, a.estimated_error, a.pilot_steps
                     );
                 }
+                let energy = if s.energy_conserved {
+                    format!("max relative energy error {:.3e}", s.max_rel_energy_error)
+                } else {
+                    format!("max relative energy change {:.3e}", s.max_rel_energy_error)
+                };
                 println!(
-                    "{}: {} steps to t = {} ({}), max relative energy error {:.3e}, {:.2} solver iterations per step, {:.3} s",
-                    s.name, s.steps, s.final_t, s.scheme, s.max_rel_energy_error, s.mean_solver_iterations, s.wall_seconds
+                    "{}: {} steps to t = {} ({}), {energy}, {:.2} solver iterations per step, {:.3} s",
+                    s.name, s.steps, s.final_t, s.scheme, s.mean_solver_iterations, s.wall_seconds
                 );
+                if let Some(b) = s.max_rel_energy_balance_error {
+                    println!("note: the Lagrangian depends on time, so H is not conserved; dH/dt = -dL/dt holds to {b:.3e} (relative; trapezoid rule over the nodes)");
+                }
+                if let Some(n) = s.events_located {
+                    let stop = match &s.stopped_by_event {
+                        Some(Some(e)) => format!("; stopped at the first '{e}'"),
+                        _ => String::new(),
+                    };
+                    println!("{n} events located (events.csv){stop}");
+                }
                 println!("wrote {} and summary.json", dir.join("trajectory.csv").display());
             }
             ExitCode::SUCCESS

@@ -3,6 +3,7 @@
 //! axes. Axes carry the names from the problem file. Text is set in DejaVu Sans, bundled (its
 //! licence is in assets/), so that PNG output needs no fonts on the machine.
 
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -51,16 +52,60 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
 }
 
-const COLORS: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-];
+/// The palette: ten well-separated colours (Tableau 10), then hues spaced by the golden
+/// angle, so that no two series of a plot share a colour however many there are.
+pub fn color(i: usize) -> RGBColor {
+    const TAB10: [RGBColor; 10] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(127, 127, 127),
+        RGBColor(188, 189, 34),
+        RGBColor(23, 190, 207),
+    ];
+    if let Some(c) = TAB10.get(i) {
+        return *c;
+    }
+    let k = (i - TAB10.len()) as f64;
+    let hue = (0.05 + k * 0.618_033_988_749_895).fract();
+    let lightness = [0.35, 0.5, 0.65][(i - TAB10.len()) % 3];
+    hsl_to_rgb(hue, 0.75, lightness)
+}
+
+/// An HSL colour (all in [0, 1]) as RGB.
+fn hsl_to_rgb(h: f64, s: f64, l: f64) -> RGBColor {
+    let c = (1.0 - (2.0 * l - 1.0).abs()) * s;
+    let hp = h * 6.0;
+    let x = c * (1.0 - (hp % 2.0 - 1.0).abs());
+    let (r, g, b) = match hp as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = l - c / 2.0;
+    let to = |v: f64| ((v + m) * 255.0).round().clamp(0.0, 255.0) as u8;
+    RGBColor(to(r), to(g), to(b))
+}
+
+/// The step of a run as titles show it: `h = 0.01`, the cycle of steps, or energy mode's
+/// first step.
+pub fn step_label(problem: &crate::problem::Problem) -> String {
+    match &problem.steps {
+        femvi::Steps::Fixed(h) => format!("{h}"),
+        femvi::Steps::Cycle(list) => {
+            let l: Vec<String> = list.iter().map(|h| format!("{h}")).collect();
+            format!("cycle [{}]", l.join(", "))
+        }
+        femvi::Steps::Energy { step, .. } => format!("{step} (first; energy mode)"),
+    }
+}
 
 /// At most this many points per line (evenly strided).
 const MAX_POINTS: usize = 5000;
@@ -106,6 +151,28 @@ enum Axes {
     LogXY,
 }
 
+/// How the series are drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Style {
+    /// Lines through the points.
+    Lines,
+    /// Points only (Poincaré sections).
+    Points,
+    /// Lines with a marker on every point (measured values).
+    Markers,
+}
+
+/// What a plot shows besides its data.
+struct Spec<'a> {
+    title: &'a str,
+    xlabel: &'a str,
+    ylabel: &'a str,
+    axes: Axes,
+    style: Style,
+    /// Equal scales on both axes (orbits).
+    equal: bool,
+}
+
 /// Lines on linear axes, into `path` in `format`.
 pub fn lines(
     path: &Path,
@@ -115,7 +182,55 @@ pub fn lines(
     ylabel: &str,
     series: &[Series],
 ) -> Result<(), String> {
-    draw(path, format, title, xlabel, ylabel, series, Axes::Linear)
+    let spec = Spec {
+        title,
+        xlabel,
+        ylabel,
+        axes: Axes::Linear,
+        style: Style::Lines,
+        equal: false,
+    };
+    draw(path, format, &spec, series)
+}
+
+/// Orbits in a plane: lines on linear axes with equal scales.
+pub fn orbits(
+    path: &Path,
+    format: Format,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+) -> Result<(), String> {
+    let spec = Spec {
+        title,
+        xlabel,
+        ylabel,
+        axes: Axes::Linear,
+        style: Style::Lines,
+        equal: true,
+    };
+    draw(path, format, &spec, series)
+}
+
+/// Points (no lines) on linear axes.
+pub fn scatter(
+    path: &Path,
+    format: Format,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+) -> Result<(), String> {
+    let spec = Spec {
+        title,
+        xlabel,
+        ylabel,
+        axes: Axes::Linear,
+        style: Style::Points,
+        equal: false,
+    };
+    draw(path, format, &spec, series)
 }
 
 /// Lines with a logarithmic y axis (and optionally x axis); non-positive values are dropped.
@@ -129,36 +244,41 @@ pub fn log_lines(
     log_x: bool,
 ) -> Result<(), String> {
     let axes = if log_x { Axes::LogXY } else { Axes::LogY };
-    draw(path, format, title, xlabel, ylabel, series, axes)
+    let spec = Spec {
+        title,
+        xlabel,
+        ylabel,
+        axes,
+        style: Style::Lines,
+        equal: false,
+    };
+    draw(path, format, &spec, series)
 }
 
-fn draw(
+/// Log–log lines where the series at even positions (the measured values) carry a marker
+/// on every point and those at odd positions (fits) do not. `labels`: title, x and y label.
+pub fn log_log_measured(
     path: &Path,
     format: Format,
-    title: &str,
-    xlabel: &str,
-    ylabel: &str,
+    labels: (&str, &str, &str),
     series: &[Series],
-    axes: Axes,
 ) -> Result<(), String> {
+    let spec = Spec {
+        title: labels.0,
+        xlabel: labels.1,
+        ylabel: labels.2,
+        axes: Axes::LogXY,
+        style: Style::Markers,
+        equal: false,
+    };
+    draw(path, format, &spec, series)
+}
+
+fn draw(path: &Path, format: Format, spec: &Spec, series: &[Series]) -> Result<(), String> {
     register_font();
     match format {
-        Format::Svg => draw_on(
-            SVGBackend::new(path, SIZE).into_drawing_area(),
-            title,
-            xlabel,
-            ylabel,
-            series,
-            axes,
-        ),
-        Format::Png => draw_on(
-            BitMapBackend::new(path, SIZE).into_drawing_area(),
-            title,
-            xlabel,
-            ylabel,
-            series,
-            axes,
-        ),
+        Format::Svg => draw_on(SVGBackend::new(path, SIZE).into_drawing_area(), spec, series),
+        Format::Png => draw_on(BitMapBackend::new(path, SIZE).into_drawing_area(), spec, series),
     }
 }
 
@@ -189,82 +309,138 @@ fn plotted(series: &[Series], axes: Axes) -> Vec<Vec<(f64, f64)>> {
         .collect()
 }
 
-/// Draws `series` with a title, axis labels and (several series) a legend on `root`.
-fn draw_on<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    title: &str,
-    xlabel: &str,
-    ylabel: &str,
-    series: &[Series],
-    axes: Axes,
-) -> Result<(), String> {
-    let data = plotted(series, axes);
+/// Width of the legend strip to the right of the data area.
+const LEGEND_WIDTH: u32 = 190;
+
+/// Draws `series` with a title, axis labels and (several series) a legend to the right of
+/// the chart, outside the data area, on `root`.
+fn draw_on<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, spec: &Spec, series: &[Series]) -> Result<(), String> {
+    let data = plotted(series, spec.axes);
+    root.fill(&WHITE).map_err(err)?;
+    // The title fits the width: about 0.55 em per character.
+    let size = (f64::from(SIZE.0 - 30) / (0.55 * spec.title.chars().count().max(1) as f64)).clamp(11.0, 20.0);
+    let root = root.titled(spec.title, ("sans-serif", size)).map_err(err)?;
+    let (area, legend) = if series.len() > 1 {
+        let (w, _) = root.dim_in_pixel();
+        let (a, l) = root.split_horizontally(w.saturating_sub(LEGEND_WIDTH));
+        (a, Some(l))
+    } else {
+        (root.clone(), None)
+    };
+    let mut builder = ChartBuilder::on(&area);
+    let y_area = if spec.axes == Axes::Linear { 75 } else { 85 };
+    builder.margin(12).x_label_area_size(45).y_label_area_size(y_area);
     let xs = || data.iter().flatten().map(|p| p.0);
     let ys = || data.iter().flatten().map(|p| p.1);
-    root.fill(&WHITE).map_err(err)?;
-    let mut builder = ChartBuilder::on(&root);
-    let y_area = if axes == Axes::Linear { 75 } else { 85 };
-    builder
-        .caption(title, ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(y_area);
-    // The mesh, the lines and the legend, for each kind of coordinates.
-    macro_rules! finish {
-        ($chart:expr, $log_y:expr, $log_x:expr) => {{
-            let mut chart = $chart;
-            let mut mesh = chart.configure_mesh();
-            mesh.x_desc(xlabel).y_desc(ylabel);
-            if $log_y {
-                mesh.y_label_formatter(&|v| format!("{v:.0e}"));
-            }
-            if $log_x {
-                mesh.x_label_formatter(&|v| format!("{v:.3}"));
-            }
-            mesh.draw().map_err(err)?;
-            for (i, (s, pts)) in series.iter().zip(&data).enumerate() {
-                let color = COLORS[i % COLORS.len()];
-                chart
-                    .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))
-                    .map_err(err)?
-                    .label(s.name.clone())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-            }
-            if series.len() > 1 {
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .draw()
-                    .map_err(err)?;
-            }
-        }};
-    }
-    match axes {
+    match spec.axes {
         Axes::Linear => {
-            let ((x0, x1), (y0, y1)) = (range(xs()), range(ys()));
-            finish!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?, false, false)
+            let ((mut x0, mut x1), (mut y0, mut y1)) = (range(xs()), range(ys()));
+            if spec.equal {
+                (x0, x1, y0, y1) = equalise(area.dim_in_pixel(), (x0, x1), (y0, y1));
+            }
+            let chart = builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?;
+            finish(chart, spec, &data, false)?;
         }
         Axes::LogY => {
             let (x0, x1) = range(xs());
             let (y0, y1) = log_range(ys(), 2.0, (1e-16, 1.0));
-            finish!(
-                builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(err)?,
-                true,
-                false
-            )
+            let chart = builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(err)?;
+            finish(chart, spec, &data, false)?;
         }
         Axes::LogXY => {
             let (x0, x1) = log_range(xs(), 1.5, (1e-3, 1.0));
             let (y0, y1) = log_range(ys(), 2.0, (1e-16, 1.0));
-            finish!(
-                builder
-                    .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-                    .map_err(err)?,
-                true,
-                true
-            )
+            let chart = builder
+                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                .map_err(err)?;
+            finish(chart, spec, &data, true)?;
         }
     }
+    if let Some(l) = legend {
+        draw_legend(&l, spec.style, series)?;
+    }
     root.present().map_err(err)
+}
+
+/// Widens one range so that a unit is as long on both axes of an area of `size` pixels
+/// (an approximation: the label areas are not subtracted exactly).
+fn equalise(size: (u32, u32), x: (f64, f64), y: (f64, f64)) -> (f64, f64, f64, f64) {
+    let (w, h) = (
+        (f64::from(size.0) - 100.0).max(1.0),
+        (f64::from(size.1) - 70.0).max(1.0),
+    );
+    let (dx, dy) = (x.1 - x.0, y.1 - y.0);
+    if dx / w > dy / h {
+        let pad = 0.5 * (dx * h / w - dy);
+        (x.0, x.1, y.0 - pad, y.1 + pad)
+    } else {
+        let pad = 0.5 * (dy * w / h - dx);
+        (x.0 - pad, x.1 + pad, y.0, y.1)
+    }
+}
+
+/// The mesh and the series of a chart.
+fn finish<DB, X, Y>(
+    mut chart: ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    spec: &Spec,
+    data: &[Vec<(f64, f64)>],
+    log_x: bool,
+) -> Result<(), String>
+where
+    DB: DrawingBackend,
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(spec.xlabel).y_desc(spec.ylabel);
+    if spec.axes != Axes::Linear {
+        mesh.y_label_formatter(&|v| format!("{v:.0e}"));
+    }
+    if log_x {
+        mesh.x_label_formatter(&|v| format!("{v:.3}"));
+    }
+    mesh.draw().map_err(err)?;
+    for (i, pts) in data.iter().enumerate() {
+        let c = color(i);
+        let marked = match spec.style {
+            Style::Lines => false,
+            Style::Points => true,
+            Style::Markers => i % 2 == 0,
+        };
+        if spec.style != Style::Points {
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+                .map_err(err)?;
+        }
+        if marked {
+            let r = if spec.style == Style::Points { 2 } else { 4 };
+            chart
+                .draw_series(pts.iter().map(|p| Circle::new(*p, r, c.filled())))
+                .map_err(err)?;
+        }
+    }
+    Ok(())
+}
+
+/// The legend in its own strip: a sample of each series' line or marker and its name.
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    style: Style,
+    series: &[Series],
+) -> Result<(), String> {
+    let font = ("sans-serif", 14).into_font().color(&BLACK);
+    for (i, s) in series.iter().enumerate() {
+        let y = 30 + 20 * i as i32;
+        let c = color(i);
+        if style != Style::Points {
+            area.draw(&PathElement::new(vec![(4, y), (28, y)], c.stroke_width(2)))
+                .map_err(err)?;
+        }
+        if style == Style::Points || (style == Style::Markers && i % 2 == 0) {
+            area.draw(&Circle::new((16, y), 4, c.filled())).map_err(err)?;
+        }
+        area.draw(&Text::new(s.name.clone(), (34, y - 8), font.clone()))
+            .map_err(err)?;
+    }
+    Ok(())
 }
