@@ -141,3 +141,43 @@ pub fn is_reversible<L: Lagrangian>(lag: &L, q0: &[f64], t0: f64) -> bool {
         !(a.is_finite() && b.is_finite()) || (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
     })
 }
+
+/// Prints the report for a person (`femvi check` without `--json`).
+pub fn print(report: &CheckReport) {
+    println!(
+        "{} ({}), {} steps to t = {}",
+        report.name, report.scheme, report.steps, report.final_t
+    );
+    match report.symplecticity_defect {
+        Some(d) => println!(
+            "  symplecticity defect   {d:.3e} ({} steps sampled)",
+            report.symplecticity_samples
+        ),
+        None => println!("  symplecticity defect   n/a"),
+    }
+    if report.energy_conserved {
+        println!("  max rel energy error   {:.3e}", report.max_rel_energy_error);
+    } else {
+        println!(
+            "  max rel energy change  {:.3e} (time-dependent L: H is not conserved)",
+            report.max_rel_energy_error
+        );
+    }
+    println!("  energy drift           {:.3e} per unit time", report.energy_drift);
+    for (k, v) in &report.momentum_drift {
+        println!("  momentum drift {k:<8} {v:.3e}");
+    }
+    match report.time_reversal_error {
+        Some(r) => println!("  time reversal error    {r:.3e}"),
+        None => println!("  time reversal error    n/a"),
+    }
+    if let Some(t) = &report.two_form {
+        println!(
+            "  two-form vs {:<10} {:.3e} max relative difference ({} steps)",
+            t.formula, t.max_rel_difference, t.samples
+        );
+    }
+    for note in &report.notes {
+        println!("  note: {note}");
+    }
+}

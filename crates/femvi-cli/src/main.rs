@@ -278,42 +278,7 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
     if json {
         println!("{text}");
     } else {
-        println!(
-            "{} ({}), {} steps to t = {}",
-            report.name, report.scheme, report.steps, report.final_t
-        );
-        match report.symplecticity_defect {
-            Some(d) => println!(
-                "  symplecticity defect   {d:.3e} ({} steps sampled)",
-                report.symplecticity_samples
-            ),
-            None => println!("  symplecticity defect   n/a"),
-        }
-        if report.energy_conserved {
-            println!("  max rel energy error   {:.3e}", report.max_rel_energy_error);
-        } else {
-            println!(
-                "  max rel energy change  {:.3e} (time-dependent L: H is not conserved)",
-                report.max_rel_energy_error
-            );
-        }
-        println!("  energy drift           {:.3e} per unit time", report.energy_drift);
-        for (k, v) in &report.momentum_drift {
-            println!("  momentum drift {k:<8} {v:.3e}");
-        }
-        match report.time_reversal_error {
-            Some(r) => println!("  time reversal error    {r:.3e}"),
-            None => println!("  time reversal error    n/a"),
-        }
-        if let Some(t) = &report.two_form {
-            println!(
-                "  two-form vs {:<10} {:.3e} max relative difference ({} steps)",
-                t.formula, t.max_rel_difference, t.samples
-            );
-        }
-        for note in &report.notes {
-            println!("  note: {note}");
-        }
+        check::print(&report);
     }
     ExitCode::SUCCESS
 }
@@ -361,16 +326,7 @@ fn cmd_convergence(path: &std::path::Path, set: &[String], what: ConvergenceArgs
         }
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
-    let mut csv = String::from(if l2 {
-        "step,error,order_from_previous,l2_error\n"
-    } else {
-        "step,error,order_from_previous\n"
-    });
-    for r in &study.runs {
-        let o = r.order_from_previous.map(|o| format!("{o:?}")).unwrap_or_default();
-        let l2e = r.l2_error.map(|e| format!(",{e:?}")).unwrap_or_default();
-        csv.push_str(&format!("{:?},{:?},{o}{l2e}\n", r.step, r.error));
-    }
+    let csv = convergence::csv(&study, l2);
     if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("convergence.csv"), csv)) {
         eprintln!("error: cannot write {}: {e}", dir.display());
         return ExitCode::from(BAD_INPUT);
@@ -384,25 +340,7 @@ fn cmd_convergence(path: &std::path::Path, set: &[String], what: ConvergenceArgs
     if json {
         println!("{}", serde_json::to_string_pretty(&study).unwrap_or_default());
     } else {
-        println!("{} ({}), reference: {}", study.name, study.scheme, study.reference);
-        println!("{:>14} {:>14} {:>8}", "step", "error", "order");
-        for r in &study.runs {
-            let o = r.order_from_previous.map(|o| format!("{o:.3}")).unwrap_or_default();
-            println!("{:>14.6e} {:>14.6e} {:>8}", r.step, r.error, o);
-        }
-        if let Some(o) = study.l2_order {
-            let e: Vec<String> = study
-                .runs
-                .iter()
-                .map(|r| format!("{:.3e}", r.l2_error.unwrap_or(f64::NAN)))
-                .collect();
-            println!("L2 errors {}; fitted L2 order {o:.3}", e.join(" "));
-        }
-        println!(
-            "fitted order {:.3}; wrote {}",
-            study.order,
-            dir.join("convergence.csv").display()
-        );
+        convergence::print(&study, &dir);
     }
     ExitCode::SUCCESS
 }
