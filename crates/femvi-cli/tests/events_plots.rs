@@ -84,6 +84,10 @@ fn stop_ends_the_run_at_the_first_event() {
         .parse()
         .unwrap();
     assert!(te <= t && t < te + 0.05 + 1e-12, "stopped at {t}, event at {te}");
+    // The node the run stopped on is the last row of trajectory.csv, whatever `every` is.
+    let csv = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
+    let last: f64 = csv.lines().last().unwrap().split(',').nth(1).unwrap().parse().unwrap();
+    assert_eq!(last, t);
     assert!(s["error"].is_null());
 }
 

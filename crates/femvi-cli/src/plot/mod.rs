@@ -358,9 +358,15 @@ where
             Style::Points => true,
             Style::Markers => i % 2 == 0,
         };
+        // Orbits that share a path (choreographies) stay visible: earlier ones are wider.
+        let width = if spec.equal {
+            2 + 2 * (data.len() - 1 - i).min(3) as u32
+        } else {
+            2
+        };
         if spec.style != Style::Points {
             chart
-                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(width)))
                 .map_err(err)?;
         }
         if marked {

@@ -178,9 +178,14 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
 
     /// Draws the plots, unless an output before them could not be written; a plot that
     /// cannot be drawn is the run's error (if it has none).
-    fn finish(&mut self, _it: &Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+    fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&femvi::Error>) -> femvi::Result<()> {
         if self.failure.happened() {
             return Ok(());
+        }
+        // A run stopped early (an event with stop = true) ends on a node the thinning may
+        // have skipped: keep it, as the last node of a finished run always is.
+        if error.is_none() {
+            Observer::<L>::node(self, it, true)?;
         }
         self.draw().map_err(femvi::Error::Observer)
     }
