@@ -1,7 +1,9 @@
 //! `femvi bvp`: solves a two-point boundary value problem by the discrete variational
 //! principle (the library's [`femvi::bvp::solve`]), from the straight line or from a
-//! trajectory file interpolated onto the mesh; writes trajectory.csv and summary.json.
+//! trajectory file interpolated onto the mesh; writes trajectory.csv and summary.json and,
+//! with plots on, coordinates.svg (coordinates against t) and, with a moving mesh, steps.svg.
 
+use crate::plot::{file, lines, Format, Series};
 use crate::problem::BvpProblem;
 use femvi::bvp::{line_guess, node_times, solve, BvpOptions};
 use femvi::lagrangian::{hamiltonian, PointDerivatives};
@@ -31,12 +33,56 @@ pub struct BvpSummary {
     pub wall_seconds: f64,
     /// The message of the error that stopped the solve, if any.
     pub error: Option<String>,
+    /// The femvi version that solved the problem.
+    pub femvi_version: String,
+    /// The command line (program and arguments).
+    pub command_line: Vec<String>,
+    /// The problem's TOML text as solved, after `--set` overrides.
+    pub problem: String,
 }
 
 /// How a solve ended: Ok with the summary (also on numerical failure, with `error` set), or
 /// Err with a message and an exit code for bad input.
 pub fn run(problem: &BvpProblem, dir: &Path) -> Result<BvpSummary, (String, u8)> {
-    crate::with_system!(&problem.system, l => run_with(l, problem, dir))
+    run_plotted(problem, dir, None)
+}
+
+/// [`run`], drawing the plots in format `plot` if given.
+pub fn run_plotted(problem: &BvpProblem, dir: &Path, plot: Option<Format>) -> Result<BvpSummary, (String, u8)> {
+    crate::with_system!(&problem.system, l => run_with(l, problem, dir, plot))
+}
+
+/// coordinates.svg and, with a moving mesh, steps.svg of a solution at the element ends.
+fn plots(problem: &BvpProblem, dir: &Path, f: Format, times: &[f64], q: &[f64]) -> Result<(), String> {
+    let n = problem.coordinates.len();
+    let h = (problem.boundary.t1 - problem.boundary.t0) / problem.boundary.elements as f64;
+    let what = format!(
+        "{}, {} elements, h = {h}{}",
+        problem.scheme_label,
+        problem.boundary.elements,
+        if problem.moving_mesh {
+            " (initial; moving mesh)"
+        } else {
+            ""
+        }
+    );
+    let coords: Vec<Series> = (0..n)
+        .map(|c| Series {
+            name: problem.coordinates[c].clone(),
+            points: times.iter().enumerate().map(|(k, t)| (*t, q[k * n + c])).collect(),
+        })
+        .collect();
+    let title = format!("{}: boundary value problem, {what}", problem.name);
+    lines(&file(dir, "coordinates", f), f, &title, "t", "q", &coords)?;
+    if problem.moving_mesh {
+        let steps = [Series {
+            name: "step".into(),
+            points: times.windows(2).map(|w| (w[1], w[1] - w[0])).collect(),
+        }];
+        let title = format!("{}: steps of the moving mesh, {what}", problem.name);
+        lines(&file(dir, "steps", f), f, &title, "t", "h", &steps)?;
+    }
+    Ok(())
 }
 
 /// Reads a trajectory.csv and interpolates q linearly at `times` (constant beyond its ends).
@@ -93,7 +139,12 @@ fn guess_from_file(path: &Path, names: &[String], times: &[f64]) -> Result<Vec<f
     Ok(out)
 }
 
-fn run_with<L: Lagrangian>(lag: &L, problem: &BvpProblem, dir: &Path) -> Result<BvpSummary, (String, u8)> {
+fn run_with<L: Lagrangian>(
+    lag: &L,
+    problem: &BvpProblem,
+    dir: &Path,
+    plot: Option<Format>,
+) -> Result<BvpSummary, (String, u8)> {
     let clock = Instant::now();
     let (bv, el) = (&problem.boundary, &problem.element);
     let guess = match &problem.guess {
@@ -117,6 +168,9 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &BvpProblem, dir: &Path) -> Result<
         newton_iterations: 0,
         wall_seconds: 0.0,
         error: None,
+        femvi_version: env!("CARGO_PKG_VERSION").to_string(),
+        command_line: std::env::args().collect(),
+        problem: problem.source.clone(),
     };
     match solve(lag, el, bv, &guess, opts) {
         Ok(sol) => {
@@ -138,6 +192,9 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &BvpProblem, dir: &Path) -> Result<
                 csv.write_record(&row).map_err(|e| (e.to_string(), 2))?;
             }
             csv.flush().map_err(io)?;
+            if let Some(f) = plot {
+                plots(problem, dir, f, &sol.times, &sol.q).map_err(|e| (e, 2))?;
+            }
             summary.action = Some(sol.action);
             summary.residual_norm = Some(sol.residual_norm);
             summary.newton_iterations = sol.newton_iterations;

@@ -1,5 +1,8 @@
 //! `femvi check`: the library's [`femvi::diagnostics::check`] on a problem file, as a
-//! serializable report.
+//! serializable report. Two things the CLI adds: for a time-dependent Lagrangian the energy
+//! figures are labelled as changes of a quantity that is not conserved (`energy_conserved`),
+//! and the time-reversal test is skipped (null, with a note) for a Lagrangian that is not
+//! reversible, L(t, q, −v) ≠ L(t, q, v), tested numerically at a few points.
 
 use crate::problem::Problem;
 use femvi::Lagrangian;
@@ -23,8 +26,10 @@ pub struct CheckReport {
     pub symplecticity_defect_relative: Option<f64>,
     /// Steps whose tangent map was checked.
     pub symplecticity_samples: usize,
-    /// Max over nodes of |H − H0|/|H0|.
+    /// Max over nodes of |H − H0|/|H0| (for a time-dependent L a change, not an error).
     pub max_rel_energy_error: f64,
+    /// Whether H is conserved (false for a time-dependent Lagrangian).
+    pub energy_conserved: bool,
     /// Least-squares slope of the relative energy error per unit time.
     pub energy_drift: f64,
     /// Symmetry label → max |J − J0|/|J0| of its Noether momentum.
@@ -73,6 +78,19 @@ fn check_with<L: Lagrangian>(lag: &L, problem: &Problem) -> Result<CheckReport, 
         let code = if matches!(e, femvi::Error::Step(_)) { 1 } else { 2 };
         (e.to_string(), code)
     })?;
+    let mut notes = r.notes;
+    let autonomous = lag.is_autonomous();
+    if !autonomous {
+        notes.push("the Lagrangian depends on time: H is not conserved, so max_rel_energy_error and energy_drift measure its change, not an error".into());
+    }
+    let q0 = match &problem.start {
+        femvi::Start::Velocity { q, .. } | femvi::Start::Momentum { q, .. } => q,
+        femvi::Start::Positions { q0, .. } => q0,
+    };
+    let reversible = is_reversible(lag, q0, problem.grid.t0());
+    if !reversible {
+        notes.push("time reversal not tested: L(t, q, -v) != L(t, q, v) (checked at sample points), so reversing the momenta does not retrace the motion".into());
+    }
     Ok(CheckReport {
         name: problem.name.clone(),
         scheme: problem.scheme_label.clone(),
@@ -82,6 +100,7 @@ fn check_with<L: Lagrangian>(lag: &L, problem: &Problem) -> Result<CheckReport, 
         symplecticity_defect_relative: r.symplecticity_defect_relative,
         symplecticity_samples: r.symplecticity_samples,
         max_rel_energy_error: r.max_rel_energy_error,
+        energy_conserved: autonomous,
         energy_drift: r.energy_drift,
         momentum_drift: problem
             .symmetries
@@ -89,13 +108,76 @@ fn check_with<L: Lagrangian>(lag: &L, problem: &Problem) -> Result<CheckReport, 
             .zip(&r.momentum_drift)
             .map(|(s, d)| (s.label(&problem.coordinates), *d))
             .collect(),
-        time_reversal_error: r.time_reversal_error,
+        time_reversal_error: r.time_reversal_error.filter(|_| reversible),
         max_rel_discrete_energy_error: r.max_rel_discrete_energy_error,
         two_form: r.two_form.map(|t| TwoForm {
             formula: t.formula,
             max_rel_difference: t.max_rel_difference,
             samples: t.samples,
         }),
-        notes: r.notes,
+        notes,
     })
+}
+
+/// Whether L(t, q, −v) = L(t, q, v) (to 1e-12 relative) at eight pseudo-random points with q
+/// near `q0` and v of unit size (the points are fixed, so the answer is reproducible).
+pub fn is_reversible<L: Lagrangian>(lag: &L, q0: &[f64], t0: f64) -> bool {
+    let n = lag.dim();
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    (0..8).all(|_| {
+        let t = t0 + next();
+        let q: Vec<f64> = (0..n)
+            .map(|i| q0.get(i).copied().unwrap_or(0.0) + 0.5 * next())
+            .collect();
+        let v: Vec<f64> = (0..n).map(|_| next()).collect();
+        let minus: Vec<f64> = v.iter().map(|x| -x).collect();
+        let (a, b): (f64, f64) = (lag.value(t, &q, &v), lag.value(t, &q, &minus));
+        !(a.is_finite() && b.is_finite()) || (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
+    })
+}
+
+/// Prints the report for a person (`femvi check` without `--json`).
+pub fn print(report: &CheckReport) {
+    println!(
+        "{} ({}), {} steps to t = {}",
+        report.name, report.scheme, report.steps, report.final_t
+    );
+    match report.symplecticity_defect {
+        Some(d) => println!(
+            "  symplecticity defect   {d:.3e} ({} steps sampled)",
+            report.symplecticity_samples
+        ),
+        None => println!("  symplecticity defect   n/a"),
+    }
+    if report.energy_conserved {
+        println!("  max rel energy error   {:.3e}", report.max_rel_energy_error);
+    } else {
+        println!(
+            "  max rel energy change  {:.3e} (time-dependent L: H is not conserved)",
+            report.max_rel_energy_error
+        );
+    }
+    println!("  energy drift           {:.3e} per unit time", report.energy_drift);
+    for (k, v) in &report.momentum_drift {
+        println!("  momentum drift {k:<8} {v:.3e}");
+    }
+    match report.time_reversal_error {
+        Some(r) => println!("  time reversal error    {r:.3e}"),
+        None => println!("  time reversal error    n/a"),
+    }
+    if let Some(t) = &report.two_form {
+        println!(
+            "  two-form vs {:<10} {:.3e} max relative difference ({} steps)",
+            t.formula, t.max_rel_difference, t.samples
+        );
+    }
+    for note in &report.notes {
+        println!("  note: {note}");
+    }
 }

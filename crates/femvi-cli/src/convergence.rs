@@ -248,14 +248,57 @@ pub fn plot(dir: &std::path::Path, study: &Study, f: crate::plot::Format) -> Res
             points: fit_line(&l2, o),
         });
     }
-    let title = format!("{}: convergence", study.name);
-    plot::log_lines(
+    // Measured series at even positions carry markers; the fits (odd) are plain lines.
+    let steps: Vec<String> = study.runs.iter().map(|r| format!("{}", r.step)).collect();
+    let title = format!(
+        "{}: convergence, {}, h = {}",
+        study.name,
+        study.scheme,
+        steps.join(", ")
+    );
+    plot::log_log_measured(
         &plot::file(dir, "convergence", f),
         f,
-        &title,
-        "step h",
-        "error",
+        (&title, "step h", "error"),
         &series,
-        true,
     )
+}
+
+/// convergence.csv's text: step, error, order from the previous run (and the L² error).
+pub fn csv(study: &Study, l2: bool) -> String {
+    let mut csv = String::from(if l2 {
+        "step,error,order_from_previous,l2_error\n"
+    } else {
+        "step,error,order_from_previous\n"
+    });
+    for r in &study.runs {
+        let o = r.order_from_previous.map(|o| format!("{o:?}")).unwrap_or_default();
+        let l2e = r.l2_error.map(|e| format!(",{e:?}")).unwrap_or_default();
+        csv.push_str(&format!("{:?},{:?},{o}{l2e}\n", r.step, r.error));
+    }
+    csv
+}
+
+/// Prints the study for a person (`femvi convergence` without `--json`); `dir` holds
+/// convergence.csv.
+pub fn print(study: &Study, dir: &std::path::Path) {
+    println!("{} ({}), reference: {}", study.name, study.scheme, study.reference);
+    println!("{:>14} {:>14} {:>8}", "step", "error", "order");
+    for r in &study.runs {
+        let o = r.order_from_previous.map(|o| format!("{o:.3}")).unwrap_or_default();
+        println!("{:>14.6e} {:>14.6e} {:>8}", r.step, r.error, o);
+    }
+    if let Some(o) = study.l2_order {
+        let e: Vec<String> = study
+            .runs
+            .iter()
+            .map(|r| format!("{:.3e}", r.l2_error.unwrap_or(f64::NAN)))
+            .collect();
+        println!("L2 errors {}; fitted L2 order {o:.3}", e.join(" "));
+    }
+    println!(
+        "fitted order {:.3}; wrote {}",
+        study.order,
+        dir.join("convergence.csv").display()
+    );
 }

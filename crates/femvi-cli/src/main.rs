@@ -23,8 +23,12 @@ struct Cli {
 enum Command {
     /// Integrate a problem file; writes trajectory.csv and summary.json.
     Run {
-        /// The problem file (TOML).
+        /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Output directory (default: the `directory` of the output table, else out/NAME).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -44,8 +48,12 @@ enum Command {
     /// Run a problem and measure symplecticity, energy error and drift, Noether momenta and
     /// time reversal.
     Check {
-        /// The problem file (TOML).
+        /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Print one JSON object on standard output.
         #[arg(long)]
         json: bool,
@@ -56,8 +64,12 @@ enum Command {
     /// Chaos indicators (MEGNO, largest Lyapunov exponent, FLI, spectrum) of a problem, or a
     /// map of them over a grid of initial conditions (chaos_map.csv/.npy), in parallel.
     Chaos {
-        /// The problem file (TOML).
+        /// The problem file (TOML), or - for standard input.
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Indicators, comma-separated: megno, lyapunov, fli, spectrum (default: the first three).
         #[arg(long, value_delimiter = ',')]
         indicator: Vec<String>,
@@ -78,14 +90,24 @@ enum Command {
     /// Solve a two-point boundary value problem ([boundary] table) by the discrete variational
     /// principle; writes trajectory.csv and summary.json.
     Bvp {
-        /// The problem file (TOML) with a [boundary] table.
+        /// The problem file (TOML; - reads standard input) with a [boundary] table.
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Output directory (default: the problem's output directory).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print nothing but errors.
         #[arg(long)]
         quiet: bool,
+        /// Draw coordinates.svg (coordinates against t) and, with a moving mesh, steps.svg.
+        #[arg(long)]
+        plot: bool,
+        /// Image format of the plots: svg or png.
+        #[arg(long, default_value = "svg")]
+        plot_format: String,
     },
     /// List the built-in models, or print a complete problem file for one
     /// (`femvi models kepler > k.toml && femvi run k.toml`).
@@ -95,8 +117,12 @@ enum Command {
     },
     /// Measure convergence orders over several step sizes.
     Convergence {
-        /// The problem file (TOML).
+        /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable; the value is
+        /// TOML, a bare word a string), e.g. --set time.step=0.01.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Step sizes, comma-separated (e.g. 0.1,0.05,0.025).
         #[arg(long, value_delimiter = ',', required = true)]
         steps: Vec<f64>,
@@ -146,18 +172,36 @@ fn dispatch(cli: Cli) -> ExitCode {
     match cli.command {
         Command::Run {
             problem,
+            set,
             out,
             quiet,
             format,
             plot,
             plot_format,
         } => match plot_format_of(&plot_format) {
-            Ok(f) => cmd_run(&problem, out, quiet, &format, plot, f),
+            Ok(f) => cmd_run(&problem, &set, out, quiet, &format, plot.then_some(f)),
             Err(code) => code,
         },
-        Command::Check { problem, json, out } => cmd_check(&problem, json, out),
+        Command::Check {
+            problem,
+            set,
+            json,
+            out,
+        } => cmd_check(&problem, &set, json, out),
+        Command::Bvp {
+            problem,
+            set,
+            out,
+            quiet,
+            plot,
+            plot_format,
+        } => match plot_format_of(&plot_format) {
+            Ok(f) => cmd_bvp(&problem, &set, out, quiet, plot.then_some(f)),
+            Err(code) => code,
+        },
         Command::Chaos {
             problem,
+            set,
             indicator,
             grid,
             json,
@@ -171,7 +215,7 @@ fn dispatch(cli: Cli) -> ExitCode {
                 out,
                 threads,
             };
-            match load(&problem).map(|p| femvi_cli::chaos::cmd_chaos(&p, &args)) {
+            match load(&problem, &set).map(|p| femvi_cli::chaos::cmd_chaos(&p, &args)) {
                 Ok(Ok(true)) => ExitCode::SUCCESS,
                 Ok(Ok(false)) => ExitCode::from(NUMERICAL),
                 Ok(Err((msg, code))) => {
@@ -181,10 +225,10 @@ fn dispatch(cli: Cli) -> ExitCode {
                 Err(code) => code,
             }
         }
-        Command::Bvp { problem, out, quiet } => cmd_bvp(&problem, out, quiet),
         Command::Models { name } => models::cmd_models(name.as_deref()),
         Command::Convergence {
             problem,
+            set,
             steps,
             reference,
             json,
@@ -193,14 +237,30 @@ fn dispatch(cli: Cli) -> ExitCode {
             plot_format,
             out,
         } => match plot_format_of(&plot_format) {
-            Ok(f) => cmd_convergence(&problem, &steps, reference.as_deref(), json, l2, plot.then_some(f), out),
+            Ok(f) => {
+                let what = ConvergenceArgs {
+                    steps: &steps,
+                    reference: reference.as_deref(),
+                    json,
+                    l2,
+                    plot: plot.then_some(f),
+                    out,
+                };
+                cmd_convergence(&problem, &set, what)
+            }
             Err(code) => code,
         },
     }
 }
 
-fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCode {
-    let problem = match problem::load_bvp(path) {
+fn cmd_bvp(
+    path: &std::path::Path,
+    set: &[String],
+    out: Option<PathBuf>,
+    quiet: bool,
+    plot: Option<plot::Format>,
+) -> ExitCode {
+    let problem = match problem::load_bvp_with(path, set) {
         Ok(p) => p,
         Err(e) => {
             eprintln!("error: {e}");
@@ -208,7 +268,7 @@ fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCod
         }
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
-    match bvp::run(&problem, &dir) {
+    match bvp::run_plotted(&problem, &dir, plot) {
         Err((msg, code)) => {
             eprintln!("error: {}: {msg}", path.display());
             ExitCode::from(code)
@@ -241,15 +301,15 @@ fn cmd_bvp(path: &std::path::Path, out: Option<PathBuf>, quiet: bool) -> ExitCod
     }
 }
 
-fn load(path: &std::path::Path) -> Result<problem::Problem, ExitCode> {
-    problem::load(path).map_err(|e| {
+fn load(path: &std::path::Path, set: &[String]) -> Result<problem::Problem, ExitCode> {
+    problem::load_with(path, set).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(BAD_INPUT)
     })
 }
 
-fn cmd_check(path: &std::path::Path, json: bool, out: Option<PathBuf>) -> ExitCode {
-    let problem = match load(path) {
+fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<PathBuf>) -> ExitCode {
+    let problem = match load(path, set) {
         Ok(p) => p,
         Err(code) => return code,
     };
@@ -270,48 +330,31 @@ fn cmd_check(path: &std::path::Path, json: bool, out: Option<PathBuf>) -> ExitCo
     if json {
         println!("{text}");
     } else {
-        println!(
-            "{} ({}), {} steps to t = {}",
-            report.name, report.scheme, report.steps, report.final_t
-        );
-        match report.symplecticity_defect {
-            Some(d) => println!(
-                "  symplecticity defect   {d:.3e} ({} steps sampled)",
-                report.symplecticity_samples
-            ),
-            None => println!("  symplecticity defect   n/a"),
-        }
-        println!("  max rel energy error   {:.3e}", report.max_rel_energy_error);
-        println!("  energy drift           {:.3e} per unit time", report.energy_drift);
-        for (k, v) in &report.momentum_drift {
-            println!("  momentum drift {k:<8} {v:.3e}");
-        }
-        if let Some(r) = report.time_reversal_error {
-            println!("  time reversal error    {r:.3e}");
-        }
-        if let Some(t) = &report.two_form {
-            println!(
-                "  two-form vs {:<10} {:.3e} max relative difference ({} steps)",
-                t.formula, t.max_rel_difference, t.samples
-            );
-        }
-        for note in &report.notes {
-            println!("  note: {note}");
-        }
+        check::print(&report);
     }
     ExitCode::SUCCESS
 }
 
-fn cmd_convergence(
-    path: &std::path::Path,
-    steps: &[f64],
-    reference: Option<&str>,
+/// What `femvi convergence` was asked for.
+struct ConvergenceArgs<'a> {
+    steps: &'a [f64],
+    reference: Option<&'a str>,
     json: bool,
     l2: bool,
     plot: Option<plot::Format>,
     out: Option<PathBuf>,
-) -> ExitCode {
-    let problem = match load(path) {
+}
+
+fn cmd_convergence(path: &std::path::Path, set: &[String], what: ConvergenceArgs) -> ExitCode {
+    let ConvergenceArgs {
+        steps,
+        reference,
+        json,
+        l2,
+        plot,
+        out,
+    } = what;
+    let problem = match load(path, set) {
         Ok(p) => p,
         Err(code) => return code,
     };
@@ -335,16 +378,7 @@ fn cmd_convergence(
         }
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
-    let mut csv = String::from(if l2 {
-        "step,error,order_from_previous,l2_error\n"
-    } else {
-        "step,error,order_from_previous\n"
-    });
-    for r in &study.runs {
-        let o = r.order_from_previous.map(|o| format!("{o:?}")).unwrap_or_default();
-        let l2e = r.l2_error.map(|e| format!(",{e:?}")).unwrap_or_default();
-        csv.push_str(&format!("{:?},{:?},{o}{l2e}\n", r.step, r.error));
-    }
+    let csv = convergence::csv(&study, l2);
     if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("convergence.csv"), csv)) {
         eprintln!("error: cannot write {}: {e}", dir.display());
         return ExitCode::from(BAD_INPUT);
@@ -358,25 +392,7 @@ fn cmd_convergence(
     if json {
         println!("{}", serde_json::to_string_pretty(&study).unwrap_or_default());
     } else {
-        println!("{} ({}), reference: {}", study.name, study.scheme, study.reference);
-        println!("{:>14} {:>14} {:>8}", "step", "error", "order");
-        for r in &study.runs {
-            let o = r.order_from_previous.map(|o| format!("{o:.3}")).unwrap_or_default();
-            println!("{:>14.6e} {:>14.6e} {:>8}", r.step, r.error, o);
-        }
-        if let Some(o) = study.l2_order {
-            let e: Vec<String> = study
-                .runs
-                .iter()
-                .map(|r| format!("{:.3e}", r.l2_error.unwrap_or(f64::NAN)))
-                .collect();
-            println!("L2 errors {}; fitted L2 order {o:.3}", e.join(" "));
-        }
-        println!(
-            "fitted order {:.3}; wrote {}",
-            study.order,
-            dir.join("convergence.csv").display()
-        );
+        convergence::print(&study, &dir);
     }
     ExitCode::SUCCESS
 }
@@ -397,11 +413,11 @@ fn plot_format_of(name: &str) -> Result<plot::Format, ExitCode> {
 
 fn cmd_run(
     path: &std::path::Path,
+    set: &[String],
     out: Option<PathBuf>,
     quiet: bool,
     format: &[String],
-    plot: bool,
-    plot_format: plot::Format,
+    plot: Option<plot::Format>,
 ) -> ExitCode {
     use std::io::IsTerminal;
     if let Some(f) = format.iter().find(|f| !matches!(f.as_str(), "csv" | "npy")) {
@@ -411,7 +427,7 @@ fn cmd_run(
         );
         return ExitCode::from(BAD_INPUT);
     }
-    let problem = match load(path) {
+    let problem = match load(path, set) {
         Ok(p) => p,
         Err(code) => return code,
     };
@@ -420,8 +436,8 @@ fn cmd_run(
         csv: format.iter().any(|f| f == "csv"),
         npy: format.iter().any(|f| f == "npy"),
         progress: !quiet && std::io::stderr().is_terminal(),
-        plots: plot,
-        plot_format,
+        plots: plot.is_some(),
+        plot_format: plot.unwrap_or(plot::Format::Svg),
     };
     match run::run(&problem, &dir, output) {
         Err(e) => {
@@ -449,10 +465,25 @@ fn cmd_run(
                         a.accuracy, a.degree, a.step, a.estimated_error, a.pilot_steps
                     );
                 }
+                let energy = if s.energy_conserved {
+                    format!("max relative energy error {:.3e}", s.max_rel_energy_error)
+                } else {
+                    format!("max relative energy change {:.3e}", s.max_rel_energy_error)
+                };
                 println!(
-                    "{}: {} steps to t = {} ({}), max relative energy error {:.3e}, {:.2} solver iterations per step, {:.3} s",
-                    s.name, s.steps, s.final_t, s.scheme, s.max_rel_energy_error, s.mean_solver_iterations, s.wall_seconds
+                    "{}: {} steps to t = {} ({}), {energy}, {:.2} solver iterations per step, {:.3} s",
+                    s.name, s.steps, s.final_t, s.scheme, s.mean_solver_iterations, s.wall_seconds
                 );
+                if let Some(b) = s.max_rel_energy_balance_error {
+                    println!("note: the Lagrangian depends on time, so H is not conserved; dH/dt = -dL/dt holds to {b:.3e} (relative; trapezoid rule over the nodes)");
+                }
+                if let Some(n) = s.events_located {
+                    let stop = match &s.stopped_by_event {
+                        Some(Some(e)) => format!("; stopped at the first '{e}'"),
+                        _ => String::new(),
+                    };
+                    println!("{n} events located (events.csv){stop}");
+                }
                 println!("wrote {} and summary.json", dir.join("trajectory.csv").display());
             }
             ExitCode::SUCCESS

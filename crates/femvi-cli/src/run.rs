@@ -1,11 +1,13 @@
 //! `femvi run` on a loaded problem: builds its integrator, attaches the outputs (src/record/:
 //! trajectory.csv streamed as the run goes, trajectory.npy, plots, the energy error, the
 //! progress bar), drives the run with [`femvi::step::drive`] and writes summary.json at the
-//! end (also after a failure, with the error).
+//! end (also after a failure, with the error). A problem with `[[events]]` is driven by the
+//! library's [`femvi::solution::solve_with`] instead, with the same outputs as observers and
+//! the located events written by [`crate::events`].
 
 use crate::problem::Problem;
 use crate::record::Recorders;
-use femvi::step::{drive, DriveReport};
+use femvi::step::drive;
 use femvi::{Integrator, Lagrangian};
 use serde::Serialize;
 use std::io::Write;
@@ -52,6 +54,25 @@ pub struct Summary {
     /// `[time] accuracy` only: the step femvi chose.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_step: Option<AutoStep>,
+    /// Whether H is a conserved quantity (false for a time-dependent Lagrangian, whose
+    /// `max_rel_energy_error` is then the change of H, not an error).
+    pub energy_conserved: bool,
+    /// Time-dependent L only: the largest |H − H0 − W| / |H0|, W = −∫∂L/∂t dt by the
+    /// trapezoid rule over the written nodes (so itself second order in the step).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_rel_energy_balance_error: Option<f64>,
+    /// `[[events]]` only: how many events were located (events.csv).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub events_located: Option<usize>,
+    /// `[[events]]` only: the event whose `stop = true` ended the run, or null.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stopped_by_event: Option<Option<String>>,
+    /// The femvi version that ran the problem.
+    pub femvi_version: String,
+    /// The command line (program and arguments).
+    pub command_line: Vec<String>,
+    /// The problem's TOML text as run, after `--set` overrides.
+    pub problem: String,
 }
 
 /// The step chosen for `[time] accuracy` (femvi::step::auto::StepChoice), for summary.json.
@@ -105,18 +126,34 @@ pub struct RunOutput {
     pub plot_format: crate::plot::Format,
 }
 
-/// Runs a problem with output into `dir`.
+/// Runs a problem with output into `dir`; summary.json records this process's command line.
 pub fn run(problem: &Problem, dir: &Path, out: RunOutput) -> std::io::Result<Outcome> {
-    crate::with_system!(&problem.system, l => run_with(l, problem, dir, out))
+    let command: Vec<String> = std::env::args().collect();
+    run_as(problem, dir, out, &command)
 }
 
-/// Builds the integrator, attaches the outputs, drives the run and writes summary.json.
-fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutput) -> std::io::Result<Outcome> {
-    let clock = Instant::now();
+/// [`run`], recording `command` as the command line in summary.json.
+pub fn run_as(problem: &Problem, dir: &Path, out: RunOutput, command: &[String]) -> std::io::Result<Outcome> {
     let out = RunOutput {
         plots: out.plots || problem.plots,
         ..out
     };
+    if problem.events.is_empty() {
+        crate::with_system!(&problem.system, l => run_with(l, problem, dir, out, command))
+    } else {
+        crate::with_system!(&problem.system, l => crate::events::run(l, problem, dir, out, command))
+    }
+}
+
+/// Builds the integrator, attaches the outputs, drives the run and writes summary.json.
+fn run_with<L: Lagrangian>(
+    lag: &L,
+    problem: &Problem,
+    dir: &Path,
+    out: RunOutput,
+    command: &[String],
+) -> std::io::Result<Outcome> {
+    let clock = Instant::now();
     let (grid, start) = (problem.grid.clone(), problem.start.clone());
     let made = match problem.energy {
         None => Integrator::new(lag, &problem.element, grid, start, problem.options),
@@ -126,7 +163,7 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
         Ok(it) => it,
         Err(femvi::Error::Step(e)) => {
             // Only the start from (q0, q1) solves anything here.
-            let summary = empty_summary(problem, clock.elapsed().as_secs_f64(), format!("first element: {e}"));
+            let summary = empty_summary(problem, clock, format!("first element: {e}"), command);
             std::fs::create_dir_all(dir)?;
             write_summary(dir, &summary)?;
             return Ok(Outcome::Failed(summary));
@@ -139,7 +176,22 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
     if let Some(e) = recorders.write_failure() {
         return Err(e);
     }
-    let summary = run_summary(problem, &it, &report, recorders.max_rel_energy_error(), clock);
+    let node = it.node();
+    let end = RunEnd {
+        steps: report.steps,
+        t: node.t,
+        q: node.q.to_vec(),
+        p: node.p.to_vec(),
+        mean_iterations: it.mean_iterations(),
+        stats: it.energy_stats(),
+        error: report.error.as_ref().map(|e| e.to_string()),
+    };
+    let summary = run_summary(problem, end, &recorders, clock, command);
+    finish(dir, summary)
+}
+
+/// Writes summary.json and classifies the outcome by its error.
+pub(crate) fn finish(dir: &Path, summary: Summary) -> std::io::Result<Outcome> {
     write_summary(dir, &summary)?;
     Ok(if summary.error.is_some() {
         Outcome::Failed(summary)
@@ -148,38 +200,60 @@ fn run_with<L: Lagrangian>(lag: &L, problem: &Problem, dir: &Path, out: RunOutpu
     })
 }
 
+/// Where a run ended: steps, the last node, the solver's statistics and the error.
+pub(crate) struct RunEnd {
+    pub(crate) steps: usize,
+    pub(crate) t: f64,
+    pub(crate) q: Vec<f64>,
+    pub(crate) p: Vec<f64>,
+    pub(crate) mean_iterations: f64,
+    pub(crate) stats: Option<femvi::EnergyStats>,
+    pub(crate) error: Option<String>,
+}
+
 /// The summary of a driven run, at the node it ended on.
-fn run_summary<L: Lagrangian>(
+pub(crate) fn run_summary(
     problem: &Problem,
-    it: &Integrator<'_, L>,
-    report: &DriveReport,
-    max_rel_energy_error: f64,
+    end: RunEnd,
+    recorders: &Recorders<'_>,
     clock: Instant,
+    command: &[String],
 ) -> Summary {
-    let node = it.node();
-    let stats = it.energy_stats();
+    let stats = end.stats;
     Summary {
         name: problem.name.clone(),
         scheme: problem.scheme_label.clone(),
-        steps: report.steps,
+        steps: end.steps,
         t_end: problem.grid.end(),
-        final_t: node.t,
-        final_q: node.q.to_vec(),
-        final_p: node.p.to_vec(),
-        max_rel_energy_error,
-        mean_solver_iterations: it.mean_iterations(),
+        final_t: end.t,
+        final_q: end.q,
+        final_p: end.p,
+        max_rel_energy_error: recorders.max_rel_energy_error(),
+        mean_solver_iterations: end.mean_iterations,
         wall_seconds: clock.elapsed().as_secs_f64(),
-        error: report.error.as_ref().map(|e| e.to_string()),
+        error: end.error,
         max_rel_discrete_energy_error: stats.map(|s| s.max_rel_residual),
         min_step: stats.map(|s| s.min_step),
         max_step: stats.map(|s| s.max_step),
         degenerate_steps: stats.map(|s| s.degenerate_steps),
         auto_step: auto_step(problem),
+        energy_conserved: is_autonomous(problem),
+        max_rel_energy_balance_error: recorders.max_rel_energy_balance_error(),
+        events_located: None,
+        stopped_by_event: None,
+        femvi_version: env!("CARGO_PKG_VERSION").to_string(),
+        command_line: command.to_vec(),
+        problem: problem.source.clone(),
     }
 }
 
+/// Whether the problem's Lagrangian does not depend on time (H is then conserved).
+pub fn is_autonomous(problem: &Problem) -> bool {
+    crate::with_system!(&problem.system, l => l.is_autonomous())
+}
+
 /// The summary of a run that failed before its first node (the start from (q0, q1)).
-fn empty_summary(problem: &Problem, wall: f64, error: String) -> Summary {
+pub(crate) fn empty_summary(problem: &Problem, clock: Instant, error: String, command: &[String]) -> Summary {
     Summary {
         name: problem.name.clone(),
         scheme: problem.scheme_label.clone(),
@@ -190,13 +264,20 @@ fn empty_summary(problem: &Problem, wall: f64, error: String) -> Summary {
         final_p: vec![],
         max_rel_energy_error: f64::NAN,
         mean_solver_iterations: 0.0,
-        wall_seconds: wall,
+        wall_seconds: clock.elapsed().as_secs_f64(),
         error: Some(error),
         max_rel_discrete_energy_error: None,
         min_step: None,
         max_step: None,
         degenerate_steps: None,
         auto_step: auto_step(problem),
+        energy_conserved: is_autonomous(problem),
+        max_rel_energy_balance_error: None,
+        events_located: None,
+        stopped_by_event: None,
+        femvi_version: env!("CARGO_PKG_VERSION").to_string(),
+        command_line: command.to_vec(),
+        problem: problem.source.clone(),
     }
 }
 

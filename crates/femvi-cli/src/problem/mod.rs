@@ -3,14 +3,20 @@
 //!
 //! Each table has a module of its own with its serde struct and the check that turns it into
 //! library values: [`system`], [`initial`], [`boundary`], [`scheme`], [`time`], [`solver`],
-//! [`output`] and [`symmetries`]. A new table joins with a module, a field of [`ProblemFile`]
+//! [`output`], [`symmetries`] and [`events`]. A new table joins with a module, a field of [`ProblemFile`]
 //! and a call in `build`, whose order of calls is the order in which a file with several
 //! mistakes reports them. [`errors`] holds the messages' positions and "did you mean" hints.
+//!
+//! A problem comes from a file or standard input (`-`), and `--set key.path=value` overrides
+//! ([`overrides`]) are applied to its text before anything is checked: [`load_with`],
+//! [`load_bvp_with`] and [`load_text`] (text in hand, as the Python package has it).
 
 mod boundary;
 mod errors;
+pub mod events;
 mod initial;
 mod output;
+pub mod overrides;
 mod scheme;
 mod solver;
 mod symmetries;
@@ -18,6 +24,8 @@ mod system;
 mod time;
 
 pub use errors::{did_you_mean, InputError};
+pub use events::EventSpec;
+pub use overrides::apply_overrides;
 pub use symmetries::{model_symmetries, Symmetry};
 pub use system::System;
 
@@ -51,6 +59,9 @@ pub struct ProblemFile {
     pub output: output::OutputTable,
     /// `[symmetries]`: the Noether momenta `femvi check` follows.
     pub symmetries: Option<symmetries::SymmetriesTable>,
+    /// `[[events]]`: conditions whose zeros `femvi run` locates.
+    #[serde(default)]
+    pub events: Vec<events::EventTable>,
 }
 
 /// Everything a run needs, checked.
@@ -85,6 +96,12 @@ pub struct Problem {
     pub plots: bool,
     /// `[time] accuracy`: the step femvi chose and what it rests on.
     pub auto_step: Option<femvi::step::auto::StepChoice>,
+    /// The grid as the library's solve API describes it (same nodes as `grid`).
+    pub steps: femvi::Steps,
+    /// `[[events]]`, checked.
+    pub events: Vec<EventSpec>,
+    /// The problem's TOML text as run (after `--set` overrides).
+    pub source: String,
 }
 
 /// A boundary value problem read from a file with a `[boundary]` table.
@@ -109,57 +126,120 @@ pub struct BvpProblem {
     pub guess: Option<PathBuf>,
     /// `time_mode = "energy"`: the interior element end times are unknowns (a moving mesh).
     pub moving_mesh: bool,
+    /// The problem's TOML text as solved (after `--set` overrides).
+    pub source: String,
 }
 
 /// Reads and checks an initial value problem (for `run`, `check`, `convergence`).
 pub fn load(path: &Path) -> Result<Problem, InputError> {
-    let (text, file) = read(path)?;
-    match build(&Source { path, text: &text }, file, false)? {
-        Loaded::Ivp(p) => Ok(p),
-        Loaded::Bvp(_) => Err(bad(format!("{}: expected an initial value problem", path.display()))),
-    }
+    load_with(path, &[])
 }
 
 /// Reads and checks a boundary value problem (for `bvp`).
 pub fn load_bvp(path: &Path) -> Result<BvpProblem, InputError> {
-    let (text, file) = read(path)?;
-    match build(&Source { path, text: &text }, file, true)? {
-        Loaded::Bvp(p) => Ok(p),
-        Loaded::Ivp(_) => Err(bad(format!("{}: expected a boundary value problem", path.display()))),
+    load_bvp_with(path, &[])
+}
+
+/// Reads an initial value problem from `path` (`-`: standard input), applies the `--set`
+/// overrides (`key.path=value`) and checks it.
+pub fn load_with(path: &Path, overrides: &[String]) -> Result<Problem, InputError> {
+    load_text(path, &read_text(path)?, overrides)
+}
+
+/// [`load_with`] for a boundary value problem.
+pub fn load_bvp_with(path: &Path, overrides: &[String]) -> Result<BvpProblem, InputError> {
+    let text = read_text(path)?;
+    match loaded(path, &text, overrides, true)? {
+        Loaded::Bvp(p) => Ok(*p),
+        Loaded::Ivp(_) => Err(bad(format!(
+            "{}: expected a boundary value problem",
+            label(path).display()
+        ))),
     }
 }
 
-/// Reads and parses a problem file.
-fn read(path: &Path) -> Result<(String, ProblemFile), InputError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| bad(format!("{}: cannot read the problem file: {e}", path.display())))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
+/// An initial value problem from its TOML text (`path` names it in messages and gives the
+/// default name), with the overrides applied before it is checked.
+pub fn load_text(path: &Path, text: &str, overrides: &[String]) -> Result<Problem, InputError> {
+    match loaded(path, text, overrides, false)? {
+        Loaded::Ivp(p) => Ok(*p),
+        Loaded::Bvp(_) => Err(bad(format!(
+            "{}: expected an initial value problem",
+            label(path).display()
+        ))),
+    }
+}
+
+/// How messages name the problem: `<stdin>` for `-`, else the path.
+fn label(path: &Path) -> &Path {
+    if path == Path::new("-") {
+        Path::new("<stdin>")
+    } else {
+        path
+    }
+}
+
+/// Parses `text` after the overrides and builds the problem.
+fn loaded(path: &Path, text: &str, overrides: &[String], want_bvp: bool) -> Result<Loaded, InputError> {
+    let shown = label(path);
+    let text = apply_overrides(text, overrides).map_err(|e| bad(format!("{}: {e}", shown.display())))?;
+    let named;
+    let shown = if overrides.is_empty() {
+        shown
+    } else {
+        named = PathBuf::from(format!("{} (after --set)", shown.display()));
+        &named
+    };
+    let src = Source {
+        path: shown,
+        text: &text,
+    };
+    let file = parse(&src)?;
+    let stem = if path == Path::new("-") { "stdin" } else { "" };
+    build(&src, file, want_bvp, (path, stem))
+}
+
+/// The text of a problem file (`-`: standard input), checked to be UTF-8 and not empty.
+fn read_text(path: &Path) -> Result<String, InputError> {
+    let shown = label(path);
+    let bytes = if path == Path::new("-") {
+        let mut buf = Vec::new();
+        std::io::Read::read_to_end(&mut std::io::stdin(), &mut buf).map(|_| buf)
+    } else {
+        std::fs::read(path)
+    }
+    .map_err(|e| bad(format!("{}: cannot read the problem file: {e}", shown.display())))?;
+    String::from_utf8(bytes).map_err(|e| {
         bad(format!(
             "{}: the problem file is not UTF-8 text (byte {})",
-            path.display(),
+            shown.display(),
             e.utf8_error().valid_up_to()
         ))
-    })?;
+    })
+}
+
+/// Parses a problem's text.
+fn parse(src: &Source) -> Result<ProblemFile, InputError> {
+    let (path, text) = (src.path, src.text);
     if text.trim().is_empty() {
         return Err(bad(format!(
             "{}: the problem file is empty (it needs [system], and [initial] and [time] or [boundary])",
             path.display()
         )));
     }
-    let file: ProblemFile = toml::from_str(&text).map_err(|e| {
+    toml::from_str(text).map_err(|e| {
         let msg = with_suggestion(e.message());
         match e.span() {
-            Some(span) => bad(Source { path, text: &text }.excerpt(span.start, &msg)),
+            Some(span) => bad(src.excerpt(span.start, &msg)),
             None => bad(format!("{}: {msg}", path.display())),
         }
-    })?;
-    Ok((text, file))
+    })
 }
 
 /// What a problem file describes.
 enum Loaded {
-    Ivp(Problem),
-    Bvp(BvpProblem),
+    Ivp(Box<Problem>),
+    Bvp(Box<BvpProblem>),
 }
 
 /// What initial and boundary value problems share, checked.
@@ -170,13 +250,20 @@ struct Common {
     scheme_label: String,
     options: SolverOptions,
     directory: PathBuf,
+    source: String,
 }
 
 /// Checks the tables in a fixed order (the first mistake is the one reported) and builds the
 /// problem: a boundary value problem if `want_bvp`, else an initial value problem.
-fn build(src: &Source, file: ProblemFile, want_bvp: bool) -> Result<Loaded, InputError> {
+/// `origin` is the path the problem came from and a default name that overrides its stem
+/// ("stdin" for `-`).
+fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str)) -> Result<Loaded, InputError> {
     let name = file.name.clone().unwrap_or_else(|| {
-        src.path
+        if !origin.1.is_empty() {
+            return origin.1.to_string();
+        }
+        origin
+            .0
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "run".into())
@@ -196,17 +283,21 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool) -> Result<Loaded, Inpu
         scheme_label,
         options,
         directory,
+        source: src.text.to_string(),
     };
     if want_bvp {
-        return build_bvp(src, &file, common).map(Loaded::Bvp);
+        return build_bvp(src, &file, common).map(|p| Loaded::Bvp(Box::new(p)));
     }
-    build_ivp(src, &file, common, every, symmetries).map(Loaded::Ivp)
+    build_ivp(src, &file, common, every, symmetries).map(|p| Loaded::Ivp(Box::new(p)))
 }
 
 /// `[boundary]` (and neither `[initial]` nor `[time]`).
 fn build_bvp(src: &Source, file: &ProblemFile, c: Common) -> Result<BvpProblem, InputError> {
     if file.initial.is_some() || file.time.is_some() {
         return Err(src.error("a boundary value problem takes [boundary] instead of [initial] and [time]"));
+    }
+    if !file.events.is_empty() {
+        return Err(src.error("[[events]] apply to initial value problems (`femvi run`), not to `femvi bvp`"));
     }
     let b = file
         .boundary
@@ -224,6 +315,7 @@ fn build_bvp(src: &Source, file: &ProblemFile, c: Common) -> Result<BvpProblem, 
         boundary: boundary.values,
         guess: boundary.guess,
         moving_mesh: boundary.moving_mesh,
+        source: c.source,
     })
 }
 
@@ -249,6 +341,9 @@ fn build_ivp(
         Some((grid, choice)) => (grid, Some(choice)),
         None => (grid, None),
     };
+    let steps = tt.solve_steps(energy, auto_step.as_ref().map(|a| a.step));
+    let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
+    let events = events::resolve(&file.events, &c.system.coordinates, &params, src)?;
     Ok(Problem {
         name: c.name,
         coordinates: c.system.coordinates,
@@ -265,5 +360,8 @@ fn build_ivp(
         model: c.system.model,
         plots: file.output.plots(),
         auto_step,
+        steps,
+        events,
+        source: c.source,
     })
 }

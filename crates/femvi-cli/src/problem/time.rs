@@ -119,4 +119,19 @@ impl TimeTable {
         let grid = TimeGrid::uniform(t0, choice.step, self.end).map_err(|e| src.error(format!("[time]: {e}")))?;
         Ok(Some((grid, choice)))
     }
+
+    /// The grid as the library's solve API describes it ([`femvi::Steps`]): `chosen` is the
+    /// step [`TimeTable::choose_step`] picked for `accuracy`. Call after [`TimeTable::grid`]
+    /// has accepted the table.
+    pub fn solve_steps(&self, energy: Option<femvi::EnergyOptions>, chosen: Option<f64>) -> femvi::Steps {
+        match (energy, chosen, &self.steps) {
+            (Some(options), _, _) => femvi::Steps::Energy {
+                step: self.step.unwrap_or(f64::NAN),
+                options,
+            },
+            (None, Some(h), _) => femvi::Steps::Fixed(h),
+            (None, None, Some(list)) => femvi::Steps::Cycle(list.clone()),
+            (None, None, None) => femvi::Steps::Fixed(self.step.unwrap_or(f64::NAN)),
+        }
+    }
 }

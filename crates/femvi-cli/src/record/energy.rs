@@ -1,5 +1,10 @@
 //! The relative energy error |H - H0| / |H0| (|H - H0| where H0 = 0) at every node of a run,
 //! its maximum for summary.json, and the node's energy for the trajectory writers.
+//!
+//! For a time-dependent Lagrangian H is not conserved; there it also follows the continuous
+//! law dH/dt = −∂L/∂t: the work W(t) = −∫∂L/∂t dt by the trapezoid rule over the nodes (so
+//! itself only second-order accurate in the step), and the largest |H − H0 − W| relative
+//! to |H0| (the balance error).
 
 use femvi::lagrangian::{hamiltonian, PointDerivatives};
 use femvi::step::Observer;
@@ -25,12 +30,23 @@ pub struct EnergyError {
     e0: f64,
     max_rel: f64,
     current: Rc<Cell<NodeEnergy>>,
+    /// Time-dependent L only: (t, ∂L/∂t) at the last node, the work so far, the largest
+    /// balance error.
+    balance: Option<Balance>,
+}
+
+/// The energy balance of a time-dependent Lagrangian.
+#[derive(Debug, Clone, Copy)]
+struct Balance {
+    last: Option<(f64, f64)>,
+    work: f64,
+    max_rel: f64,
 }
 
 impl EnergyError {
     /// For a system with `dim` coordinates started from `start` (whose velocities, if given,
     /// start the first Legendre inversion).
-    pub fn new(dim: usize, start: &Start) -> Self {
+    pub fn new(dim: usize, start: &Start, autonomous: bool) -> Self {
         let v = match start {
             Start::Velocity { v, .. } => v.clone(),
             _ => vec![0.0; dim],
@@ -41,6 +57,11 @@ impl EnergyError {
             e0: f64::NAN,
             max_rel: 0.0,
             current: Rc::default(),
+            balance: (!autonomous).then_some(Balance {
+                last: None,
+                work: 0.0,
+                max_rel: 0.0,
+            }),
         }
     }
 
@@ -52,6 +73,12 @@ impl EnergyError {
     /// The largest relative energy error so far (0 before the first node).
     pub fn max_rel(&self) -> f64 {
         self.max_rel
+    }
+
+    /// Time-dependent L: the largest |H − H0 − W| / |H0| (W the work −∫∂L/∂t dt); None for
+    /// an autonomous L.
+    pub fn max_rel_balance(&self) -> Option<f64> {
+        self.balance.map(|b| b.max_rel)
     }
 }
 
@@ -69,6 +96,17 @@ impl<L: Lagrangian> Observer<L> for EnergyError {
         };
         self.max_rel = self.max_rel.max(rel);
         self.current.set(NodeEnergy { h, rel });
+        if let Some(b) = self.balance.as_mut() {
+            it.lagrangian()
+                .first_derivatives(node.t, node.q, &self.v, true, &mut self.work);
+            let lt = self.work.l_t();
+            if let Some((t0, lt0)) = b.last {
+                b.work -= 0.5 * (node.t - t0) * (lt + lt0);
+            }
+            b.last = Some((node.t, lt));
+            let scale = if self.e0 != 0.0 { self.e0.abs() } else { 1.0 };
+            b.max_rel = b.max_rel.max((h - self.e0 - b.work).abs() / scale);
+        }
         Ok(())
     }
 }

@@ -104,7 +104,8 @@ impl<'a> Recorders<'a> {
     /// its header written here. `dim` is the system's number of coordinates.
     pub fn attach(problem: &'a Problem, dir: &'a Path, out: RunOutput, dim: usize) -> std::io::Result<Self> {
         let failure = WriteFailure::default();
-        let energy = EnergyError::new(dim, &problem.start);
+        let autonomous = crate::with_system!(&problem.system, l => femvi::Lagrangian::is_autonomous(l));
+        let energy = EnergyError::new(dim, &problem.start, autonomous);
         let shared = energy.current();
         let columns = columns(problem);
         let csv = if out.csv {
@@ -153,6 +154,11 @@ impl<'a> Recorders<'a> {
     /// The largest relative energy error over the nodes recorded.
     pub fn max_rel_energy_error(&self) -> f64 {
         self.energy.max_rel()
+    }
+
+    /// Time-dependent L: the largest relative error of the energy balance H − H0 = −∫∂L/∂t.
+    pub fn max_rel_energy_balance_error(&self) -> Option<f64> {
+        self.energy.max_rel_balance()
     }
 
     /// An output file that could not be completed at the end of the run.

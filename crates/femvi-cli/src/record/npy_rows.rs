@@ -70,9 +70,14 @@ impl<L: Lagrangian> Observer<L> for NpyRows<'_> {
         Ok(())
     }
 
-    fn finish(&mut self, _it: &Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+    fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&femvi::Error>) -> femvi::Result<()> {
         if self.failure.happened() {
             return Ok(());
+        }
+        // A run stopped early (an event with stop = true) ends on a node the thinning may
+        // have skipped: keep it, as the last node of a finished run always is.
+        if error.is_none() {
+            Observer::<L>::node(self, it, true)?;
         }
         self.write().map_err(|e| self.failure.record(e))
     }

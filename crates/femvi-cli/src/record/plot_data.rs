@@ -1,9 +1,12 @@
 //! The plots of a run, drawn when it ends: coordinates against time, a phase portrait per
-//! coordinate, the relative energy error and, in energy mode, the step sizes. They show the
-//! nodes trajectory.csv keeps.
+//! coordinate, the relative energy error, in energy mode the step sizes, and for systems whose
+//! coordinates come in planar or spatial groups (the built-in kepler, n-body and
+//! outer-solar-system) the orbits, one curve per body in the plane of its first two
+//! coordinates. They show the nodes trajectory.csv keeps; every title names the scheme and
+//! the step.
 
 use super::{NodeEnergy, Thinning, WriteFailure};
-use crate::plot::{file, lines, log_lines, Format, Series};
+use crate::plot::{file, lines, log_lines, orbits, step_label, Format, Series};
 use crate::problem::Problem;
 use femvi::step::Observer;
 use femvi::{Integrator, Lagrangian};
@@ -55,7 +58,12 @@ impl<'a> PlotData<'a> {
     fn draw(&self) -> Result<(), String> {
         let (dir, f, problem) = (self.dir, self.format, self.problem);
         let n = problem.coordinates.len();
-        let name = &problem.name;
+        let name = &format!(
+            "{} ({}, h = {})",
+            problem.name,
+            problem.scheme_label,
+            step_label(problem)
+        );
         let coords: Vec<Series> = (0..n)
             .map(|c| Series {
                 name: problem.coordinates[c].clone(),
@@ -96,7 +104,59 @@ impl<'a> PlotData<'a> {
             let title = format!("{name}: step size (energy mode)");
             lines(&file(dir, "step_size", f), f, &title, "t", "h", &steps)?;
         }
-        Ok(())
+        self.draw_orbits(name)
+    }
+
+    /// orbit.svg: for each body (a group of coordinates), its first two coordinates.
+    fn draw_orbits(&self, name: &str) -> Result<(), String> {
+        let problem = self.problem;
+        let bodies = bodies(problem);
+        if bodies.is_empty() {
+            return Ok(());
+        }
+        let n = problem.coordinates.len();
+        let series: Vec<Series> = bodies
+            .iter()
+            .map(|(label, i, j)| Series {
+                name: label.clone(),
+                points: (0..self.t.len())
+                    .map(|k| (self.q[k * n + i], self.q[k * n + j]))
+                    .collect(),
+            })
+            .collect();
+        let (x, y) = (&problem.coordinates[bodies[0].1], &problem.coordinates[bodies[0].2]);
+        let (xl, yl) = if bodies.len() == 1 {
+            (x.clone(), y.clone())
+        } else {
+            (
+                "x (first coordinate of each body)".into(),
+                "y (second coordinate of each body)".into(),
+            )
+        };
+        let title = format!("{name}: orbits");
+        let f = self.format;
+        orbits(&file(self.dir, "orbit", f), f, &title, &xl, &yl, &series)
+    }
+}
+
+/// The bodies of a built-in model whose coordinates come in groups: a label and the
+/// indices of the body's first two coordinates. Empty for other systems.
+pub fn bodies(problem: &Problem) -> Vec<(String, usize, usize)> {
+    const OUTER: [&str; 6] = ["Sun", "Jupiter", "Saturn", "Uranus", "Neptune", "Pluto"];
+    match &problem.model {
+        Some((m, _)) if m == "kepler" => vec![("orbit".into(), 0, 1)],
+        Some((m, _)) if m == "outer-solar-system" => OUTER
+            .iter()
+            .enumerate()
+            .map(|(b, s)| (s.to_string(), 3 * b, 3 * b + 1))
+            .collect(),
+        Some((m, p)) if m == "n-body" => {
+            let (count, dim) = (p[0] as usize, p[1] as usize);
+            (0..count)
+                .map(|b| (format!("body {b}"), dim * b, dim * b + 1))
+                .collect()
+        }
+        _ => vec![],
     }
 }
 
@@ -118,9 +178,14 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
 
     /// Draws the plots, unless an output before them could not be written; a plot that
     /// cannot be drawn is the run's error (if it has none).
-    fn finish(&mut self, _it: &Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+    fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&femvi::Error>) -> femvi::Result<()> {
         if self.failure.happened() {
             return Ok(());
+        }
+        // A run stopped early (an event with stop = true) ends on a node the thinning may
+        // have skipped: keep it, as the last node of a finished run always is.
+        if error.is_none() {
+            Observer::<L>::node(self, it, true)?;
         }
         self.draw().map_err(femvi::Error::Observer)
     }
