@@ -123,7 +123,9 @@ pub fn ensemble_file<'py>(
     };
     if let (Some(f), Some(s)) = (&member_files, &states) {
         if s.len() != f.len() * 2 * n {
-            return Err(input_error("initial_states and parameters have different numbers of members"));
+            return Err(input_error(
+                "initial_states and parameters have different numbers of members",
+            ));
         }
     }
     let threads = workers.unwrap_or(0);

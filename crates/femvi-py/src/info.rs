@@ -11,7 +11,10 @@ const MODEL_FILES: &[(&str, &str)] = &[
     ("harmonic", include_str!("../../../examples/models/harmonic.toml")),
     ("pendulum", include_str!("../../../examples/models/pendulum.toml")),
     ("kepler", include_str!("../../../examples/models/kepler.toml")),
-    ("henon-heiles", include_str!("../../../examples/models/henon-heiles.toml")),
+    (
+        "henon-heiles",
+        include_str!("../../../examples/models/henon-heiles.toml"),
+    ),
     (
         "forced-oscillator",
         include_str!("../../../examples/models/forced-oscillator.toml"),
@@ -57,14 +60,18 @@ pub fn models(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
 /// The complete problem file of a built-in model, as `femvi models NAME` prints it.
 #[pyfunction]
 pub fn model_problem(name: &str) -> PyResult<&'static str> {
-    MODEL_FILES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t).ok_or_else(|| {
-        let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).collect();
-        input_error(format!(
-            "unknown model '{name}'{}; built-in models: {}",
-            problem::did_you_mean(name, &names),
-            names.join(", ")
-        ))
-    })
+    MODEL_FILES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| {
+            let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).collect();
+            input_error(format!(
+                "unknown model '{name}'{}; built-in models: {}",
+                problem::did_you_mean(name, &names),
+                names.join(", ")
+            ))
+        })
 }
 
 /// `femvi check` on a problem file: its JSON report, as text.

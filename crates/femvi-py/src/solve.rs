@@ -97,7 +97,9 @@ pub fn steps_of(problem: &Problem, text: &str) -> Result<Steps, String> {
         .iter()
         .map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)))
         .collect();
-    steps.map(Steps::Cycle).ok_or_else(|| "[time] steps: expected numbers".into())
+    steps
+        .map(Steps::Cycle)
+        .ok_or_else(|| "[time] steps: expected numbers".into())
 }
 
 /// Loads `path` as `femvi run` does (the message of a bad file is the command's).
@@ -120,12 +122,16 @@ pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Resul
         dense: extras.dense,
         events: vec![],
     };
-    femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options))
-        .map_err(|e| rejected(e.to_string()))
+    femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options)).map_err(|e| rejected(e.to_string()))
 }
 
 fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOptions) -> femvi::Result<Run> {
-    let p = femvi::Problem::new(lag.clone(), problem.start.clone(), problem.grid.t0(), problem.grid.end());
+    let p = femvi::Problem::new(
+        lag.clone(),
+        problem.start.clone(),
+        problem.grid.t0(),
+        problem.grid.end(),
+    );
     let mut energy = CliEnergy::new(lag.dim(), problem, options.every);
     let mut sol = solve_with(&p, &problem.element, options, &mut [&mut energy])?;
     for (i, k) in sol.step.iter().enumerate() {
@@ -191,13 +197,24 @@ pub fn solve_file(
     let done = py.allow_threads(|| -> Result<(Run, Vec<String>, String, String), String> {
         let (problem, text) = load(&path)?;
         let r = run(&problem, &text, &path, &extras)?;
-        Ok((r, problem.coordinates.clone(), problem.name.clone(), problem.scheme_label.clone()))
+        Ok((
+            r,
+            problem.coordinates.clone(),
+            problem.name.clone(),
+            problem.scheme_label.clone(),
+        ))
     });
     let (r, coordinates, name, scheme) = done.map_err(input_error)?;
     to_dict(py, r, coordinates, name, scheme)
 }
 
-fn to_dict(py: Python<'_>, r: Run, coordinates: Vec<String>, name: String, scheme: String) -> PyResult<Bound<'_, PyDict>> {
+fn to_dict(
+    py: Python<'_>,
+    r: Run,
+    coordinates: Vec<String>,
+    name: String,
+    scheme: String,
+) -> PyResult<Bound<'_, PyDict>> {
     let s = r.sol;
     let n = s.n;
     let d = PyDict::new(py);
@@ -253,4 +270,3 @@ fn to_dict(py: Python<'_>, r: Run, coordinates: Vec<String>, name: String, schem
     }
     Ok(d)
 }
-
