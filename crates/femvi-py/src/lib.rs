@@ -6,6 +6,7 @@
 
 mod arrays;
 mod ensemble;
+mod events;
 mod info;
 mod solve;
 

@@ -24,6 +24,7 @@ pub struct Extras {
     pub saveat: Vec<f64>,
     pub dense: bool,
     pub max_steps: Option<usize>,
+    pub events: Vec<femvi::solution::Event>,
 }
 
 /// The command's energies at the nodes the solution keeps.
@@ -75,6 +76,8 @@ impl<L: Lagrangian> Observer<L> for CliEnergy {
 pub struct Run {
     pub sol: Solution,
     pub max_rel_energy_error: f64,
+    /// The error's message where it is not the library's (as summary.json has it).
+    pub message: Option<String>,
 }
 
 /// The library's steps for a loaded problem: its grid's uniform step, the `[time] steps` list
@@ -120,7 +123,7 @@ pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Resul
         saveat: extras.saveat.clone(),
         max_steps: extras.max_steps,
         dense: extras.dense,
-        events: vec![],
+        events: extras.events.clone(),
     };
     femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options)).map_err(|e| rejected(e.to_string()))
 }
@@ -133,7 +136,12 @@ fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOp
         problem.grid.end(),
     );
     let mut energy = CliEnergy::new(lag.dim(), problem, options.every);
-    let mut sol = solve_with(&p, &problem.element, options, &mut [&mut energy])?;
+    let mut sol = match solve_with(&p, &problem.element, options, &mut [&mut energy]) {
+        Ok(sol) => sol,
+        // The start from (q0, q1) failed: a numerical failure with no node, as the command has it.
+        Err(femvi::Error::Step(e)) => return Ok(first_element_failed(lag.dim(), e)),
+        Err(e) => return Err(e),
+    };
     for (i, k) in sol.step.iter().enumerate() {
         if let Some(h) = energy.at(*k) {
             sol.energy[i] = h;
@@ -142,7 +150,35 @@ fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOp
     Ok(Run {
         sol,
         max_rel_energy_error: energy.inner.max_rel(),
+        message: None,
     })
+}
+
+/// The run of a start from (q0, q1) whose first element failed.
+fn first_element_failed(n: usize, e: femvi::StepError) -> Run {
+    let message = Some(format!("first element: {e}"));
+    let sol = Solution {
+        n,
+        step: vec![],
+        t: vec![],
+        q: vec![],
+        p: vec![],
+        v: vec![],
+        energy: vec![],
+        saved: Default::default(),
+        events: vec![],
+        dense: None,
+        steps: 0,
+        mean_iterations: 0.0,
+        energy_stats: None,
+        stopped: false,
+        error: Some(femvi::Error::Step(e)),
+    };
+    Run {
+        sol,
+        max_rel_energy_error: f64::NAN,
+        message,
+    }
 }
 
 /// The dense output of a run: q and q̇ of the finite element solution at any time in its span.
@@ -179,7 +215,7 @@ impl Dense {
 
 /// Runs the problem file at `path` (GIL released) and returns its results as a dict.
 #[pyfunction]
-#[pyo3(signature = (path, every=None, saveat=None, dense=false, max_steps=None))]
+#[pyo3(signature = (path, every=None, saveat=None, dense=false, max_steps=None, events=None))]
 pub fn solve_file(
     py: Python<'_>,
     path: PathBuf,
@@ -187,12 +223,15 @@ pub fn solve_file(
     saveat: Option<Vec<f64>>,
     dense: bool,
     max_steps: Option<usize>,
+    events: Option<Vec<crate::events::Spec>>,
 ) -> PyResult<Bound<'_, PyDict>> {
+    let raised = crate::events::Raised::default();
     let extras = Extras {
         every,
         saveat: saveat.unwrap_or_default(),
         dense,
         max_steps,
+        events: crate::events::events(events.unwrap_or_default(), &raised)?,
     };
     let done = py.allow_threads(|| -> Result<(Run, Vec<String>, String, String), String> {
         let (problem, text) = load(&path)?;
@@ -204,6 +243,9 @@ pub fn solve_file(
             problem.scheme_label.clone(),
         ))
     });
+    if let Some(e) = raised.take() {
+        return Err(e);
+    }
     let (r, coordinates, name, scheme) = done.map_err(input_error)?;
     to_dict(py, r, coordinates, name, scheme)
 }
@@ -261,7 +303,7 @@ fn to_dict(
     match &s.error {
         None => d.set_item("error", None::<String>)?,
         Some(e) => {
-            d.set_item("error", e.to_string())?;
+            d.set_item("error", r.message.clone().unwrap_or_else(|| e.to_string()))?;
             if let femvi::Error::Step(se) = e {
                 d.set_item("error_step", se.step)?;
                 d.set_item("error_t", se.t)?;

@@ -92,3 +92,36 @@ def test_check_and_bvp():
     assert report["steps"] == 100 and report["max_rel_energy_error"] < 1e-8
     s = femvi.bvp(EXAMPLES / "bvp-pendulum.toml")
     assert s.get("error") is None
+
+
+def test_events_from_python():
+    def x_zero(t, q, v):
+        return q[0]
+
+    sol = femvi.solve(HARMONIC, events=[femvi.Event(x_zero, direction="falling"), lambda t, q, v: t - 3.0])
+    falling = [e for e in sol.events if e["name"] == "x_zero"]
+    assert [round(e["t"], 2) for e in falling] == [1.57, 7.85]  # cos t falls through 0 at π/2, 5π/2
+    assert all(abs(e["q"][0]) < 1e-12 for e in falling)
+    assert [e["t"] for e in sol.events if e["event"] == 1] == [pytest.approx(3.0)]
+    stopped = femvi.solve(HARMONIC, events=[femvi.Event(x_zero, stop=True)])
+    assert stopped.stopped and stopped.t[-1] < 2.0
+
+    def broken(t, q, v):
+        raise KeyError("inside g")
+
+    with pytest.raises(KeyError, match="inside g"):
+        femvi.solve(HARMONIC, events=[broken])
+    with pytest.raises(femvi.InputError, match="direction"):
+        femvi.solve(HARMONIC, events=[femvi.Event(x_zero, direction="up")])
+
+
+def test_first_element_failure_is_numerical(run_cli, tmp_path):
+    q1 = {"system": {"model": "kepler"}, "initial": {"q": [1.0, 0.0], "q1": [-1.0, 0.0]},
+          "scheme": {"degree": 3}, "time": {"step": 0.5, "end": 1.0}}
+    f = tmp_path / "q1.toml"
+    f.write_text(femvi.dumps(q1))
+    code, summary, _, _ = run_cli(f)
+    with pytest.raises(femvi.NumericalError) as e:
+        femvi.solve(f)
+    assert code == 1 and str(e.value) == summary["error"] and str(e.value).startswith("first element")
+    assert e.value.step == 0 and len(e.value.solution) == 0

@@ -23,12 +23,12 @@ import numpy as np
 from . import _core
 from ._core import InputError
 from ._problem import apply_overrides, dumps, problem_file, problem_text, to_dict
-from ._solution import EnsembleResult, NumericalError, Solution
+from ._solution import EnsembleResult, Event, NumericalError, Solution
 
 __version__ = _core.__version__
 __all__ = [
     "solve", "ensemble", "models", "model_problem", "check", "bvp", "Solution",
-    "EnsembleResult", "InputError", "NumericalError", "problem_text", "dumps",
+    "EnsembleResult", "Event", "InputError", "NumericalError", "problem_text", "dumps",
 ]
 
 
@@ -44,25 +44,30 @@ def _input_error(e: InputError, path: Path, shown: str) -> InputError:
 
 def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every: Optional[int] = None,
           saveat: Optional[Sequence[float]] = None, dense: bool = False, max_steps: Optional[int] = None,
-          raise_on_error: bool = True, **kw: Any) -> Solution:
+          events: Optional[Sequence[Any]] = None, raise_on_error: bool = True, **kw: Any) -> Solution:
     """Integrates a problem as ``femvi run`` does and returns a :class:`Solution`.
 
     ``problem``: a problem file's path, TOML text, or a dict of the same structure.
     ``overrides`` / keyword arguments: values by dotted path, e.g. ``**{"time.step": 0.01}``.
     ``every``: keep every k-th node (default: the file's ``[output] every``); ``saveat``: times
     at which to report the state (``sol.saved``); ``dense``: keep the dense output
-    (``sol.q_at(t)``); ``max_steps``: stop after this many steps.
+    (``sol.q_at(t)``); ``max_steps``: stop after this many steps; ``events``: :class:`Event`s
+    or plain callables g(t, q, v) (located zeros in ``sol.events``).
 
     Raises :class:`InputError` for a bad problem (the command's message) and
     :class:`NumericalError` when a step fails (unless ``raise_on_error=False``, which returns
     the partial solution with ``sol.error`` set). The GIL is released during the run.
     """
+    evs = [e if isinstance(e, Event) else Event(e) for e in (events or [])]
     with problem_file(problem, _merge(overrides, kw)) as (path, shown):
         try:
             raw = _core.solve_file(str(path), every=every, saveat=None if saveat is None else
-                                   [float(x) for x in saveat], dense=dense, max_steps=max_steps)
+                                   [float(x) for x in saveat], dense=dense, max_steps=max_steps,
+                                   events=[e.spec() for e in evs] or None)
         except InputError as e:
             raise _input_error(e, path, shown) from None
+    for record in raw["events"]:
+        record["name"] = evs[record["event"]].name
     sol = Solution(raw)
     if sol.error is not None and raise_on_error:
         raise NumericalError(sol.error, raw.get("error_step"), raw.get("error_t"), sol)

@@ -25,6 +25,7 @@ def solve_file(
     saveat: Optional[Sequence[float]] = None,
     dense: bool = False,
     max_steps: Optional[int] = None,
+    events: Optional[List[Tuple[str, Any, str, bool]]] = None,
 ) -> Dict[str, Any]: ...
 def ensemble_file(
     path: _Path,

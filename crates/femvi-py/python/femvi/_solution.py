@@ -83,6 +83,27 @@ class Solution:
         return self._dense.span()
 
 
+class Event:
+    """An event for :func:`femvi.solve`: the zeros of ``g(t, q, v) -> float`` (q and v NumPy
+    arrays), located on the finite element solution. ``direction``: "rising", "falling" or
+    "both"; ``stop``: end the run at the first one. Located events are ``sol.events`` (dicts
+    with name, event index, step, t, q, v, p)."""
+
+    def __init__(self, g: Any, direction: str = "both", stop: bool = False, name: Optional[str] = None):
+        if not callable(g):
+            raise TypeError("an event needs a callable g(t, q, v)")
+        self.g = g
+        self.direction = direction
+        self.stop = bool(stop)
+        self.name = name if name is not None else getattr(g, "__name__", "event")
+
+    def spec(self):
+        return (self.name, self.g, self.direction, self.stop)
+
+    def __repr__(self) -> str:
+        return f"Event({self.name!r}, direction={self.direction!r}, stop={self.stop})"
+
+
 class NumericalError(RuntimeError):
     """A run that failed on a step: ``.step`` and ``.t`` say where, ``.solution`` holds the
     nodes computed before the failure."""
