@@ -22,8 +22,9 @@ fi
 "$VENV/bin/python" -m pip install --quiet --force-reinstall --no-deps ./crates/femvi-py
 
 cargo test --workspace
-cargo build --release -p femvi-cli
-export FEMVI_BIN="$TARGET/release/femvi"
+# The command the Python results are compared with (the tests above built it already).
+cargo build -p femvi-cli
+export FEMVI_BIN="$TARGET/debug/femvi"
 
 # Run from outside the source tree so that the installed package is the one imported.
 REPORT=$(mktemp)
