@@ -125,3 +125,12 @@ def test_first_element_failure_is_numerical(run_cli, tmp_path):
         femvi.solve(f)
     assert code == 1 and str(e.value) == summary["error"] and str(e.value).startswith("first element")
     assert e.value.step == 0 and len(e.value.solution) == 0
+
+
+def test_unreadable_problems_are_input_errors(tmp_path):
+    with pytest.raises(femvi.InputError, match="cannot read the problem file"):
+        femvi.solve(tmp_path / "missing.toml", **{"time.end": 1.0})
+    with pytest.raises(femvi.InputError, match="<problem>"):
+        femvi.solve("[system\nmodel = 1\n", **{"time.end": 1.0})
+    with pytest.raises(TypeError):
+        femvi.solve(42)

@@ -77,18 +77,37 @@ def _table(d: Mapping[str, Any], path: list, lines: list) -> None:
 
 
 def _looks_like_toml(s: str) -> bool:
-    return "\n" in s or "[" in s or "=" in s
+    """Whether a string is TOML text rather than a path: a path has no newline and names an
+    existing file or ends in .toml."""
+    if "\n" in s:
+        return True
+    if s.endswith(".toml"):
+        return False
+    try:
+        return not Path(s).is_file()
+    except OSError:
+        return True
 
 
 def to_dict(problem: Any) -> Tuple[Dict[str, Any], Optional[Path]]:
     """The problem as a dict and the file it came from (None for text or a dict)."""
+    from ._core import InputError
+
     if isinstance(problem, Mapping):
         return copy.deepcopy(dict(problem)), None
     if isinstance(problem, os.PathLike) or (isinstance(problem, str) and not _looks_like_toml(problem)):
         path = Path(problem)
-        return tomllib.loads(path.read_text(encoding="utf-8")), path
+        try:
+            return tomllib.loads(path.read_text(encoding="utf-8")), path
+        except OSError as e:
+            raise InputError(f"{path}: cannot read the problem file: {e.strerror}") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+            raise InputError(f"{path}: {e}") from None
     if isinstance(problem, str):
-        return tomllib.loads(problem), None
+        try:
+            return tomllib.loads(problem), None
+        except tomllib.TOMLDecodeError as e:
+            raise InputError(f"<problem>: {e}") from None
     raise TypeError("problem must be a path, TOML text or a dict")
 
 
