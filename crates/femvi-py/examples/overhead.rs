@@ -2,6 +2,9 @@
 //! the command's loader (not timed), then times `femvi::solve` of it `REPS` times (every node
 //! kept, as `femvi.solve` keeps them) and prints the seconds of each run, one per line.
 //!
+//! With WITH_ENERGY set, the command's energy observer (femvi_cli::record::EnergyError) is
+//! attached as `femvi.solve` attaches it (for the command's energies bit for bit).
+//!
 //! `cargo run --release --example overhead -- PROBLEM.toml [REPS]`
 
 use femvi::{solve, Lagrangian, Problem, SolveOptions};
@@ -35,7 +38,12 @@ fn time_solve<L: Lagrangian + Clone>(
         problem.grid.end(),
     );
     let clock = Instant::now();
-    let sol = solve(&p, &problem.element, options).map_err(|e| e.to_string())?;
+    let sol = if std::env::var_os("WITH_ENERGY").is_some() {
+        let mut e = femvi_cli::record::EnergyError::new(lag.dim(), &problem.start);
+        femvi::solution::solve_with(&p, &problem.element, options, &mut [&mut e]).map_err(|e| e.to_string())?
+    } else {
+        solve(&p, &problem.element, options).map_err(|e| e.to_string())?
+    };
     let seconds = clock.elapsed().as_secs_f64();
     if let Some(e) = sol.error {
         return Err(e.to_string());
