@@ -79,16 +79,16 @@ def test_dask_ensemble_equals_local():
 
 @pytest.mark.parametrize("call", ["solve", "ensemble"])
 def test_gil_released_during_runs(call):
-    """A run of about half a second in a thread; this thread, which needs the GIL for every
+    """A run of about a second in a thread; this thread, which needs the GIL for every
     loop iteration, must never wait nearly that long."""
     import threading
     import time
 
     def work():
         if call == "solve":
-            femvi.solve(KEPLER, every=0, **{"time.end": 25000.0})
+            femvi.solve(KEPLER, every=0, **{"time.end": 100000.0})
         else:
-            femvi.ensemble(KEPLER, initial_states=states(300), workers=1, **{"time.end": 100.0})
+            femvi.ensemble(KEPLER, initial_states=states(1200), workers=1, **{"time.end": 100.0})
 
     thread = threading.Thread(target=work)
     start = last = time.perf_counter()
@@ -99,4 +99,4 @@ def test_gil_released_during_runs(call):
         gap, last = max(gap, now - last), now
     thread.join()
     assert last - start > 0.3, "the run was too short to tell"
-    assert gap < 0.15, f"this thread waited {gap:.3f} s for the GIL"
+    assert gap < min(0.15, (last - start) / 3), f"this thread waited {gap:.3f} s for the GIL"
