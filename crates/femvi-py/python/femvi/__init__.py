@@ -1,0 +1,164 @@
+"""femvi: variational integrators from finite elements, from Python.
+
+Problems are femvi problem files (the ``femvi run`` format): a path, a TOML string or a dict
+of the same structure, with overrides of any value by dotted path::
+
+    import femvi
+    sol = femvi.solve("examples/kepler.toml", **{"time.step": 0.01})
+    sol.t, sol.q, sol.p, sol.energy          # NumPy arrays
+    ens = femvi.ensemble("examples/kepler.toml", initial_states=states)   # all cores
+
+Results equal the command's (``femvi run``) bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+from typing import Any, Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from . import _core
+from ._core import InputError
+from ._problem import apply_overrides, dumps, problem_file, problem_text, to_dict
+from ._solution import EnsembleResult, Event, NumericalError, Solution
+
+__version__ = _core.__version__
+__all__ = [
+    "solve", "ensemble", "models", "model_problem", "check", "bvp", "Solution",
+    "EnsembleResult", "Event", "InputError", "NumericalError", "problem_text", "dumps",
+]
+
+
+def _merge(overrides: Optional[Mapping[str, Any]], kw: Mapping[str, Any]) -> Dict[str, Any]:
+    merged = dict(overrides or {})
+    merged.update(kw)
+    return merged
+
+
+def _input_error(e: InputError, path: Path, shown: str) -> InputError:
+    return InputError(str(e).replace(str(path), shown))
+
+
+def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every: Optional[int] = None,
+          saveat: Optional[Sequence[float]] = None, dense: bool = False, max_steps: Optional[int] = None,
+          events: Optional[Sequence[Any]] = None, raise_on_error: bool = True, **kw: Any) -> Solution:
+    """Integrates a problem as ``femvi run`` does and returns a :class:`Solution`.
+
+    ``problem``: a problem file's path, TOML text, or a dict of the same structure.
+    ``overrides`` / keyword arguments: values by dotted path, e.g. ``**{"time.step": 0.01}``.
+    ``every``: keep every k-th node (default: the file's ``[output] every``); ``saveat``: times
+    at which to report the state (``sol.saved``); ``dense``: keep the dense output
+    (``sol.q_at(t)``); ``max_steps``: stop after this many steps; ``events``: :class:`Event`s
+    or plain callables g(t, q, v) (located zeros in ``sol.events``).
+
+    Raises :class:`InputError` for a bad problem (the command's message) and
+    :class:`NumericalError` when a step fails (unless ``raise_on_error=False``, which returns
+    the partial solution with ``sol.error`` set). The GIL is released during the run.
+    """
+    evs = [e if isinstance(e, Event) else Event(e) for e in (events or [])]
+    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+        try:
+            raw = _core.solve_file(str(path), every=every, saveat=None if saveat is None else
+                                   [float(x) for x in saveat], dense=dense, max_steps=max_steps,
+                                   events=[e.spec() for e in evs] or None)
+        except InputError as e:
+            raise _input_error(e, path, shown) from None
+    for record in raw["events"]:
+        record["name"] = evs[record["event"]].name
+    sol = Solution(raw)
+    if sol.error is not None and raise_on_error:
+        raise NumericalError(sol.error, raw.get("error_step"), raw.get("error_t"), sol)
+    return sol
+
+
+def _states(initial_states: Any, n_hint: Optional[int] = None):
+    """(array (N, 2n), velocity?) from an array or a dict with "q" and "p" or "v"."""
+    if initial_states is None:
+        return None, False
+    if isinstance(initial_states, Mapping):
+        q = np.asarray(initial_states["q"], dtype=np.float64)
+        velocity = "v" in initial_states
+        x = np.asarray(initial_states["v" if velocity else "p"], dtype=np.float64)
+        q, x = np.atleast_2d(q), np.atleast_2d(x)
+        return np.ascontiguousarray(np.hstack([q, x])), velocity
+    a = np.ascontiguousarray(np.atleast_2d(np.asarray(initial_states, dtype=np.float64)))
+    return a, False
+
+
+def ensemble(problem: Any, initial_states: Any = None, parameters: Optional[Mapping[str, Any]] = None,
+             workers: Optional[int] = None, overrides: Optional[Mapping[str, Any]] = None,
+             count: Optional[int] = None, **kw: Any) -> EnsembleResult:
+    """N runs of one problem on a pool of ``workers`` Rust threads (default: all cores).
+
+    ``initial_states``: an (N, 2n) array of rows (q0, p0), or a dict with "q" (N, n) and "p" or
+    "v" (N, n). ``parameters``: a dict name -> (N,) array of ``[system] parameters``. Each
+    member equals the single :func:`solve` of its problem bit for bit; a member's failure is
+    recorded in ``errors`` and does not stop the others. Returns an :class:`EnsembleResult`.
+    """
+    states, velocity = _states(initial_states)
+    merged = _merge(overrides, kw)
+    params = {k: np.asarray(v, dtype=np.float64).reshape(-1) for k, v in (parameters or {}).items()}
+    sizes = {len(v) for v in params.values()} | ({len(states)} if states is not None else set())
+    if len(sizes) > 1:
+        raise InputError(f"initial_states and parameters give different numbers of members: {sorted(sizes)}")
+    with problem_file(problem, merged) as (path, shown):
+        try:
+            if not params:
+                raw = _core.ensemble_file(str(path), None, states, velocity, count or 1, workers)
+            else:
+                raw = _parameter_ensemble(problem, merged, params, states, velocity, workers, path)
+        except InputError as e:
+            raise _input_error(e, path, shown) from None
+    return EnsembleResult(raw)
+
+
+def _parameter_ensemble(problem, merged, params, states, velocity, workers, path):
+    d, _ = to_dict(problem)
+    apply_overrides(d, merged)
+    size = len(next(iter(params.values())))
+    with tempfile.TemporaryDirectory(prefix="femvi-ens-") as tmp:
+        files = []
+        for i in range(size):
+            di = dict(d)
+            system = dict(di.get("system", {}))
+            system["parameters"] = {**system.get("parameters", {}), **{k: float(v[i]) for k, v in params.items()}}
+            di["system"] = system
+            f = Path(tmp) / f"{path.stem}-{i}.toml"
+            f.write_text(dumps(di), encoding="utf-8")
+            files.append(str(f))
+        return _core.ensemble_file(str(path), files, states, velocity, size, workers)
+
+
+def models() -> List[Dict[str, Any]]:
+    """The built-in systems: name, description, parameters (with defaults), coordinates,
+    symmetries."""
+    return _core.models()
+
+
+def model_problem(name: str) -> str:
+    """The complete problem file of a built-in model (what ``femvi models NAME`` prints)."""
+    return _core.model_problem(name)
+
+
+def check(problem: Any, overrides: Optional[Mapping[str, Any]] = None, **kw: Any) -> Dict[str, Any]:
+    """``femvi check``'s report (symplecticity, energy and momentum drift, ...) as a dict."""
+    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+        try:
+            return json.loads(_core.check_file(str(path)))
+        except InputError as e:
+            raise _input_error(e, path, shown) from None
+
+
+def bvp(problem: Any, directory: Optional[str] = None, overrides: Optional[Mapping[str, Any]] = None,
+        **kw: Any) -> Dict[str, Any]:
+    """``femvi bvp``'s summary as a dict; its files go to ``directory`` (default: a temporary
+    directory that is removed)."""
+    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+        with tempfile.TemporaryDirectory(prefix="femvi-bvp-") as tmp:
+            try:
+                return json.loads(_core.bvp_file(str(path), str(directory or tmp)))
+            except InputError as e:
+                raise _input_error(e, path, shown) from None

@@ -1,0 +1,97 @@
+//! The model catalogue, the models' problem files, and `femvi check` / `femvi bvp` reports.
+
+use crate::input_error;
+use femvi_cli::problem;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::PathBuf;
+
+/// Complete problem files of the built-in models (the ones `femvi models NAME` prints).
+const MODEL_FILES: &[(&str, &str)] = &[
+    ("harmonic", include_str!("../../../examples/models/harmonic.toml")),
+    ("pendulum", include_str!("../../../examples/models/pendulum.toml")),
+    ("kepler", include_str!("../../../examples/models/kepler.toml")),
+    (
+        "henon-heiles",
+        include_str!("../../../examples/models/henon-heiles.toml"),
+    ),
+    (
+        "forced-oscillator",
+        include_str!("../../../examples/models/forced-oscillator.toml"),
+    ),
+    ("fpu", include_str!("../../../examples/models/fpu.toml")),
+    ("n-body", include_str!("../../../examples/models/n-body.toml")),
+    (
+        "outer-solar-system",
+        include_str!("../../../examples/models/outer-solar-system.toml"),
+    ),
+    (
+        "double-pendulum",
+        include_str!("../../../examples/models/double-pendulum.toml"),
+    ),
+];
+
+/// The built-in models: a list of dicts (name, description, parameters, coordinates).
+#[pyfunction]
+pub fn models(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
+    let list = PyList::empty(py);
+    for m in femvi::models::MODELS {
+        let d = PyDict::new(py);
+        d.set_item("name", m.name)?;
+        d.set_item("description", m.description)?;
+        let params = PyDict::new(py);
+        for (k, v) in m.parameters {
+            params.set_item(*k, *v)?;
+        }
+        d.set_item("parameters", params)?;
+        let defaults = femvi::models::parameters(m.name, &[]).unwrap_or_default();
+        let coords = femvi::models::coordinates(m.name, &defaults);
+        let labels: Vec<String> = problem::model_symmetries(m.name, &defaults)
+            .iter()
+            .map(|s| s.label(&coords))
+            .collect();
+        d.set_item("coordinates", coords)?;
+        d.set_item("symmetries", labels)?;
+        list.append(d)?;
+    }
+    Ok(list)
+}
+
+/// The complete problem file of a built-in model, as `femvi models NAME` prints it.
+#[pyfunction]
+pub fn model_problem(name: &str) -> PyResult<&'static str> {
+    MODEL_FILES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| {
+            let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).collect();
+            input_error(format!(
+                "unknown model '{name}'{}; built-in models: {}",
+                problem::did_you_mean(name, &names),
+                names.join(", ")
+            ))
+        })
+}
+
+/// `femvi check` on a problem file: its JSON report, as text.
+#[pyfunction]
+pub fn check_file(py: Python<'_>, path: PathBuf) -> PyResult<String> {
+    py.allow_threads(|| {
+        let p = problem::load(&path).map_err(|e| e.to_string())?;
+        let report = femvi_cli::check::check(&p).map_err(|(msg, _)| format!("{}: {msg}", path.display()))?;
+        serde_json::to_string(&report).map_err(|e| e.to_string())
+    })
+    .map_err(input_error)
+}
+
+/// `femvi bvp` on a problem file, with its output into `dir`: the summary's JSON text.
+#[pyfunction]
+pub fn bvp_file(py: Python<'_>, path: PathBuf, dir: PathBuf) -> PyResult<String> {
+    py.allow_threads(|| {
+        let p = problem::load_bvp(&path).map_err(|e| e.to_string())?;
+        let s = femvi_cli::bvp::run(&p, &dir).map_err(|(msg, _)| format!("{}: {msg}", path.display()))?;
+        serde_json::to_string(&s).map_err(|e| e.to_string())
+    })
+    .map_err(input_error)
+}

@@ -1,0 +1,314 @@
+//! One run of a problem file, as `femvi run` does it: the problem is loaded with the
+//! command's loader, its grid becomes the library's `Steps`, and `solve_with` drives the same
+//! integrator the command builds, with the command's energy observer attached so that the
+//! energies (and their largest relative error) are the command's bit for bit.
+
+use crate::arrays::{index1, rows, vec1};
+use crate::input_error;
+use femvi::solution::{solve_with, DenseOutput, Solution, SolveOptions, Steps};
+use femvi::step::Observer;
+use femvi::{Integrator, Lagrangian};
+use femvi_cli::problem::{self, Problem};
+use femvi_cli::record::{EnergyError, NodeEnergy};
+use numpy::PyReadonlyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::cell::Cell;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// What the Python side may ask of a run besides the problem file.
+#[derive(Debug, Clone, Default)]
+pub struct Extras {
+    pub every: Option<usize>,
+    pub saveat: Vec<f64>,
+    pub dense: bool,
+    pub max_steps: Option<usize>,
+    pub events: Vec<femvi::solution::Event>,
+}
+
+/// The command's energies at the nodes the solution keeps.
+struct CliEnergy {
+    inner: EnergyError,
+    current: Rc<Cell<NodeEnergy>>,
+    every: usize,
+    kept: Vec<(usize, f64)>,
+    last: Option<(usize, f64)>,
+}
+
+impl CliEnergy {
+    fn new(dim: usize, problem: &Problem, every: usize) -> Self {
+        let inner = EnergyError::new(dim, &problem.start);
+        let current = inner.current();
+        CliEnergy {
+            inner,
+            current,
+            every,
+            kept: vec![],
+            last: None,
+        }
+    }
+
+    /// The command's energy at node `k`, if it was recorded.
+    fn at(&self, k: usize) -> Option<f64> {
+        if let Ok(i) = self.kept.binary_search_by_key(&k, |e| e.0) {
+            return Some(self.kept[i].1);
+        }
+        self.last.filter(|e| e.0 == k).map(|e| e.1)
+    }
+}
+
+impl<L: Lagrangian> Observer<L> for CliEnergy {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        self.inner.node(it, last)?;
+        let k = it.node().k;
+        let h = self.current.get().h;
+        self.last = Some((k, h));
+        let keep = k == 0 || last || (self.every > 0 && k.is_multiple_of(self.every));
+        if keep && self.kept.last().is_none_or(|e| e.0 != k) {
+            self.kept.push((k, h));
+        }
+        Ok(())
+    }
+}
+
+/// A finished (or failed) run: the library's solution and what the command adds.
+pub struct Run {
+    pub sol: Solution,
+    pub max_rel_energy_error: f64,
+    /// The error's message where it is not the library's (as summary.json has it).
+    pub message: Option<String>,
+}
+
+/// The library's steps for a loaded problem: its grid's uniform step, the `[time] steps` list
+/// (read again from the file's text), or energy mode's first step.
+pub fn steps_of(problem: &Problem, text: &str) -> Result<Steps, String> {
+    let h = problem.grid.nominal(0);
+    if let Some(options) = problem.energy {
+        return Ok(Steps::Energy { step: h, options });
+    }
+    if problem.grid.is_uniform() {
+        return Ok(Steps::Fixed(h));
+    }
+    let table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+    let list = table
+        .get("time")
+        .and_then(|t| t.get("steps"))
+        .and_then(|s| s.as_array())
+        .ok_or("[time] steps: expected a list")?;
+    let steps: Option<Vec<f64>> = list
+        .iter()
+        .map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)))
+        .collect();
+    steps
+        .map(Steps::Cycle)
+        .ok_or_else(|| "[time] steps: expected numbers".into())
+}
+
+/// Loads `path` as `femvi run` does (the message of a bad file is the command's).
+pub fn load(path: &Path) -> Result<(Problem, String), String> {
+    let problem = problem::load(path).map_err(|e| e.to_string())?;
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok((problem, text))
+}
+
+/// Runs a loaded problem. Err: the library rejected it (message as the command prints it).
+pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Result<Run, String> {
+    let rejected = |e: String| format!("{}: {e}", path.display());
+    let steps = steps_of(problem, text).map_err(rejected)?;
+    let options = SolveOptions {
+        steps,
+        solver: problem.options,
+        every: extras.every.unwrap_or(problem.every),
+        saveat: extras.saveat.clone(),
+        max_steps: extras.max_steps,
+        dense: extras.dense,
+        events: extras.events.clone(),
+    };
+    femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options)).map_err(|e| rejected(e.to_string()))
+}
+
+fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOptions) -> femvi::Result<Run> {
+    let p = femvi::Problem::new(
+        lag.clone(),
+        problem.start.clone(),
+        problem.grid.t0(),
+        problem.grid.end(),
+    );
+    let mut energy = CliEnergy::new(lag.dim(), problem, options.every);
+    let mut sol = match solve_with(&p, &problem.element, options, &mut [&mut energy]) {
+        Ok(sol) => sol,
+        // The start from (q0, q1) failed: a numerical failure with no node, as the command has it.
+        Err(femvi::Error::Step(e)) => return Ok(first_element_failed(lag.dim(), e)),
+        Err(e) => return Err(e),
+    };
+    for (i, k) in sol.step.iter().enumerate() {
+        if let Some(h) = energy.at(*k) {
+            sol.energy[i] = h;
+        }
+    }
+    Ok(Run {
+        sol,
+        max_rel_energy_error: energy.inner.max_rel(),
+        message: None,
+    })
+}
+
+/// The run of a start from (q0, q1) whose first element failed.
+fn first_element_failed(n: usize, e: femvi::StepError) -> Run {
+    let message = Some(format!("first element: {e}"));
+    let sol = Solution {
+        n,
+        step: vec![],
+        t: vec![],
+        q: vec![],
+        p: vec![],
+        v: vec![],
+        energy: vec![],
+        saved: Default::default(),
+        events: vec![],
+        dense: None,
+        steps: 0,
+        mean_iterations: 0.0,
+        energy_stats: None,
+        stopped: false,
+        error: Some(femvi::Error::Step(e)),
+    };
+    Run {
+        sol,
+        max_rel_energy_error: f64::NAN,
+        message,
+    }
+}
+
+/// The dense output of a run: q and q̇ of the finite element solution at any time in its span.
+#[pyclass(module = "femvi._core")]
+pub struct Dense {
+    out: DenseOutput,
+    n: usize,
+}
+
+#[pymethods]
+impl Dense {
+    /// (t_start, t_end) of the dense output.
+    fn span(&self) -> (f64, f64) {
+        self.out.span()
+    }
+
+    /// q and v at the times `t` (1-D array): two (len(t), n) arrays.
+    fn state_at<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let times = t.as_slice()?.to_vec();
+        let n = self.n;
+        let (mut q, mut v) = (vec![0.0; times.len() * n], vec![0.0; times.len() * n]);
+        for (i, &ti) in times.iter().enumerate() {
+            self.out
+                .state_at(ti, &mut q[i * n..(i + 1) * n], &mut v[i * n..(i + 1) * n])
+                .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
+        }
+        Ok((rows(py, q, n)?, rows(py, v, n)?))
+    }
+}
+
+/// Runs the problem file at `path` (GIL released) and returns its results as a dict.
+#[pyfunction]
+#[pyo3(signature = (path, every=None, saveat=None, dense=false, max_steps=None, events=None))]
+pub fn solve_file(
+    py: Python<'_>,
+    path: PathBuf,
+    every: Option<usize>,
+    saveat: Option<Vec<f64>>,
+    dense: bool,
+    max_steps: Option<usize>,
+    events: Option<Vec<crate::events::Spec>>,
+) -> PyResult<Bound<'_, PyDict>> {
+    let raised = crate::events::Raised::default();
+    let extras = Extras {
+        every,
+        saveat: saveat.unwrap_or_default(),
+        dense,
+        max_steps,
+        events: crate::events::events(events.unwrap_or_default(), &raised)?,
+    };
+    let done = py.allow_threads(|| -> Result<(Run, Vec<String>, String, String), String> {
+        let (problem, text) = load(&path)?;
+        let r = run(&problem, &text, &path, &extras)?;
+        Ok((
+            r,
+            problem.coordinates.clone(),
+            problem.name.clone(),
+            problem.scheme_label.clone(),
+        ))
+    });
+    if let Some(e) = raised.take() {
+        return Err(e);
+    }
+    let (r, coordinates, name, scheme) = done.map_err(input_error)?;
+    to_dict(py, r, coordinates, name, scheme)
+}
+
+fn to_dict(
+    py: Python<'_>,
+    r: Run,
+    coordinates: Vec<String>,
+    name: String,
+    scheme: String,
+) -> PyResult<Bound<'_, PyDict>> {
+    let s = r.sol;
+    let n = s.n;
+    let d = PyDict::new(py);
+    d.set_item("name", name)?;
+    d.set_item("scheme", scheme)?;
+    d.set_item("coordinates", coordinates)?;
+    d.set_item("node", index1(py, s.step))?;
+    d.set_item("t", vec1(py, s.t))?;
+    d.set_item("q", rows(py, s.q, n)?)?;
+    d.set_item("p", rows(py, s.p, n)?)?;
+    d.set_item("v", rows(py, s.v, n)?)?;
+    d.set_item("energy", vec1(py, s.energy))?;
+    d.set_item("saved_t", vec1(py, s.saved.t))?;
+    d.set_item("saved_q", rows(py, s.saved.q, n)?)?;
+    d.set_item("saved_v", rows(py, s.saved.v, n)?)?;
+    d.set_item("saved_p", rows(py, s.saved.p, n)?)?;
+    d.set_item("steps", s.steps)?;
+    d.set_item("mean_iterations", s.mean_iterations)?;
+    d.set_item("max_rel_energy_error", r.max_rel_energy_error)?;
+    d.set_item("stopped", s.stopped)?;
+    if let Some(st) = s.energy_stats {
+        let e = PyDict::new(py);
+        e.set_item("max_rel_residual", st.max_rel_residual)?;
+        e.set_item("min_step", st.min_step)?;
+        e.set_item("max_step", st.max_step)?;
+        e.set_item("degenerate_steps", st.degenerate_steps)?;
+        d.set_item("energy_stats", e)?;
+    }
+    let events = pyo3::types::PyList::empty(py);
+    for ev in s.events {
+        let e = PyDict::new(py);
+        e.set_item("event", ev.event)?;
+        e.set_item("step", ev.step)?;
+        e.set_item("t", ev.t)?;
+        e.set_item("q", vec1(py, ev.q))?;
+        e.set_item("v", vec1(py, ev.v))?;
+        e.set_item("p", vec1(py, ev.p))?;
+        events.append(e)?;
+    }
+    d.set_item("events", events)?;
+    if let Some(out) = s.dense {
+        d.set_item("dense", Dense { out, n })?;
+    }
+    match &s.error {
+        None => d.set_item("error", None::<String>)?,
+        Some(e) => {
+            d.set_item("error", r.message.clone().unwrap_or_else(|| e.to_string()))?;
+            if let femvi::Error::Step(se) = e {
+                d.set_item("error_step", se.step)?;
+                d.set_item("error_t", se.t)?;
+            }
+        }
+    }
+    Ok(d)
+}

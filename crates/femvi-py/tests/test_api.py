@@ -1,0 +1,136 @@
+"""Input forms, options, errors, models."""
+
+import numpy as np
+import pytest
+
+import femvi
+from conftest import EXAMPLES
+
+HARMONIC = {
+    "system": {"model": "harmonic", "parameters": {"m": 1.0, "k": 1.0}},
+    "initial": {"q": [1.0], "p": [0.0]},
+    "scheme": {"degree": 1, "quadrature": "trapezoid"},
+    "time": {"step": 0.1, "end": 10.0},
+}
+
+
+def test_dict_and_text_and_path_agree(tmp_path):
+    text = femvi.dumps(HARMONIC)
+    f = tmp_path / "h.toml"
+    f.write_text(text)
+    a, b, c = femvi.solve(HARMONIC), femvi.solve(text), femvi.solve(f)
+    for s in (b, c):
+        assert np.array_equal(a.q, s.q) and np.array_equal(a.p, s.p) and np.array_equal(a.energy, s.energy)
+    assert a.q.shape == (101, 1) and a.t.shape == (101,) and a.v.shape == (101, 1)
+    assert a.coordinates == ["x"] or len(a.coordinates) == 1
+
+
+def test_toml_round_trip_of_floats():
+    import tomllib
+    values = [0.1, 1 / 3, 1e-300, 2.5e16, -0.0, 123456789.123456789]
+    back = tomllib.loads(femvi.dumps({"a": {"x": values, "s": 'q"uote\\'}}))
+    assert back["a"]["x"] == values and back["a"]["s"] == 'q"uote\\'
+
+
+def test_every_saveat_dense():
+    sol = femvi.solve(HARMONIC, every=10, saveat=[0.05, 1.0, 2.55], dense=True)
+    assert len(sol) == 11 and list(sol.node[:3]) == [0, 10, 20]
+    assert np.allclose(sol.saved.t, [0.05, 1.0, 2.55])
+    assert np.allclose(sol.saved.q[:, 0], np.cos(sol.saved.t), atol=1e-2)
+    assert np.allclose(sol(sol.saved.t), sol.saved.q)
+    assert sol.q_at(2.55).shape == (1,)
+    assert sol.q_at(np.zeros((2, 3))).shape == (2, 3, 1)
+    with pytest.raises(ValueError):
+        femvi.solve(HARMONIC).q_at(0.5)
+
+
+def test_max_steps():
+    sol = femvi.solve(HARMONIC, max_steps=7)
+    assert sol.steps == 7 and sol.node[-1] == 7 and sol.stopped
+
+
+def test_input_error_message_is_the_commands(run_cli, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(femvi.dumps({**HARMONIC, "time": {"stp": 0.1, "end": 1.0}}))
+    code, _, _, stderr = run_cli(bad)
+    assert code == 2
+    with pytest.raises(femvi.InputError) as e:
+        femvi.solve(bad)
+    assert stderr.strip() == f"error: {e.value}"
+    with pytest.raises(femvi.InputError, match="did you mean 'kepler'"):
+        femvi.solve({**HARMONIC, "system": {"model": "keplr"}})
+    with pytest.raises(femvi.InputError, match="<problem>"):
+        femvi.solve({**HARMONIC, "time": {"step": -1.0, "end": 1.0}})
+
+
+def test_numerical_error_has_step_and_partial_solution():
+    unstable = {**HARMONIC, "time": {"step": 2.5, "end": 5000.0}}
+    with pytest.raises(femvi.NumericalError) as e:
+        femvi.solve(unstable)
+    err = e.value
+    assert err.step is not None and err.step > 0 and err.t == pytest.approx(2.5 * err.step)
+    assert err.solution is not None and err.solution.error == str(err)
+    assert len(err.solution) == err.step + 1 and np.isfinite(err.solution.q).all()
+    sol = femvi.solve(unstable, raise_on_error=False)
+    assert sol.error == str(err)
+
+
+def test_models_and_model_problem():
+    names = [m["name"] for m in femvi.models()]
+    assert "kepler" in names and "outer-solar-system" in names
+    kepler = next(m for m in femvi.models() if m["name"] == "kepler")
+    assert "mu" in kepler["parameters"] and kepler["coordinates"] == ["x", "y"]
+    text = femvi.model_problem("kepler")
+    assert text == (EXAMPLES / "models" / "kepler.toml").read_text()
+    assert femvi.solve(text).error is None
+    with pytest.raises(femvi.InputError, match="did you mean"):
+        femvi.model_problem("keplr")
+
+
+def test_check_and_bvp():
+    report = femvi.check(EXAMPLES / "kepler.toml", **{"time.end": 5.0})
+    assert report["steps"] == 100 and report["max_rel_energy_error"] < 1e-8
+    s = femvi.bvp(EXAMPLES / "bvp-pendulum.toml")
+    assert s.get("error") is None
+
+
+def test_events_from_python():
+    def x_zero(t, q, v):
+        return q[0]
+
+    sol = femvi.solve(HARMONIC, events=[femvi.Event(x_zero, direction="falling"), lambda t, q, v: t - 3.0])
+    falling = [e for e in sol.events if e["name"] == "x_zero"]
+    assert [round(e["t"], 2) for e in falling] == [1.57, 7.85]  # cos t falls through 0 at π/2, 5π/2
+    assert all(abs(e["q"][0]) < 1e-12 for e in falling)
+    assert [e["t"] for e in sol.events if e["event"] == 1] == [pytest.approx(3.0)]
+    stopped = femvi.solve(HARMONIC, events=[femvi.Event(x_zero, stop=True)])
+    assert stopped.stopped and stopped.t[-1] < 2.0
+
+    def broken(t, q, v):
+        raise KeyError("inside g")
+
+    with pytest.raises(KeyError, match="inside g"):
+        femvi.solve(HARMONIC, events=[broken])
+    with pytest.raises(femvi.InputError, match="direction"):
+        femvi.solve(HARMONIC, events=[femvi.Event(x_zero, direction="up")])
+
+
+def test_first_element_failure_is_numerical(run_cli, tmp_path):
+    q1 = {"system": {"model": "kepler"}, "initial": {"q": [1.0, 0.0], "q1": [-1.0, 0.0]},
+          "scheme": {"degree": 3}, "time": {"step": 0.5, "end": 1.0}}
+    f = tmp_path / "q1.toml"
+    f.write_text(femvi.dumps(q1))
+    code, summary, _, _ = run_cli(f)
+    with pytest.raises(femvi.NumericalError) as e:
+        femvi.solve(f)
+    assert code == 1 and str(e.value) == summary["error"] and str(e.value).startswith("first element")
+    assert e.value.step == 0 and len(e.value.solution) == 0
+
+
+def test_unreadable_problems_are_input_errors(tmp_path):
+    with pytest.raises(femvi.InputError, match="cannot read the problem file"):
+        femvi.solve(tmp_path / "missing.toml", **{"time.end": 1.0})
+    with pytest.raises(femvi.InputError, match="<problem>"):
+        femvi.solve("[system\nmodel = 1\n", **{"time.end": 1.0})
+    with pytest.raises(TypeError):
+        femvi.solve(42)

@@ -1,0 +1,102 @@
+"""Ensembles: members equal single solves bit for bit; errors stay per member; Dask."""
+
+import numpy as np
+import pytest
+
+import femvi
+from conftest import EXAMPLES
+
+KEPLER = EXAMPLES / "kepler.toml"
+SHORT = {"time.end": 3.0}
+
+
+def states(m, seed=1):
+    rng = np.random.default_rng(seed)
+    q = np.column_stack([0.4 + 0.1 * rng.random(m), np.zeros(m)])
+    p = np.column_stack([np.zeros(m), 1.8 + 0.2 * rng.random(m)])
+    return np.hstack([q, p])
+
+
+def test_members_equal_single_solves():
+    s = states(6)
+    ens = femvi.ensemble(KEPLER, initial_states=s, workers=2, **SHORT)
+    assert ens.final_q.shape == (6, 2) and ens.final_t.shape == (6,) and ens.errors == [None] * 6
+    for i in range(6):
+        sol = femvi.solve(KEPLER, **SHORT, **{"initial.q": s[i, :2].tolist(), "initial.p": s[i, 2:].tolist()})
+        assert np.array_equal(sol.q[-1], ens.final_q[i]) and np.array_equal(sol.p[-1], ens.final_p[i])
+        assert sol.max_rel_energy_error == ens.energy_error[i] and sol.t[-1] == ens.final_t[i]
+
+
+def test_dict_states_velocity_and_parameters():
+    s = states(4)
+    a = femvi.ensemble(KEPLER, initial_states={"q": s[:, :2], "p": s[:, 2:]}, **SHORT)
+    b = femvi.ensemble(KEPLER, initial_states=s, workers=1, **SHORT)
+    assert np.array_equal(a.final_q, b.final_q)
+    v = femvi.ensemble(KEPLER, initial_states={"q": s[:, :2], "v": s[:, 2:]}, **SHORT)
+    assert np.array_equal(v.final_q, b.final_q)  # kepler: v = p
+    mu = np.array([0.9, 1.0, 1.1])
+    c = femvi.ensemble(KEPLER, parameters={"mu": mu}, **SHORT)
+    for i in range(3):
+        sol = femvi.solve(KEPLER, **SHORT, **{"system.parameters.mu": float(mu[i])})
+        assert np.array_equal(sol.q[-1], c.final_q[i])
+
+
+def test_errors_per_member():
+    h = {
+        "system": {"model": "harmonic", "parameters": {"m": 1.0, "k": 1.0}},
+        "initial": {"q": [1.0], "p": [0.0]},
+        "scheme": {"degree": 1, "quadrature": "trapezoid"},
+        "time": {"step": 1.0, "end": 5000.0},
+    }
+    k = np.array([1.0, 6.25, 2.0])  # h·ω = 2.5 is unstable
+    ens = femvi.ensemble(h, parameters={"k": k})
+    assert ens.errors[0] is None and ens.errors[2] is None
+    assert ens.errors[1] is not None and "step" in ens.errors[1]
+    assert list(ens.ok) == [True, False, True]
+    assert np.isfinite(ens.final_q[[0, 2]]).all()
+
+
+def test_bad_ensemble_input():
+    with pytest.raises(femvi.InputError, match="columns"):
+        femvi.ensemble(KEPLER, initial_states=np.zeros((3, 3)), **SHORT)
+    with pytest.raises(femvi.InputError, match="numbers of members"):
+        femvi.ensemble(KEPLER, initial_states=states(3), parameters={"mu": [1.0, 2.0]}, **SHORT)
+
+
+def test_dask_ensemble_equals_local():
+    distributed = pytest.importorskip("dask.distributed", reason="dask[distributed] is not installed")
+    import femvi.dask
+
+    s = states(10)
+    local = femvi.ensemble(KEPLER, initial_states=s, **SHORT)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        remote = femvi.dask.ensemble(client, KEPLER, initial_states=s, chunks=3, workers=1, **SHORT)
+    for key in ("final_t", "final_q", "final_p", "energy_error", "steps"):
+        assert np.array_equal(local[key], remote[key]), key
+    assert remote.errors == local.errors
+
+
+@pytest.mark.parametrize("call", ["solve", "ensemble"])
+def test_gil_released_during_runs(call):
+    """A run of about a second in a thread; this thread, which needs the GIL for every
+    loop iteration, must never wait nearly that long."""
+    import threading
+    import time
+
+    def work():
+        if call == "solve":
+            femvi.solve(KEPLER, every=0, **{"time.end": 100000.0})
+        else:
+            femvi.ensemble(KEPLER, initial_states=states(1200), workers=1, **{"time.end": 100.0})
+
+    thread = threading.Thread(target=work)
+    start = last = time.perf_counter()
+    gap = 0.0
+    thread.start()
+    while thread.is_alive():
+        now = time.perf_counter()
+        gap, last = max(gap, now - last), now
+    thread.join()
+    assert last - start > 0.3, "the run was too short to tell"
+    assert gap < min(0.15, (last - start) / 3), f"this thread waited {gap:.3f} s for the GIL"
