@@ -38,7 +38,8 @@ struct CliEnergy {
 
 impl CliEnergy {
     fn new(dim: usize, problem: &Problem, every: usize) -> Self {
-        let inner = EnergyError::new(dim, &problem.start);
+        let autonomous = femvi_cli::with_system!(&problem.system, l => femvi::Lagrangian::is_autonomous(l));
+        let inner = EnergyError::new(dim, &problem.start, autonomous);
         let current = inner.current();
         CliEnergy {
             inner,
