@@ -301,8 +301,12 @@ fn draw_on<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, spec: &Spec, series
         Axes::LogXY => {
             let (x0, x1) = log_range(xs(), 1.5, (1e-3, 1.0));
             let (y0, y1) = log_range(ys(), 2.0, (1e-16, 1.0));
+            // Ticks at the measured abscissae (steps rarely span a decade).
+            let mut ticks: Vec<f64> = xs().collect();
+            ticks.sort_by(f64::total_cmp);
+            ticks.dedup();
             let chart = builder
-                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                .build_cartesian_2d((x0..x1).log_scale().with_key_points(ticks), (y0..y1).log_scale())
                 .map_err(err)?;
             finish(chart, spec, &data, true)?;
         }
@@ -348,7 +352,7 @@ where
         mesh.y_label_formatter(&|v| format!("{v:.0e}"));
     }
     if log_x {
-        mesh.x_label_formatter(&|v| format!("{v:.3}"));
+        mesh.x_label_formatter(&|v| format!("{v}"));
     }
     mesh.draw().map_err(err)?;
     for (i, pts) in data.iter().enumerate() {
