@@ -39,7 +39,7 @@ fn time_solve<L: Lagrangian + Clone>(
     );
     let clock = Instant::now();
     let sol = if std::env::var_os("WITH_ENERGY").is_some() {
-        let mut e = femvi_cli::record::EnergyError::new(lag.dim(), &problem.start);
+        let mut e = femvi_cli::record::EnergyError::new(lag.dim(), &problem.start, lag.is_autonomous());
         femvi::solution::solve_with(&p, &problem.element, options, &mut [&mut e]).map_err(|e| e.to_string())?
     } else {
         solve(&p, &problem.element, options).map_err(|e| e.to_string())?

@@ -47,7 +47,7 @@ fn run_member(problem: &Problem, start: Start) -> Member {
 
 fn drive_member<L: Lagrangian>(lag: &L, problem: &Problem, start: Start) -> Member {
     let n = lag.dim();
-    let mut energy = EnergyError::new(n, &start);
+    let mut energy = EnergyError::new(n, &start, lag.is_autonomous());
     let grid = problem.grid.clone();
     let made = match problem.energy {
         None => Integrator::new(lag, &problem.element, grid, start, problem.options),
