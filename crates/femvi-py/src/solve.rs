@@ -5,7 +5,7 @@
 
 use crate::arrays::{index1, rows, vec1};
 use crate::input_error;
-use femvi::solution::{solve_with, DenseOutput, Solution, SolveOptions, Steps};
+use femvi::solution::{solve_with, DenseOutput, Solution, SolveOptions};
 use femvi::step::Observer;
 use femvi::{Integrator, Lagrangian};
 use femvi_cli::problem::{self, Problem};
@@ -37,8 +37,7 @@ struct CliEnergy {
 }
 
 impl CliEnergy {
-    fn new(dim: usize, problem: &Problem, every: usize) -> Self {
-        let autonomous = femvi_cli::with_system!(&problem.system, l => femvi::Lagrangian::is_autonomous(l));
+    fn new(dim: usize, problem: &Problem, every: usize, autonomous: bool) -> Self {
         let inner = EnergyError::new(dim, &problem.start, autonomous);
         let current = inner.current();
         CliEnergy {
@@ -79,31 +78,10 @@ pub struct Run {
     pub max_rel_energy_error: f64,
     /// The error's message where it is not the library's (as summary.json has it).
     pub message: Option<String>,
-}
-
-/// The library's steps for a loaded problem: its grid's uniform step, the `[time] steps` list
-/// (read again from the file's text), or energy mode's first step.
-pub fn steps_of(problem: &Problem, text: &str) -> Result<Steps, String> {
-    let h = problem.grid.nominal(0);
-    if let Some(options) = problem.energy {
-        return Ok(Steps::Energy { step: h, options });
-    }
-    if problem.grid.is_uniform() {
-        return Ok(Steps::Fixed(h));
-    }
-    let table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
-    let list = table
-        .get("time")
-        .and_then(|t| t.get("steps"))
-        .and_then(|s| s.as_array())
-        .ok_or("[time] steps: expected a list")?;
-    let steps: Option<Vec<f64>> = list
-        .iter()
-        .map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)))
-        .collect();
-    steps
-        .map(Steps::Cycle)
-        .ok_or_else(|| "[time] steps: expected numbers".into())
+    /// Names of the events (the problem file's, then Python's).
+    pub event_names: Vec<String>,
+    /// How many of them the problem file declared.
+    pub file_events: usize,
 }
 
 /// Loads `path` as `femvi run` does (the message of a bad file is the command's).
@@ -116,17 +94,25 @@ pub fn load(path: &Path) -> Result<(Problem, String), String> {
 /// Runs a loaded problem. Err: the library rejected it (message as the command prints it).
 pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Result<Run, String> {
     let rejected = |e: String| format!("{}: {e}", path.display());
-    let steps = steps_of(problem, text).map_err(rejected)?;
+    let _ = text;
+    // The problem file's [[events]] first (as `femvi run` locates them), then Python's.
+    let mut events: Vec<femvi::solution::Event> = problem.events.iter().map(|e| e.event()).collect();
+    let offset = events.len();
+    events.extend(extras.events.iter().cloned());
     let options = SolveOptions {
-        steps,
+        steps: problem.steps.clone(),
         solver: problem.options,
         every: extras.every.unwrap_or(problem.every),
         saveat: extras.saveat.clone(),
         max_steps: extras.max_steps,
         dense: extras.dense,
-        events: extras.events.clone(),
+        events,
     };
-    femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options)).map_err(|e| rejected(e.to_string()))
+    let mut r = femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options))
+        .map_err(|e| rejected(e.to_string()))?;
+    r.event_names = options.events.iter().map(|e| e.name.clone()).collect();
+    r.file_events = offset;
+    Ok(r)
 }
 
 fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOptions) -> femvi::Result<Run> {
@@ -136,7 +122,7 @@ fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOp
         problem.grid.t0(),
         problem.grid.end(),
     );
-    let mut energy = CliEnergy::new(lag.dim(), problem, options.every);
+    let mut energy = CliEnergy::new(lag.dim(), problem, options.every, lag.is_autonomous());
     let mut sol = match solve_with(&p, &problem.element, options, &mut [&mut energy]) {
         Ok(sol) => sol,
         // The start from (q0, q1) failed: a numerical failure with no node, as the command has it.
@@ -152,6 +138,8 @@ fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOp
         sol,
         max_rel_energy_error: energy.inner.max_rel(),
         message: None,
+        event_names: vec![],
+        file_events: 0,
     })
 }
 
@@ -179,6 +167,8 @@ fn first_element_failed(n: usize, e: femvi::StepError) -> Run {
         sol,
         max_rel_energy_error: f64::NAN,
         message,
+        event_names: vec![],
+        file_events: 0,
     }
 }
 
@@ -289,6 +279,8 @@ fn to_dict(
     let events = pyo3::types::PyList::empty(py);
     for ev in s.events {
         let e = PyDict::new(py);
+        e.set_item("name", r.event_names.get(ev.event).cloned().unwrap_or_default())?;
+        e.set_item("from_file", ev.event < r.file_events)?;
         e.set_item("event", ev.event)?;
         e.set_item("step", ev.step)?;
         e.set_item("t", ev.t)?;

@@ -8,7 +8,7 @@ from conftest import EXAMPLES
 
 PROBLEMS = [
     "kepler", "pendulum", "henon-heiles", "double-pendulum", "variable-steps",
-    "energy-henon-heiles", "harmonic-q1-start", "kepler-accuracy",
+    "energy-henon-heiles", "harmonic-q1-start", "kepler-accuracy", "henon-heiles-section",
 ]
 
 
@@ -39,6 +39,8 @@ def test_equals_cli(name, run_cli):
     assert same(table[:, 2:2 + n], sol.q)
     assert same(table[:, 2 + n:2 + 2 * n], sol.p)
     assert same(table[:, 2 + 2 * n], sol.energy)
+    if "events_located" in summary:  # [[events]] in the file: located as the command does
+        assert len(sol.events) == summary["events_located"] and all(e["from_file"] for e in sol.events)
 
 
 def test_overrides_equal_edited_file(run_cli, tmp_path):

@@ -66,8 +66,6 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
                                    events=[e.spec() for e in evs] or None)
         except InputError as e:
             raise _input_error(e, path, shown) from None
-    for record in raw["events"]:
-        record["name"] = evs[record["event"]].name
     sol = Solution(raw)
     if sol.error is not None and raise_on_error:
         raise NumericalError(sol.error, raw.get("error_step"), raw.get("error_t"), sol)
