@@ -138,7 +138,7 @@ fn setup_time() {
         "fpu" => setup(&models::fpu(size, 0.25, 0.0), chain(size)),
         _ => setup(&models::n_body(1.0, vec![1.0; size], 3).unwrap(), lattice(size)),
     };
-    println!("SETUP {kind} {size}: {:.3} s", elapsed.as_secs_f64());
+    println!("SETUP {kind} {size}: {:.2} ms", 1e3 * elapsed.as_secs_f64());
 }
 
 // ---- 3. Time grids ----------------------------------------------------------------------
