@@ -120,14 +120,9 @@ pub fn check<L: Lagrangian>(
     symmetries: &[Symmetry],
 ) -> Result<CheckReport> {
     let n = lag.dim();
-    for symmetry in symmetries {
-        symmetry.validate(n)?;
-    }
+    symmetries.iter().try_for_each(|s| s.validate(n))?;
     let mut notes = vec![];
-    let total = match energy {
-        None => grid.count(),
-        Some(_) => ((grid.end() - grid.t0()) / grid.nominal(0)).ceil() as usize,
-    };
+    let total = expected_steps(&grid, energy.is_some());
     let stride = (total / MAX_SAMPLES).max(1);
     let mut v = match &start {
         Start::Velocity { v, .. } => v.clone(),
@@ -191,6 +186,15 @@ pub fn check<L: Lagrangian>(
         formula,
         notes,
     ))
+}
+
+/// The steps a run over `grid` is expected to take (in energy mode, at the nominal step).
+fn expected_steps(grid: &TimeGrid, energy: bool) -> usize {
+    if energy {
+        ((grid.end() - grid.t0()) / grid.nominal(0)).ceil() as usize
+    } else {
+        grid.count()
+    }
 }
 
 /// Measures the tangent map of the step just taken (the extended map in energy mode) into

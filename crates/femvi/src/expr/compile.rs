@@ -11,6 +11,35 @@
 
 use super::parse::{ExprError, Item};
 use super::program::{binary, pow_op, unary, Op, F2, FUNCS1, FUNCS2};
+use std::collections::HashMap;
+
+/// What a name stands for: variable i or a parameter's value (the first of each name).
+pub(super) struct Names<'n> {
+    vars: HashMap<&'n str, usize>,
+    params: HashMap<&'n str, f64>,
+}
+
+impl<'n> Names<'n> {
+    /// The names of `vars` and `params`, looked up in O(1) whatever their number.
+    pub(super) fn new(vars: &'n [String], params: &'n [(String, f64)]) -> Self {
+        let mut names = Self {
+            vars: HashMap::with_capacity(vars.len()),
+            params: HashMap::with_capacity(params.len()),
+        };
+        for (i, v) in vars.iter().enumerate() {
+            names.vars.entry(v).or_insert(i);
+        }
+        for (p, v) in params {
+            names.params.entry(p).or_insert(*v);
+        }
+        names
+    }
+
+    /// Whether `name` names a variable.
+    pub(super) fn is_variable(&self, name: &str) -> bool {
+        self.vars.contains_key(name)
+    }
+}
 
 /// An operand on the compiler's stack: where its code starts in the program, its value if it
 /// is a constant (its code is then that one constant), and the evaluation stack it needs.
@@ -48,20 +77,20 @@ impl<'s> Compiler<'s> {
         }
     }
 
-    /// Compiles one item; `vars` name the variables, `params` are folded as constants.
-    pub(super) fn item(&mut self, item: &Item, vars: &[String], params: &[(String, f64)]) -> Result<(), ExprError> {
+    /// Compiles one item; variables are looked up in `names`, parameters folded as constants.
+    pub(super) fn item(&mut self, item: &Item, names: &Names<'_>) -> Result<(), ExprError> {
         match item {
             Item::Num(v) => self.constant(self.ops.len(), *v),
             Item::Name(name, at) => {
-                if let Some(i) = vars.iter().position(|v| v == name) {
+                if let Some(&i) = names.vars.get(name.as_str()) {
                     self.stack.push(Operand {
                         start: self.ops.len(),
                         konst: None,
                         depth: 1,
                     });
                     self.ops.push(Op::Var(i));
-                } else if let Some((_, v)) = params.iter().find(|(p, _)| p == name) {
-                    self.constant(self.ops.len(), *v);
+                } else if let Some(&v) = names.params.get(name.as_str()) {
+                    self.constant(self.ops.len(), v);
                 } else if name == "pi" {
                     self.constant(self.ops.len(), std::f64::consts::PI);
                 } else {

@@ -34,8 +34,8 @@ impl ExprLagrangian {
     ///
     /// # Errors
     /// [`ExprError`] with the position of a syntax error, an unknown symbol, a wrong number of
-    /// function arguments, nesting deeper than [`MAX_NESTING`], or a name clash between
-    /// coordinates and parameters.
+    /// function arguments, nesting deeper than [`MAX_NESTING`], or a name clash among t, the
+    /// coordinates, their velocities and the parameters.
     ///
     /// # Example
     ///
@@ -55,6 +55,16 @@ impl ExprLagrangian {
         let mut vars = vec!["t".to_string()];
         vars.extend(coordinates.iter().cloned());
         vars.extend(coordinates.iter().map(|c| format!("{c}_dot")));
+        let mut seen = std::collections::HashSet::with_capacity(vars.len());
+        if let Some(twice) = vars.iter().find(|v| !seen.insert(v.as_str())) {
+            return Err(ExprError::at(
+                source,
+                0,
+                format!(
+                    "the name '{twice}' is given twice (t, the coordinates and their _dot velocities must all differ)"
+                ),
+            ));
+        }
         let program = Program::compile(source, &vars, parameters)?;
         Ok(Self {
             coordinates: coordinates.to_vec(),
@@ -84,13 +94,15 @@ impl Lagrangian for ExprLagrangian {
 
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
         let n = self.coordinates.len();
+        // q and v have n entries when the library calls; a shorter slice reads NaN.
+        let nan = D::from(f64::NAN);
         self.program.eval(|i| {
             if i == 0 {
                 t
             } else if i <= n {
-                q[i - 1]
+                q.get(i - 1).copied().unwrap_or(nan)
             } else {
-                v[i - 1 - n]
+                v.get(i - 1 - n).copied().unwrap_or(nan)
             }
         })
     }
@@ -175,6 +187,17 @@ mod tests {
             .message
             .contains("unknown function"));
         assert!(ExprLagrangian::new("x", &c, &[("x".into(), 1.0)]).is_err());
+    }
+
+    #[test]
+    fn clashing_names_and_short_slices() {
+        for coords in [&["x", "x"][..], &["t"], &["x", "x_dot"]] {
+            let e = ExprLagrangian::new("x", &names(coords), &[]).unwrap_err();
+            assert!(e.message.contains("twice"), "{coords:?}: {}", e.message);
+        }
+        let l = ExprLagrangian::new("x + y_dot", &names(&["x", "y"]), &[]).unwrap();
+        assert!(l.value::<f64>(0.0, &[1.0], &[]).is_nan());
+        assert_eq!(l.value::<f64>(0.0, &[1.0, 2.0], &[3.0, 4.0]), 5.0);
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! A compiled expression: a postfix program with constants folded (built by `compile.rs`), and
 //! its evaluation over any scalar type without allocation (a fixed stack for the usual depths).
 
-use super::compile::Compiler;
+use super::compile::{Compiler, Names};
 use super::parse::{ExprError, Parser};
 use crate::lagrangian::Scalar;
 
@@ -82,19 +82,18 @@ impl Program {
     /// Syntax errors, unknown symbols and functions, wrong argument counts, name clashes, and
     /// nesting deeper than [`MAX_NESTING`](super::MAX_NESTING).
     pub fn compile(source: &str, vars: &[String], params: &[(String, f64)]) -> Result<Self, ExprError> {
-        for (name, _) in params {
-            if vars.contains(name) {
-                return Err(ExprError::at(
-                    source,
-                    0,
-                    format!("parameter '{name}' has the name of a variable"),
-                ));
-            }
+        let names = Names::new(vars, params);
+        if let Some((name, _)) = params.iter().find(|(name, _)| names.is_variable(name)) {
+            return Err(ExprError::at(
+                source,
+                0,
+                format!("parameter '{name}' has the name of a variable"),
+            ));
         }
         let items = Parser::parse(source)?;
         let mut compiler = Compiler::new(source, items.len());
         for item in &items {
-            compiler.item(item, vars, params)?;
+            compiler.item(item, &names)?;
         }
         let (ops, depth) = compiler.finish()?;
         Ok(Self { ops, depth })

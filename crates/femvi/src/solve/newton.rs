@@ -52,6 +52,19 @@ impl DenseNewtonWork {
         Ok(Self::new(dim))
     }
 
+    /// The Newton correction −J⁻¹ r into `rhs`; false if J is singular or the correction is
+    /// not finite.
+    fn correction(&mut self, dim: usize) -> bool {
+        for i in 0..dim {
+            self.rhs[i] = -self.r[i];
+            for j in 0..dim {
+                self.mat[(i, j)] = self.jac[i * dim + j];
+            }
+        }
+        let lu = self.mat.clone().lu();
+        lu.solve_mut(&mut self.rhs) && self.rhs.iter().all(|v| v.is_finite())
+    }
+
     /// Whether the buffers are for `dim` unknowns.
     fn fits(&self, dim: usize) -> bool {
         let square = dim.checked_mul(dim);
@@ -136,48 +149,17 @@ where
                 last_increment: 0.0,
             });
         }
-        for i in 0..dim {
-            work.rhs[i] = -work.r[i];
-            for j in 0..dim {
-                work.mat[(i, j)] = work.jac[i * dim + j];
-            }
-        }
-        let lu = work.mat.clone().lu();
-        if !lu.solve_mut(&mut work.rhs) || !work.rhs.iter().all(|v| v.is_finite()) {
+        if !work.correction(dim) {
             return Err(fail(StepFailure::Singular, rnorm, it));
         }
         let dnorm = work.rhs.amax();
         let sc = scale(x);
         let converged_step = dnorm <= tol * sc;
-        // Backtracking on ½‖r‖² (2-norm); the full step is taken once the correction is at
-        // round-off level, where the residual cannot decrease any more.
-        let r2: f64 = work.r.iter().map(|v| v * v).sum();
-        let mut lambda = 1.0;
+        let near = dnorm <= 1e3 * tol * sc;
         // Whether `r_trial` holds the residual at the accepted trial point.
-        let mut trial_evaluated = true;
-        loop {
-            for i in 0..dim {
-                work.trial[i] = x[i] + lambda * work.rhs[i];
-            }
-            eval(&work.trial, &mut work.r_trial, None);
-            let t2: f64 = work.r_trial.iter().map(|v| v * v).sum();
-            if converged_step || (t2.is_finite() && t2 <= (1.0 - 1e-4 * lambda) * r2) {
-                break;
-            }
-            lambda *= 0.5;
-            if lambda < 1.0 / 1024.0 {
-                if dnorm <= 1e3 * tol * sc {
-                    // Stuck at round-off just above the tolerance: accept the full step.
-                    lambda = 1.0;
-                    for i in 0..dim {
-                        work.trial[i] = x[i] + work.rhs[i];
-                    }
-                    trial_evaluated = false;
-                    break;
-                }
-                return Err(fail(StepFailure::Stalled, rnorm, it));
-            }
-        }
+        let Some((lambda, trial_evaluated)) = line_search(x, work, &mut eval, converged_step, near) else {
+            return Err(fail(StepFailure::Stalled, rnorm, it));
+        };
         x.copy_from_slice(&work.trial);
         if converged_step || lambda * dnorm <= tol * sc {
             // The caller reads what the last evaluation left (e.g. the derivatives at the
@@ -195,4 +177,38 @@ where
         eval(x, &mut work.r, Some(&mut work.jac));
     }
     Err(fail(StepFailure::NotConverged, inf_norm(&work.r), max_iterations))
+}
+
+/// Backtracking on ½‖r‖² (2-norm) from `x` along the correction in `work.rhs`, leaving the
+/// accepted point in `work.trial`: returns the step λ and whether `work.r_trial` holds the
+/// residual there, or None if the residual cannot be decreased. The full step is taken at once
+/// when `full` (the correction is at round-off level, where the residual cannot decrease any
+/// more), and after ten halvings when `near` (stuck at round-off just above the tolerance).
+fn line_search<F>(x: &[f64], work: &mut DenseNewtonWork, eval: &mut F, full: bool, near: bool) -> Option<(f64, bool)>
+where
+    F: FnMut(&[f64], &mut [f64], Option<&mut [f64]>),
+{
+    let dim = x.len();
+    let r2: f64 = work.r.iter().map(|v| v * v).sum();
+    let mut lambda = 1.0;
+    loop {
+        for i in 0..dim {
+            work.trial[i] = x[i] + lambda * work.rhs[i];
+        }
+        eval(&work.trial, &mut work.r_trial, None);
+        let t2: f64 = work.r_trial.iter().map(|v| v * v).sum();
+        if full || (t2.is_finite() && t2 <= (1.0 - 1e-4 * lambda) * r2) {
+            return Some((lambda, true));
+        }
+        lambda *= 0.5;
+        if lambda < 1.0 / 1024.0 {
+            if !near {
+                return None;
+            }
+            for i in 0..dim {
+                work.trial[i] = x[i] + work.rhs[i];
+            }
+            return Some((1.0, false));
+        }
+    }
 }
