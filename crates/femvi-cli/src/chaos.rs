@@ -234,22 +234,12 @@ pub fn write_map(dir: &Path, axes: &[Axis], rows: &[Indicators], wanted: &[Indic
         flat.extend_from_slice(&values);
     }
     csv.flush()?;
-    write_npy(dir, &header, &flat)
-}
-
-/// `chaos_map.npy` (rows × columns, float64) and `chaos_columns.txt`.
-fn write_npy(dir: &Path, header: &[String], flat: &[f64]) -> std::io::Result<()> {
-    use npyz::WriterBuilder;
-    let cols = header.len().max(1) as u64;
-    let file = std::io::BufWriter::new(std::fs::File::create(dir.join("chaos_map.npy"))?);
-    let mut w = npyz::WriteOptions::<f64>::new()
-        .default_dtype()
-        .shape(&[flat.len() as u64 / cols, cols])
-        .writer(file)
-        .begin_nd()?;
-    w.extend(flat.iter().copied())?;
-    w.finish()?;
-    std::fs::write(dir.join("chaos_columns.txt"), header.join("\n") + "\n")
+    crate::record::write_table(
+        &dir.join("chaos_map.npy"),
+        &dir.join("chaos_columns.txt"),
+        &header,
+        &flat,
+    )
 }
 
 /// What `femvi chaos` was asked.

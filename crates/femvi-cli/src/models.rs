@@ -5,8 +5,9 @@ use crate::problem;
 use crate::BAD_INPUT;
 use std::process::ExitCode;
 
-/// Complete problem files of the built-in models (also examples/models/, run by the tests).
-const MODEL_FILES: &[(&str, &str)] = &[
+/// Complete problem files of the built-in models (also examples/models/, run by the tests):
+/// (model name, file text). The Python package serves the same table.
+pub const MODEL_FILES: &[(&str, &str)] = &[
     ("harmonic", include_str!("../../../examples/models/harmonic.toml")),
     ("pendulum", include_str!("../../../examples/models/pendulum.toml")),
     ("kepler", include_str!("../../../examples/models/kepler.toml")),

@@ -1,35 +1,11 @@
 //! The model catalogue, the models' problem files, and `femvi check` / `femvi bvp` reports.
 
 use crate::input_error;
+use femvi_cli::models::MODEL_FILES;
 use femvi_cli::problem;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::path::PathBuf;
-
-/// Complete problem files of the built-in models (the ones `femvi models NAME` prints).
-const MODEL_FILES: &[(&str, &str)] = &[
-    ("harmonic", include_str!("../../../examples/models/harmonic.toml")),
-    ("pendulum", include_str!("../../../examples/models/pendulum.toml")),
-    ("kepler", include_str!("../../../examples/models/kepler.toml")),
-    (
-        "henon-heiles",
-        include_str!("../../../examples/models/henon-heiles.toml"),
-    ),
-    (
-        "forced-oscillator",
-        include_str!("../../../examples/models/forced-oscillator.toml"),
-    ),
-    ("fpu", include_str!("../../../examples/models/fpu.toml")),
-    ("n-body", include_str!("../../../examples/models/n-body.toml")),
-    (
-        "outer-solar-system",
-        include_str!("../../../examples/models/outer-solar-system.toml"),
-    ),
-    (
-        "double-pendulum",
-        include_str!("../../../examples/models/double-pendulum.toml"),
-    ),
-];
 
 /// The built-in models: a list of dicts (name, description, parameters, coordinates).
 #[pyfunction]

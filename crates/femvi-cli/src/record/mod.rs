@@ -11,7 +11,7 @@ mod progress;
 
 pub use csv_rows::CsvRows;
 pub use energy::{EnergyError, NodeEnergy};
-pub use npy_rows::NpyRows;
+pub use npy_rows::{write_table, NpyRows};
 pub use plot_data::PlotData;
 pub use progress::Progress;
 

@@ -39,18 +39,29 @@ impl<'a> NpyRows<'a> {
 
     /// Writes the buffered rows as one 2-D float64 array and the column names, one per line.
     fn write(&self) -> std::io::Result<()> {
-        use npyz::WriterBuilder;
-        let cols = self.columns.len() as u64;
-        let file = std::io::BufWriter::new(std::fs::File::create(self.dir.join("trajectory.npy"))?);
-        let mut w = npyz::WriteOptions::<f64>::new()
-            .default_dtype()
-            .shape(&[self.rows.len() as u64 / cols, cols])
-            .writer(file)
-            .begin_nd()?;
-        w.extend(self.rows.iter().copied())?;
-        w.finish()?;
-        std::fs::write(self.dir.join("columns.txt"), self.columns.join("\n") + "\n")
+        write_table(
+            &self.dir.join("trajectory.npy"),
+            &self.dir.join("columns.txt"),
+            &self.columns,
+            &self.rows,
+        )
     }
+}
+
+/// Writes row-major `rows` as one 2-D float64 array (`columns.len()` columns) into `npy`, and
+/// the column names, one per line, into `names`.
+pub fn write_table(npy: &Path, names: &Path, columns: &[String], rows: &[f64]) -> std::io::Result<()> {
+    use npyz::WriterBuilder;
+    let cols = columns.len().max(1) as u64;
+    let file = std::io::BufWriter::new(std::fs::File::create(npy)?);
+    let mut w = npyz::WriteOptions::<f64>::new()
+        .default_dtype()
+        .shape(&[rows.len() as u64 / cols, cols])
+        .writer(file)
+        .begin_nd()?;
+    w.extend(rows.iter().copied())?;
+    w.finish()?;
+    std::fs::write(names, columns.join("\n") + "\n")
 }
 
 impl<L: Lagrangian> Observer<L> for NpyRows<'_> {

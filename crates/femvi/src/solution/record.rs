@@ -104,6 +104,10 @@ impl Recorder {
     /// The saveat times in (t_k, t_{k+1}] answered from the element; those equal to the
     /// node time from the node.
     fn save_element<L: Lagrangian>(&mut self, lag: &L, sp: &Span<'_>, prev: &PrevNode, node: (f64, &[f64], &[f64])) {
+        // Nothing to answer in this element (the common case): no work, no allocation.
+        if !matches!(self.saveat.get(self.next_save), Some(&ts) if ts <= node.0) {
+            return;
+        }
         let (mut q, mut v, mut p) = (vec![0.0; self.n], vec![0.0; self.n], vec![0.0; self.n]);
         while let Some(&ts) = self.saveat.get(self.next_save) {
             if ts > node.0 {
