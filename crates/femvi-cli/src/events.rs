@@ -16,13 +16,15 @@ use std::path::Path;
 use std::time::Instant;
 
 /// The solve options of a run with events: the problem's steps and solver, only the first
-/// and last node kept by the library (the CLI's observers keep the rest), the events.
+/// and last node kept by the library (the CLI's observers keep the rest, and track the energy
+/// themselves), the events.
 pub fn solve_options(problem: &Problem) -> SolveOptions {
     SolveOptions {
         steps: problem.steps.clone(),
         solver: problem.options,
         every: 0,
         events: problem.events.iter().map(|e| e.event()).collect(),
+        track_energy: false,
         ..SolveOptions::step(1.0)
     }
 }

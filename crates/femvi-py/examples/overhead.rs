@@ -2,8 +2,8 @@
 //! the command's loader (not timed), then times `femvi::solve` of it `REPS` times (every node
 //! kept, as `femvi.solve` keeps them) and prints the seconds of each run, one per line.
 //!
-//! With WITH_ENERGY set, the command's energy observer (femvi_cli::record::EnergyError) is
-//! attached as `femvi.solve` attaches it (for the command's energies bit for bit).
+//! `solve` tracks the energy at every node by default, as `femvi.solve` and `femvi run` do;
+//! with NO_ENERGY set it does not (`track_energy: false`), to show what the tracking costs.
 //!
 //! `cargo run --release --example overhead -- PROBLEM.toml [REPS]`
 
@@ -17,7 +17,10 @@ fn main() -> Result<(), String> {
         .next()
         .map_or(Ok(1), |r| r.parse().map_err(|e| format!("REPS: {e}")))?;
     let problem = femvi_cli::problem::load(path.as_ref()).map_err(|e| e.to_string())?;
-    let options = SolveOptions::step(problem.grid.nominal(0));
+    let options = SolveOptions {
+        track_energy: std::env::var_os("NO_ENERGY").is_none(),
+        ..SolveOptions::step(problem.grid.nominal(0))
+    };
     for _ in 0..reps {
         let seconds = femvi_cli::with_system!(&problem.system, l => time_solve(l, &problem, &options))?;
         println!("{seconds}");
@@ -38,12 +41,7 @@ fn time_solve<L: Lagrangian + Clone>(
         problem.grid.end(),
     );
     let clock = Instant::now();
-    let sol = if std::env::var_os("WITH_ENERGY").is_some() {
-        let mut e = femvi_cli::record::EnergyError::new(lag.dim(), &problem.start, lag.is_autonomous());
-        femvi::solution::solve_with(&p, &problem.element, options, &mut [&mut e]).map_err(|e| e.to_string())?
-    } else {
-        solve(&p, &problem.element, options).map_err(|e| e.to_string())?
-    };
+    let sol = solve(&p, &problem.element, options).map_err(|e| e.to_string())?;
     let seconds = clock.elapsed().as_secs_f64();
     if let Some(e) = sol.error {
         return Err(e.to_string());

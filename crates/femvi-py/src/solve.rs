@@ -1,21 +1,18 @@
 //! One run of a problem file, as `femvi run` does it: the problem is loaded with the
-//! command's loader, its grid becomes the library's `Steps`, and `solve_with` drives the same
-//! integrator the command builds, with the command's energy observer attached so that the
-//! energies (and their largest relative error) are the command's bit for bit.
+//! command's loader, its grid becomes the library's `Steps`, and `solve` drives the same
+//! integrator the command builds. The library's energy tracker is the one behind the
+//! command's energy observer, so the energies (and their largest relative error) are the
+//! command's bit for bit, computed once per node.
 
 use crate::arrays::{index1, rows, vec1};
 use crate::input_error;
-use femvi::solution::{solve_with, DenseOutput, Solution, SolveOptions};
-use femvi::step::Observer;
-use femvi::{Integrator, Lagrangian};
+use femvi::solution::{solve, DenseOutput, Solution, SolveOptions};
+use femvi::Lagrangian;
 use femvi_cli::problem::{self, Problem};
-use femvi_cli::record::{EnergyError, NodeEnergy};
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::cell::Cell;
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
 
 /// What the Python side may ask of a run besides the problem file.
 #[derive(Debug, Clone, Default)]
@@ -25,51 +22,6 @@ pub struct Extras {
     pub dense: bool,
     pub max_steps: Option<usize>,
     pub events: Vec<femvi::solution::Event>,
-}
-
-/// The command's energies at the nodes the solution keeps.
-struct CliEnergy {
-    inner: EnergyError,
-    current: Rc<Cell<NodeEnergy>>,
-    every: usize,
-    kept: Vec<(usize, f64)>,
-    last: Option<(usize, f64)>,
-}
-
-impl CliEnergy {
-    fn new(dim: usize, problem: &Problem, every: usize, autonomous: bool) -> Self {
-        let inner = EnergyError::new(dim, &problem.start, autonomous);
-        let current = inner.current();
-        CliEnergy {
-            inner,
-            current,
-            every,
-            kept: vec![],
-            last: None,
-        }
-    }
-
-    /// The command's energy at node `k`, if it was recorded.
-    fn at(&self, k: usize) -> Option<f64> {
-        if let Ok(i) = self.kept.binary_search_by_key(&k, |e| e.0) {
-            return Some(self.kept[i].1);
-        }
-        self.last.filter(|e| e.0 == k).map(|e| e.1)
-    }
-}
-
-impl<L: Lagrangian> Observer<L> for CliEnergy {
-    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
-        self.inner.node(it, last)?;
-        let k = it.node().k;
-        let h = self.current.get().h;
-        self.last = Some((k, h));
-        let keep = k == 0 || last || (self.every > 0 && k.is_multiple_of(self.every));
-        if keep && self.kept.last().is_none_or(|e| e.0 != k) {
-            self.kept.push((k, h));
-        }
-        Ok(())
-    }
 }
 
 /// A finished (or failed) run: the library's solution and what the command adds.
@@ -107,6 +59,7 @@ pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Resul
         max_steps: extras.max_steps,
         dense: extras.dense,
         events,
+        track_energy: true,
     };
     let mut r = femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options))
         .map_err(|e| rejected(e.to_string()))?;
@@ -122,21 +75,16 @@ fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOp
         problem.grid.t0(),
         problem.grid.end(),
     );
-    let mut energy = CliEnergy::new(lag.dim(), problem, options.every, lag.is_autonomous());
-    let mut sol = match solve_with(&p, &problem.element, options, &mut [&mut energy]) {
+    let sol = match solve(&p, &problem.element, options) {
         Ok(sol) => sol,
         // The start from (q0, q1) failed: a numerical failure with no node, as the command has it.
         Err(femvi::Error::Step(e)) => return Ok(first_element_failed(lag.dim(), e)),
         Err(e) => return Err(e),
     };
-    for (i, k) in sol.step.iter().enumerate() {
-        if let Some(h) = energy.at(*k) {
-            sol.energy[i] = h;
-        }
-    }
+    let max_rel_energy_error = sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error);
     Ok(Run {
         sol,
-        max_rel_energy_error: energy.inner.max_rel(),
+        max_rel_energy_error,
         message: None,
         event_names: vec![],
         file_events: 0,
@@ -160,6 +108,7 @@ fn first_element_failed(n: usize, e: femvi::StepError) -> Run {
         steps: 0,
         mean_iterations: 0.0,
         energy_stats: None,
+        energy_report: None,
         stopped: false,
         error: Some(femvi::Error::Step(e)),
     };

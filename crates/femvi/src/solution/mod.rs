@@ -21,6 +21,7 @@
 //! ```
 
 mod dense;
+mod energy;
 mod events;
 mod record;
 mod solve;
@@ -28,6 +29,7 @@ mod solve;
 pub(crate) use solve::grid;
 
 pub use dense::DenseOutput;
+pub use energy::{EnergyReport, EnergyTracker, NodeEnergy};
 pub use events::{Condition, Direction, Event, EventRecord};
 pub use solve::{solve, solve_with};
 
@@ -101,6 +103,10 @@ pub struct SolveOptions {
     pub dense: bool,
     /// Events to locate.
     pub events: Vec<Event>,
+    /// Compute H at every node and report its largest relative error
+    /// ([`Solution::energy_report`]; default true). Off, H is computed only at the kept nodes
+    /// (cheaper where H needs a Newton solve per node: general Lagrangians with `every` > 1).
+    pub track_energy: bool,
 }
 
 impl SolveOptions {
@@ -122,6 +128,7 @@ impl SolveOptions {
             max_steps: None,
             dense: false,
             events: vec![],
+            track_energy: true,
         }
     }
 }
@@ -168,6 +175,8 @@ pub struct Solution {
     pub mean_iterations: f64,
     /// Energy mode statistics.
     pub energy_stats: Option<EnergyStats>,
+    /// The energy over every node of the run (with [`SolveOptions::track_energy`]).
+    pub energy_report: Option<EnergyReport>,
     /// Whether an event or the step limit stopped the run before t_end.
     pub stopped: bool,
     /// The error that stopped the run; the arrays hold everything before it.

@@ -1,14 +1,17 @@
 //! The observer behind [`super::solve`]: keeps every `every`-th node with its velocity and
 //! energy, answers `saveat` times from each new element's polynomial as the run passes them,
-//! runs the event detector, appends to the dense output, and stops at the step limit.
+//! runs the event detector, appends to the dense output, and stops at the step limit. With
+//! energy tracking on, the node's velocity and energy come from the tracker (`energy.rs`),
+//! which sees every node, so nothing is computed twice.
 
 use super::dense::{momentum, DenseOutput, ElementEval};
+use super::energy::EnergyTracker;
 use super::events::{Detector, EventRecord, Span};
 use super::{Saved, SolveOptions};
 use crate::error::{invalid, Error, Result};
 use crate::fem::LagrangeBasis;
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
-use crate::step::{Integrator, Observer};
+use crate::step::{Integrator, Observer, Start};
 
 /// The node before the current one: (k, t, q, p, v).
 struct PrevNode {
@@ -43,11 +46,17 @@ pub(crate) struct Recorder {
     last_kept: Option<usize>,
     node_v: Vec<f64>,
     node_h: f64,
+    pub(crate) tracker: Option<EnergyTracker>,
 }
 
 impl Recorder {
     /// Errors: `saveat` times not increasing or not finite.
-    pub(crate) fn new(options: &SolveOptions, basis: &LagrangeBasis, n: usize) -> Result<Self> {
+    pub(crate) fn new(
+        options: &SolveOptions,
+        basis: &LagrangeBasis,
+        n: usize,
+        (start, autonomous): (&Start, bool),
+    ) -> Result<Self> {
         let saveat = options.saveat.clone();
         if saveat.iter().any(|t| !t.is_finite()) || saveat.windows(2).any(|w| w[0] >= w[1]) {
             return Err(invalid("saveat", "times must be finite and strictly increasing"));
@@ -78,6 +87,7 @@ impl Recorder {
             last_kept: None,
             node_v: vec![0.0; n],
             node_h: f64::NAN,
+            tracker: options.track_energy.then(|| EnergyTracker::new(n, start, autonomous)),
         })
     }
 
@@ -172,7 +182,10 @@ impl<L: Lagrangian> Observer<L> for Recorder {
         // The velocity and energy at the node (a Newton solve for general Lagrangians) only
         // where they are used: kept nodes, the dense output, a saveat time on the node.
         let saved_here = self.saveat.get(self.next_save).is_some_and(|&ts| ts <= node.t);
-        if keep || self.dense_wanted || saved_here || self.prev.is_none() {
+        if let Some(tracker) = self.tracker.as_mut() {
+            self.node_h = tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
+            self.node_v.copy_from_slice(tracker.velocity());
+        } else if keep || self.dense_wanted || saved_here || self.prev.is_none() {
             let lag = it.lagrangian();
             self.node_h = hamiltonian(lag, node.t, node.q, node.p, &mut self.node_v, &mut self.work)?;
         }

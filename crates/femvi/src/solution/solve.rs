@@ -65,7 +65,8 @@ pub fn solve_with<L: Lagrangian>(
         Steps::Energy { options: e, .. } => Integrator::with_energy(lag, element, grid, start, options.solver, *e)?,
         _ => Integrator::new(lag, element, grid, start, options.solver)?,
     };
-    let mut recorder = Recorder::new(options, &element.basis, lag.dim())?;
+    let kind = (&problem.start, lag.is_autonomous());
+    let mut recorder = Recorder::new(options, &element.basis, lag.dim(), kind)?;
     let report = {
         let mut all: Vec<&mut dyn Observer<L>> = Vec::with_capacity(observers.len() + 1);
         all.push(&mut recorder);
@@ -88,6 +89,7 @@ pub fn solve_with<L: Lagrangian>(
         steps: report.steps,
         mean_iterations: it.mean_iterations(),
         energy_stats: it.energy_stats(),
+        energy_report: recorder.tracker.as_ref().map(|t| t.report()),
         stopped: report.stopped,
         error: report.error,
     })

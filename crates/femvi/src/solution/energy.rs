@@ -1,0 +1,187 @@
+//! The energy at every node of a run and how far it strays: H(t, q, p) = p·v − L by the
+//! inverse Legendre transform (each inversion warm-started from the previous node's
+//! velocity), the largest relative error |H − H0| / |H0| (|H − H0| where H0 = 0), and for a
+//! time-dependent Lagrangian the balance with the continuous law dH/dt = −∂L/∂t: the work
+//! W(t) = −∫∂L/∂t dt by the trapezoid rule over the nodes (so itself only second-order accurate
+//! in the step) and the largest |H − H0 − W| relative to |H0|.
+//!
+//! [`super::solve`] tracks it (unless [`super::SolveOptions::track_energy`] is off) and the
+//! command and the Python package report the same numbers, bit for bit, from this one place.
+
+use crate::error::{check_len, invalid, Result};
+use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
+use crate::step::Start;
+
+/// The energy of one node, as [`EnergyTracker::node`] computed it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct NodeEnergy {
+    /// The Hamiltonian H(t, q, p).
+    pub h: f64,
+    /// Its relative error against the first node's.
+    pub rel: f64,
+}
+
+/// What the energy did over a run (every node, whatever was kept).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergyReport {
+    /// Largest |H − H0| / |H0| over the nodes (|H − H0| where H0 = 0).
+    pub max_rel_error: f64,
+    /// Time-dependent L only: the largest |H − H0 − W| / |H0|, W = −∫∂L/∂t dt.
+    pub max_rel_balance: Option<f64>,
+}
+
+/// The energy balance of a time-dependent Lagrangian.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Balance {
+    /// (t, ∂L/∂t) at the last node.
+    last: Option<(f64, f64)>,
+    work: f64,
+    max_rel: f64,
+}
+
+/// Computes H at every node it is shown and keeps the largest relative error.
+///
+/// ```
+/// use femvi::solution::EnergyTracker;
+/// use femvi::{models, Lagrangian, Start};
+/// let lag = models::harmonic(1.0, 1.0)?;
+/// let start = Start::Velocity { q: vec![1.0], v: vec![0.0] };
+/// let mut tracker = EnergyTracker::new(1, &start, lag.is_autonomous());
+/// let e = tracker.node(&lag, 0.0, &[1.0], &[0.0])?;
+/// assert_eq!(e.h, 0.5);
+/// let e = tracker.node(&lag, 0.1, &[0.0], &[1.1])?; // H = 0.605
+/// assert!((e.rel - 0.21).abs() < 1e-12);
+/// assert_eq!(tracker.report().max_rel_error, e.rel);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct EnergyTracker {
+    /// Velocities of the last Legendre inversion: the next one starts from them.
+    v: Vec<f64>,
+    work: PointDerivatives,
+    e0: f64,
+    max_rel: f64,
+    current: NodeEnergy,
+    balance: Option<Balance>,
+}
+
+impl EnergyTracker {
+    /// For a system with `dim` coordinates started from `start` (whose velocities, if given,
+    /// start the first Legendre inversion); `autonomous` as [`Lagrangian::is_autonomous`].
+    pub fn new(dim: usize, start: &Start, autonomous: bool) -> Self {
+        let v = match start {
+            Start::Velocity { v, .. } if v.len() == dim => v.clone(),
+            _ => vec![0.0; dim],
+        };
+        Self {
+            v,
+            work: PointDerivatives::new(dim),
+            e0: f64::NAN,
+            max_rel: 0.0,
+            current: NodeEnergy::default(),
+            balance: (!autonomous).then_some(Balance {
+                last: None,
+                work: 0.0,
+                max_rel: 0.0,
+            }),
+        }
+    }
+
+    /// The energy at the node (t, q, p), which becomes the current one.
+    ///
+    /// # Errors
+    /// As [`hamiltonian`]: the Legendre transform cannot be inverted there, or the lengths
+    /// are not the tracker's dimension.
+    pub fn node<L: Lagrangian>(&mut self, lag: &L, t: f64, q: &[f64], p: &[f64]) -> Result<NodeEnergy> {
+        let h = hamiltonian(lag, t, q, p, &mut self.v, &mut self.work)?;
+        if self.e0.is_nan() {
+            self.e0 = h;
+        }
+        let rel = if self.e0 != 0.0 {
+            ((h - self.e0) / self.e0).abs()
+        } else {
+            (h - self.e0).abs()
+        };
+        self.max_rel = self.max_rel.max(rel);
+        self.current = NodeEnergy { h, rel };
+        if let Some(b) = self.balance.as_mut() {
+            lag.first_derivatives(t, q, &self.v, true, &mut self.work);
+            let lt = self.work.l_t();
+            if let Some((t0, lt0)) = b.last {
+                b.work -= 0.5 * (t - t0) * (lt + lt0);
+            }
+            b.last = Some((t, lt));
+            let scale = if self.e0 != 0.0 { self.e0.abs() } else { 1.0 };
+            b.max_rel = b.max_rel.max((h - self.e0 - b.work).abs() / scale);
+        }
+        Ok(self.current)
+    }
+
+    /// The energy of the last node shown (zeros before the first).
+    pub fn current(&self) -> NodeEnergy {
+        self.current
+    }
+
+    /// The velocity at the last node shown (the inverse Legendre transform of its momentum).
+    pub fn velocity(&self) -> &[f64] {
+        &self.v
+    }
+
+    /// The largest errors so far (0 before the first node).
+    pub fn report(&self) -> EnergyReport {
+        EnergyReport {
+            max_rel_error: self.max_rel,
+            max_rel_balance: self.balance.map(|b| b.max_rel),
+        }
+    }
+
+    /// The tracker's whole state as 64-bit words (f64 as bit patterns, so NaN survives), for
+    /// checkpoints: restored by [`EnergyTracker::restore_words`], the tracker continues bit for
+    /// bit as if it had not stopped.
+    pub fn words(&self) -> Vec<u64> {
+        let b = self.balance;
+        let last = b.and_then(|b| b.last);
+        let mut w = vec![
+            self.e0.to_bits(),
+            self.max_rel.to_bits(),
+            self.current.h.to_bits(),
+            self.current.rel.to_bits(),
+            u64::from(b.is_some()),
+            u64::from(last.is_some()),
+            last.map_or(0, |l| l.0.to_bits()),
+            last.map_or(0, |l| l.1.to_bits()),
+            b.map_or(0, |b| b.work.to_bits()),
+            b.map_or(0, |b| b.max_rel.to_bits()),
+        ];
+        w.extend(self.v.iter().map(|x| x.to_bits()));
+        w
+    }
+
+    /// Restores the state [`EnergyTracker::words`] gave into a tracker of the same dimension
+    /// and kind (autonomous or not).
+    ///
+    /// # Errors
+    /// The words have the wrong length or were written by a tracker of the other kind.
+    pub fn restore_words(&mut self, words: &[u64]) -> Result<()> {
+        check_len("energy tracker state", 10 + self.v.len(), words.len())?;
+        let f = |i: usize| f64::from_bits(words[i]);
+        if (words[4] == 1) != self.balance.is_some() {
+            return Err(invalid(
+                "energy tracker state",
+                "written for a Lagrangian of the other kind (autonomous or time-dependent)",
+            ));
+        }
+        self.e0 = f(0);
+        self.max_rel = f(1);
+        self.current = NodeEnergy { h: f(2), rel: f(3) };
+        if let Some(b) = self.balance.as_mut() {
+            b.last = (words[5] == 1).then(|| (f(6), f(7)));
+            b.work = f(8);
+            b.max_rel = f(9);
+        }
+        for (x, w) in self.v.iter_mut().zip(&words[10..]) {
+            *x = f64::from_bits(*w);
+        }
+        Ok(())
+    }
+}
