@@ -26,6 +26,24 @@ pub enum Reference {
     Step(f64),
 }
 
+impl std::str::FromStr for Reference {
+    type Err = String;
+
+    /// `exact`, `finest` or a positive step (the `--reference` argument).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "exact" => Ok(Reference::Exact),
+            "finest" => Ok(Reference::Finest),
+            other => match other.parse::<f64>() {
+                Ok(h) if h > 0.0 && h.is_finite() => Ok(Reference::Step(h)),
+                _ => Err(format!(
+                    "--reference must be exact, finest or a positive step, not '{other}'"
+                )),
+            },
+        }
+    }
+}
+
 /// One run of the study.
 #[derive(Debug, Serialize)]
 pub struct Run {

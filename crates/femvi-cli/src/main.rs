@@ -358,17 +358,12 @@ fn cmd_convergence(path: &std::path::Path, set: &[String], what: ConvergenceArgs
         Ok(p) => p,
         Err(code) => return code,
     };
-    let reference = match reference {
-        None => None,
-        Some("exact") => Some(convergence::Reference::Exact),
-        Some("finest") => Some(convergence::Reference::Finest),
-        Some(other) => match other.parse::<f64>() {
-            Ok(h) if h > 0.0 && h.is_finite() => Some(convergence::Reference::Step(h)),
-            _ => {
-                eprintln!("error: --reference must be exact, finest or a positive step, not '{other}'");
-                return ExitCode::from(BAD_INPUT);
-            }
-        },
+    let reference = match reference.map(str::parse::<convergence::Reference>).transpose() {
+        Ok(r) => r,
+        Err(msg) => {
+            eprintln!("error: {msg}");
+            return ExitCode::from(BAD_INPUT);
+        }
     };
     let study = match convergence::study(&problem, steps, reference, l2) {
         Ok(s) => s,

@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex};
 pub struct Raised(Arc<Mutex<Option<PyErr>>>);
 
 impl Raised {
-    fn keep(&self, e: PyErr) {
+    pub(crate) fn keep(&self, e: PyErr) {
         if let Ok(mut slot) = self.0.lock() {
             slot.get_or_insert(e);
         }

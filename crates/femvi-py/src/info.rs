@@ -1,4 +1,5 @@
-//! The model catalogue, the models' problem files, and `femvi check` / `femvi bvp` reports.
+//! The model catalogue, the models' problem files, and `femvi check` / `femvi convergence` /
+//! `femvi bvp` reports.
 
 use crate::input_error;
 use femvi_cli::models::MODEL_FILES;
@@ -68,6 +69,27 @@ pub fn bvp_file(py: Python<'_>, path: PathBuf, dir: PathBuf) -> PyResult<String>
         let p = problem::load_bvp(&path).map_err(|e| e.to_string())?;
         let s = femvi_cli::bvp::run(&p, &dir).map_err(|(msg, _)| format!("{}: {msg}", path.display()))?;
         serde_json::to_string(&s).map_err(|e| e.to_string())
+    })
+    .map_err(input_error)
+}
+
+/// `femvi convergence` on a problem file (steps, `reference` as `--reference`, `l2` as
+/// `--l2`): its JSON report, as text.
+#[pyfunction]
+#[pyo3(signature = (path, steps, reference=None, l2=false))]
+pub fn convergence_file(
+    py: Python<'_>,
+    path: PathBuf,
+    steps: Vec<f64>,
+    reference: Option<String>,
+    l2: bool,
+) -> PyResult<String> {
+    py.allow_threads(|| {
+        let reference = reference.as_deref().map(str::parse).transpose()?;
+        let p = problem::load(&path).map_err(|e| e.to_string())?;
+        let study = femvi_cli::convergence::study(&p, &steps, reference, l2)
+            .map_err(|(msg, _)| format!("{}: {msg}", path.display()))?;
+        serde_json::to_string(&study).map_err(|e| e.to_string())
     })
     .map_err(input_error)
 }

@@ -5,6 +5,7 @@
 //! into a problem file, and wraps the results in `Solution` and typed exceptions.
 
 mod arrays;
+mod callable;
 mod ensemble;
 mod events;
 mod info;
@@ -30,6 +31,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(info::model_problem, m)?)?;
     m.add_function(wrap_pyfunction!(info::check_file, m)?)?;
     m.add_function(wrap_pyfunction!(info::bvp_file, m)?)?;
+    m.add_function(wrap_pyfunction!(info::convergence_file, m)?)?;
     m.add_class::<solve::Dense>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -44,10 +44,26 @@ pub fn load(path: &Path) -> Result<(Problem, String), String> {
 }
 
 /// Runs a loaded problem. Err: the library rejected it (message as the command prints it).
+// The macro's systems are all Clone, one of them also Copy.
+#[allow(clippy::clone_on_copy)]
 pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Result<Run, String> {
-    let rejected = |e: String| format!("{}: {e}", path.display());
     let _ = text;
-    // The problem file's [[events]] first (as `femvi run` locates them), then Python's.
+    run_on(
+        problem,
+        path,
+        extras,
+        |options| femvi_cli::with_system!(&problem.system, l => run_with(l.clone(), problem, options)),
+    )
+}
+
+/// Runs a loaded problem with the system `go` integrates (given the solve options): the
+/// problem file's [[events]] first (as `femvi run` locates them), then Python's.
+pub fn run_on(
+    problem: &Problem,
+    path: &Path,
+    extras: &Extras,
+    go: impl FnOnce(&SolveOptions) -> femvi::Result<Run>,
+) -> Result<Run, String> {
     let mut events: Vec<femvi::solution::Event> = problem.events.iter().map(|e| e.event()).collect();
     let offset = events.len();
     events.extend(extras.events.iter().cloned());
@@ -61,24 +77,20 @@ pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Resul
         events,
         track_energy: true,
     };
-    let mut r = femvi_cli::with_system!(&problem.system, l => run_with(l, problem, &options))
-        .map_err(|e| rejected(e.to_string()))?;
+    let mut r = go(&options).map_err(|e| format!("{}: {e}", path.display()))?;
     r.event_names = options.events.iter().map(|e| e.name.clone()).collect();
     r.file_events = offset;
     Ok(r)
 }
 
-fn run_with<L: Lagrangian + Clone>(lag: &L, problem: &Problem, options: &SolveOptions) -> femvi::Result<Run> {
-    let p = femvi::Problem::new(
-        lag.clone(),
-        problem.start.clone(),
-        problem.grid.t0(),
-        problem.grid.end(),
-    );
+/// `solve` of the loaded problem with the system `lag`.
+pub fn run_with<L: Lagrangian>(lag: L, problem: &Problem, options: &SolveOptions) -> femvi::Result<Run> {
+    let n = lag.dim();
+    let p = femvi::Problem::new(lag, problem.start.clone(), problem.grid.t0(), problem.grid.end());
     let sol = match solve(&p, &problem.element, options) {
         Ok(sol) => sol,
         // The start from (q0, q1) failed: a numerical failure with no node, as the command has it.
-        Err(femvi::Error::Step(e)) => return Ok(first_element_failed(lag.dim(), e)),
+        Err(femvi::Error::Step(e)) => return Ok(first_element_failed(n, e)),
         Err(e) => return Err(e),
     };
     let max_rel_energy_error = sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error);
@@ -155,7 +167,8 @@ impl Dense {
 
 /// Runs the problem file at `path` (GIL released) and returns its results as a dict.
 #[pyfunction]
-#[pyo3(signature = (path, every=None, saveat=None, dense=false, max_steps=None, events=None))]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (path, every=None, saveat=None, dense=false, max_steps=None, events=None, potential=None))]
 pub fn solve_file(
     py: Python<'_>,
     path: PathBuf,
@@ -164,6 +177,7 @@ pub fn solve_file(
     dense: bool,
     max_steps: Option<usize>,
     events: Option<Vec<crate::events::Spec>>,
+    potential: Option<crate::callable::PySystem>,
 ) -> PyResult<Bound<'_, PyDict>> {
     let raised = crate::events::Raised::default();
     let extras = Extras {
@@ -175,7 +189,10 @@ pub fn solve_file(
     };
     let done = py.allow_threads(|| -> Result<(Run, Vec<String>, String, String), String> {
         let (problem, text) = load(&path)?;
-        let r = run(&problem, &text, &path, &extras)?;
+        let r = match potential {
+            None => run(&problem, &text, &path, &extras)?,
+            Some(system) => crate::callable::run(&problem, &path, &extras, system, &raised)?,
+        };
         Ok((
             r,
             problem.coordinates.clone(),

@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import tempfile
 from pathlib import Path
-from typing import Any, Dict, List, Mapping, Optional, Sequence
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from ._solution import EnsembleResult, Event, NumericalError, Solution
 
 __version__ = _core.__version__
 __all__ = [
-    "solve", "ensemble", "models", "model_problem", "check", "bvp", "Solution",
+    "solve", "ensemble", "models", "model_problem", "check", "convergence", "bvp", "Solution",
     "EnsembleResult", "Event", "InputError", "NumericalError", "problem_text", "dumps",
 ]
 
@@ -42,9 +42,27 @@ def _input_error(e: InputError, path: Path, shown: str) -> InputError:
     return InputError(str(e).replace(str(path), shown))
 
 
+def _python_system(problem: Any, merged: Dict[str, Any]) -> Dict[str, Any]:
+    """The problem for a Python potential: its [system] gives `coordinates` only; a
+    placeholder Lagrangian lets the command's loader check everything else."""
+    d, _ = to_dict(problem)
+    apply_overrides(d, merged)
+    system = d.get("system")
+    if isinstance(system, dict) and ("lagrangian" in system or "model" in system):
+        raise InputError("<problem>: give either potential= or [system] `lagrangian`/`model`, not both")
+    coords = system.get("coordinates") if isinstance(system, dict) else None
+    if not isinstance(coords, list) or not coords or not all(isinstance(c, str) for c in coords):
+        raise InputError("<problem>: with potential=, [system] needs `coordinates` (a list of names)")
+    system["lagrangian"] = " + ".join(f"0.5*{c}_dot^2" for c in coords)
+    return d
+
+
 def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every: Optional[int] = None,
           saveat: Optional[Sequence[float]] = None, dense: bool = False, max_steps: Optional[int] = None,
-          events: Optional[Sequence[Any]] = None, raise_on_error: bool = True, **kw: Any) -> Solution:
+          events: Optional[Sequence[Any]] = None, raise_on_error: bool = True,
+          potential: Optional[Callable[[np.ndarray], float]] = None,
+          force: Optional[Callable[[np.ndarray], np.ndarray]] = None,
+          masses: Optional[Sequence[float]] = None, **kw: Any) -> Solution:
     """Integrates a problem as ``femvi run`` does and returns a :class:`Solution`.
 
     ``problem``: a problem file's path, TOML text, or a dict of the same structure.
@@ -54,16 +72,31 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
     (``sol.q_at(t)``); ``max_steps``: stop after this many steps; ``events``: :class:`Event`s
     or plain callables g(t, q, v) (located zeros in ``sol.events``).
 
+    ``potential``, ``force``, ``masses``: a system written in Python, for prototyping:
+    L = ½ Σ m_i v_i² − V(q) with V = ``potential(q)`` and the force −∇V = ``force(q)`` (both
+    take a 1-D NumPy array; ``masses`` default 1); the problem's ``[system]`` then gives only
+    ``coordinates``. Each call costs 3–4 µs with NumPy inside (``examples/callable_cost.py``
+    measures it); an exception raised by either stops the run and is re-raised. Time steps as
+    variables are refused (they need second derivatives), and with ``method = "newton"`` the
+    force Jacobian is taken by central differences.
+
     Raises :class:`InputError` for a bad problem (the command's message) and
     :class:`NumericalError` when a step fails (unless ``raise_on_error=False``, which returns
     the partial solution with ``sol.error`` set). The GIL is released during the run.
     """
     evs = [e if isinstance(e, Event) else Event(e) for e in (events or [])]
-    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+    merged = _merge(overrides, kw)
+    system = None
+    if potential is not None or force is not None:
+        if potential is None or force is None:
+            raise TypeError("potential= and force= go together (V(q) and -grad V(q))")
+        problem, merged = _python_system(problem, merged), {}
+        system = (potential, force, None if masses is None else [float(m) for m in masses])
+    with problem_file(problem, merged) as (path, shown):
         try:
             raw = _core.solve_file(str(path), every=every, saveat=None if saveat is None else
                                    [float(x) for x in saveat], dense=dense, max_steps=max_steps,
-                                   events=[e.spec() for e in evs] or None)
+                                   events=[e.spec() for e in evs] or None, potential=system)
         except InputError as e:
             raise _input_error(e, path, shown) from None
     sol = Solution(raw)
@@ -146,6 +179,19 @@ def check(problem: Any, overrides: Optional[Mapping[str, Any]] = None, **kw: Any
     with problem_file(problem, _merge(overrides, kw)) as (path, shown):
         try:
             return json.loads(_core.check_file(str(path)))
+        except InputError as e:
+            raise _input_error(e, path, shown) from None
+
+
+def convergence(problem: Any, steps: Sequence[float], reference: Optional[str] = None, l2: bool = False,
+                overrides: Optional[Mapping[str, Any]] = None, **kw: Any) -> Dict[str, Any]:
+    """``femvi convergence``'s report as a dict: final errors at each step in ``steps``, the
+    fitted orders; ``reference`` as ``--reference`` ("exact", "finest" or a step), ``l2`` as
+    ``--l2``."""
+    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+        try:
+            return json.loads(_core.convergence_file(str(path), [float(h) for h in steps],
+                                                     None if reference is None else str(reference), l2))
         except InputError as e:
             raise _input_error(e, path, shown) from None
 

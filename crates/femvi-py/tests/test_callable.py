@@ -1,0 +1,96 @@
+"""A potential written in Python (for prototyping) against the same system built in, and
+`femvi.convergence` against the command."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import femvi
+from conftest import EXAMPLES
+
+KEPLER = {
+    "system": {"model": "kepler", "parameters": {"mu": 1.0}},
+    "initial": {"q": [0.5, 0.0], "p": [0.0, 3.0 ** 0.5]},
+    "scheme": {"degree": 2, "quadrature": "gauss-legendre"},
+    "time": {"step": 0.05, "end": 20.0},
+}
+
+
+def kepler_in_python():
+    d = {k: dict(v) for k, v in KEPLER.items()}
+    d["system"] = {"coordinates": ["x", "y"]}
+    return d
+
+
+def V(q):
+    return -1.0 / np.hypot(q[0], q[1])
+
+
+def F(q):
+    return -q / np.hypot(q[0], q[1]) ** 3
+
+
+def test_a_python_potential_follows_the_built_in_model():
+    ref = femvi.solve(KEPLER)
+    sol = femvi.solve(kepler_in_python(), potential=V, force=F)
+    assert sol.q.shape == ref.q.shape and sol.steps == ref.steps
+    # The same scheme on the same system: only rounding in the force differs.
+    assert np.max(np.abs(sol.q - ref.q)) < 1e-10
+    assert np.max(np.abs(sol.p - ref.p)) < 1e-10
+    assert np.max(np.abs(sol.energy - ref.energy)) < 1e-12
+    assert abs(sol.max_rel_energy_error - ref.max_rel_energy_error) < 1e-10
+
+
+def test_masses_and_newton_with_a_finite_difference_jacobian():
+    # Harmonic oscillator m = 2, k = 3 (omega^2 = 3/2) against the built-in model.
+    h = {"system": {"model": "harmonic", "parameters": {"m": 2.0, "k": 3.0}},
+         "initial": {"q": [1.0], "p": [0.0]}, "scheme": {"degree": 3, "quadrature": "gauss-legendre"},
+         "time": {"step": 0.1, "end": 10.0}}
+    ref = femvi.solve(h)
+    mine = {**h, "system": {"coordinates": ["x"]}}
+    a = femvi.solve(mine, potential=lambda q: 1.5 * q[0] ** 2, force=lambda q: -3.0 * q, masses=[2.0])
+    b = femvi.solve({**mine, "solver": {"method": "newton"}}, potential=lambda q: 1.5 * q[0] ** 2,
+                    force=lambda q: -3.0 * q, masses=[2.0])
+    for s in (a, b):
+        assert np.max(np.abs(s.q - ref.q)) < 1e-11 and np.max(np.abs(s.p - ref.p)) < 1e-11
+
+
+def test_python_potential_errors():
+    class Boom(Exception):
+        pass
+
+    def bad_force(q):
+        if q[0] < 0.3:
+            raise Boom("stop here")
+        return F(q)
+
+    with pytest.raises(Boom, match="stop here"):
+        femvi.solve(kepler_in_python(), potential=V, force=bad_force)
+    with pytest.raises(femvi.InputError, match="returned 3 values"):
+        femvi.solve(kepler_in_python(), potential=V, force=lambda q: np.zeros(3))
+    with pytest.raises(femvi.InputError, match="mode = \"energy\""):
+        femvi.solve({**kepler_in_python(), "time": {"mode": "energy", "step": 0.05, "end": 1.0}},
+                    potential=V, force=F)
+    with pytest.raises(femvi.InputError, match="masses has 1 entries"):
+        femvi.solve(kepler_in_python(), potential=V, force=F, masses=[1.0])
+    with pytest.raises(femvi.InputError, match="not both"):
+        femvi.solve(KEPLER, potential=V, force=F)
+    with pytest.raises(TypeError):
+        femvi.solve(kepler_in_python(), potential=V)
+
+
+def test_convergence_equals_the_command(tmp_path, femvi_bin):
+    f = EXAMPLES / "kepler.toml"
+    steps = [0.1, 0.05, 0.025]
+    mine = femvi.convergence(f, steps, reference="exact", **{"time.end": 5.0})
+    out = subprocess.run([str(femvi_bin), "convergence", str(f), "--set", "time.end=5.0", "--steps",
+                          ",".join(map(str, steps)), "--reference", "exact", "--json",
+                          "--out", str(tmp_path / "o")],
+                         capture_output=True, text=True, check=True)
+    theirs = json.loads(out.stdout)
+    assert [r["error"] for r in mine["runs"]] == [r["error"] for r in theirs["runs"]]
+    assert mine["order"] == theirs["order"] and mine["order"] > 1.5
+    with pytest.raises(femvi.InputError, match="--reference"):
+        femvi.convergence(f, steps, reference="nope")
