@@ -75,7 +75,8 @@ impl Axis {
         })
     }
 
-    fn value(&self, i: usize) -> f64 {
+    /// The i-th of the n values (lo for a single point).
+    pub fn value(&self, i: usize) -> f64 {
         if self.n == 1 {
             self.lo
         } else {

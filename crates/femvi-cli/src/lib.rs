@@ -8,6 +8,7 @@ pub mod bvp;
 pub mod chaos;
 pub mod check;
 pub mod convergence;
+pub mod ensemble;
 pub mod events;
 pub mod models;
 pub mod plot;

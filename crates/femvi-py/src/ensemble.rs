@@ -1,96 +1,27 @@
 //! Ensembles: N runs of one problem with other initial states and/or parameters, on a rayon
-//! pool of `workers` threads with the GIL released. Each member is driven exactly as a single
-//! run (and as `femvi run`): the same integrator, the command's energy observer; a member's
-//! failure is its own error and does not stop the others.
+//! pool of `workers` threads with the GIL released, through the command's own ensemble runner
+//! (`femvi_cli::ensemble`, which `femvi ensemble` uses): each member is driven exactly as a
+//! single run; a member's failure is its own error and does not stop the others. A progress
+//! callback, if given, is called from the calling thread with (done, total) about five
+//! times a second while the members run.
 
 use crate::arrays::{rows, vec1};
 use crate::input_error;
 use crate::solve::load;
-use femvi::step::drive;
-use femvi::{Integrator, Lagrangian, Start};
-use femvi_cli::problem::Problem;
-use femvi_cli::record::EnergyError;
+use femvi_cli::ensemble::{run_all, run_member, start_of, Member};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use rayon::prelude::*;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// What one member ends with.
-struct Member {
-    final_t: f64,
-    q: Vec<f64>,
-    p: Vec<f64>,
-    energy_error: f64,
-    steps: usize,
-    error: Option<String>,
-}
-
-impl Member {
-    fn failed(n: usize, t: f64, error: String) -> Self {
-        Member {
-            final_t: t,
-            q: vec![f64::NAN; n],
-            p: vec![f64::NAN; n],
-            energy_error: f64::NAN,
-            steps: 0,
-            error: Some(error),
-        }
-    }
-}
-
-/// Drives `problem` from `start` to its end (or its first failure).
-fn run_member(problem: &Problem, start: Start) -> Member {
-    femvi_cli::with_system!(&problem.system, l => drive_member(l, problem, start))
-}
-
-fn drive_member<L: Lagrangian>(lag: &L, problem: &Problem, start: Start) -> Member {
-    let n = lag.dim();
-    let mut energy = EnergyError::new(n, &start, lag.is_autonomous());
-    let grid = problem.grid.clone();
-    let made = match problem.energy {
-        None => Integrator::new(lag, &problem.element, grid, start, problem.options),
-        Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
-    };
-    let mut it = match made {
-        Ok(it) => it,
-        Err(femvi::Error::Step(e)) => return Member::failed(n, problem.grid.t0(), format!("first element: {e}")),
-        Err(e) => return Member::failed(n, problem.grid.t0(), e.to_string()),
-    };
-    let report = drive(&mut it, &mut [&mut energy]);
-    let node = it.node();
-    Member {
-        final_t: node.t,
-        q: node.q.to_vec(),
-        p: node.p.to_vec(),
-        energy_error: energy.max_rel(),
-        steps: report.steps,
-        error: report.error.map(|e| e.to_string()),
-    }
-}
-
-/// The start of member i: row i of `states` as (q, p) or (q, v), else the problem's own.
-fn start_of(problem: &Problem, states: Option<&[f64]>, i: usize, n: usize, velocity: bool) -> Start {
-    match states {
-        None => problem.start.clone(),
-        Some(s) => {
-            let row = &s[i * 2 * n..(i + 1) * 2 * n];
-            let (q, x) = (row[..n].to_vec(), row[n..].to_vec());
-            if velocity {
-                Start::Velocity { q, v: x }
-            } else {
-                Start::Momentum { q, p: x }
-            }
-        }
-    }
-}
+use std::time::Duration;
 
 /// Runs an ensemble. `path`: the problem file; `member_files`: one problem file per member
 /// (other parameters), or None to share `path`'s; `states`: (N, 2n) rows of (q0, p0) (or
 /// (q0, v0) with `velocity`); `count`: N when neither is given per member.
 #[pyfunction]
-#[pyo3(signature = (path, member_files=None, states=None, velocity=false, count=1, workers=None))]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (path, member_files=None, states=None, velocity=false, count=1, workers=None, progress=None))]
 pub fn ensemble_file<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -99,6 +30,7 @@ pub fn ensemble_file<'py>(
     velocity: bool,
     count: usize,
     workers: Option<usize>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (problem, _) = load(&path).map_err(input_error)?;
     let n = problem.coordinates.len();
@@ -128,32 +60,51 @@ pub fn ensemble_file<'py>(
             ));
         }
     }
-    let threads = workers.unwrap_or(0);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
     let bad_input = AtomicUsize::new(usize::MAX);
-    let members: Vec<Member> = py.allow_threads(|| {
-        pool.install(|| {
-            (0..size)
-                .into_par_iter()
-                .map(|i| match &member_files {
-                    None => run_member(&problem, start_of(&problem, states.as_deref(), i, n, velocity)),
-                    Some(files) => match load(&files[i]) {
-                        Ok((p, _)) => {
-                            let start = start_of(&p, states.as_deref(), i, n, velocity);
-                            run_member(&p, start)
-                        }
-                        Err(e) => {
-                            bad_input.fetch_min(i, Ordering::Relaxed);
-                            Member::failed(n, f64::NAN, e)
-                        }
-                    },
-                })
-                .collect()
+    let done = AtomicUsize::new(0);
+    let member = |i: usize| -> Member {
+        let loaded;
+        let p = match &member_files {
+            None => &problem,
+            Some(files) => match load(&files[i]) {
+                Ok((p, _)) => {
+                    loaded = p;
+                    &loaded
+                }
+                Err(e) => {
+                    bad_input.fetch_min(i, Ordering::Relaxed);
+                    return Member::failed(n, f64::NAN, e);
+                }
+            },
+        };
+        match start_of(p, states.as_deref(), i, velocity) {
+            Ok(start) => run_member(p, start),
+            Err(e) => {
+                bad_input.fetch_min(i, Ordering::Relaxed);
+                Member::failed(n, f64::NAN, e)
+            }
+        }
+    };
+    let ran = py.allow_threads(|| {
+        std::thread::scope(|scope| {
+            let worker = scope.spawn(|| run_all(size, workers.unwrap_or(0), &done, member));
+            if let Some(cb) = &progress {
+                while !worker.is_finished() {
+                    std::thread::sleep(Duration::from_millis(200));
+                    let k = done.load(Ordering::Relaxed);
+                    // A failing progress callback only loses the display.
+                    let _ = Python::with_gil(|py| cb.call1(py, (k, size)));
+                }
+            }
+            worker
+                .join()
+                .unwrap_or_else(|_| Err("an ensemble worker panicked".into()))
         })
     });
+    let members = ran.map_err(pyo3::exceptions::PyRuntimeError::new_err)?;
+    if let Some(cb) = &progress {
+        let _ = cb.call1(py, (size, size));
+    }
     let first_bad = bad_input.load(Ordering::Relaxed);
     if first_bad != usize::MAX {
         let msg = members[first_bad].error.clone().unwrap_or_default();

@@ -100,3 +100,19 @@ def test_gil_released_during_runs(call):
     thread.join()
     assert last - start > 0.3, "the run was too short to tell"
     assert gap < min(0.15, (last - start) / 3), f"this thread waited {gap:.3f} s for the GIL"
+
+
+def test_progress_reaches_the_total(capsys):
+    seen = []
+    states = np.tile([0.4, 0.0, 0.0, 2.0], (50, 1))
+    ens = femvi.ensemble(EXAMPLES / "kepler.toml", initial_states=states, workers=2, progress=False,
+                         **{"time.end": 20.0})
+    assert len(ens.final_q) == 50
+    # The Rust side calls the callback with (done, total) and at the end with (total, total).
+    raw = femvi._core.ensemble_file(str(EXAMPLES / "kepler.toml"), None, states, False, 1, 2,
+                                    lambda done, total: seen.append((done, total)))
+    assert seen and seen[-1] == (50, 50) and all(0 <= d <= t == 50 for d, t in seen)
+    assert raw["final_q"].shape == (50, 2)
+    femvi.ensemble(EXAMPLES / "kepler.toml", initial_states=states[:3], progress=True, **{"time.end": 1.0})
+    out = capsys.readouterr()
+    assert "3/3" in out.err or "femvi ensemble" in out.err

@@ -14,6 +14,7 @@ Results equal the command's (``femvi run``) bit for bit.
 from __future__ import annotations
 
 import json
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
@@ -121,14 +122,18 @@ def _states(initial_states: Any, n_hint: Optional[int] = None):
 
 def ensemble(problem: Any, initial_states: Any = None, parameters: Optional[Mapping[str, Any]] = None,
              workers: Optional[int] = None, overrides: Optional[Mapping[str, Any]] = None,
-             count: Optional[int] = None, **kw: Any) -> EnsembleResult:
+             count: Optional[int] = None, progress: Optional[bool] = None, **kw: Any) -> EnsembleResult:
     """N runs of one problem on a pool of ``workers`` Rust threads (default: all cores).
 
     ``initial_states``: an (N, 2n) array of rows (q0, p0), or a dict with "q" (N, n) and "p" or
     "v" (N, n). ``parameters``: a dict name -> (N,) array of ``[system] parameters``. Each
     member equals the single :func:`solve` of its problem bit for bit; a member's failure is
     recorded in ``errors`` and does not stop the others. Returns an :class:`EnsembleResult`.
+
+    ``progress``: show a progress bar (tqdm's, in notebooks and terminals, if tqdm is
+    installed; else a line on stderr); default: when stderr is a terminal or in a notebook.
     """
+    bar = _progress_bar(progress)
     states, velocity = _states(initial_states)
     merged = _merge(overrides, kw)
     params = {k: np.asarray(v, dtype=np.float64).reshape(-1) for k, v in (parameters or {}).items()}
@@ -138,15 +143,62 @@ def ensemble(problem: Any, initial_states: Any = None, parameters: Optional[Mapp
     with problem_file(problem, merged) as (path, shown):
         try:
             if not params:
-                raw = _core.ensemble_file(str(path), None, states, velocity, count or 1, workers)
+                raw = _core.ensemble_file(str(path), None, states, velocity, count or 1, workers, bar)
             else:
-                raw = _parameter_ensemble(problem, merged, params, states, velocity, workers, path)
+                raw = _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar)
         except InputError as e:
             raise _input_error(e, path, shown) from None
+        finally:
+            if bar is not None:
+                bar.close()
     return EnsembleResult(raw)
 
 
-def _parameter_ensemble(problem, merged, params, states, velocity, workers, path):
+def _in_notebook() -> bool:
+    try:
+        from IPython import get_ipython  # type: ignore
+    except ImportError:
+        return False
+    shell = get_ipython()
+    return shell is not None and "IPKernelApp" in getattr(shell, "config", {})
+
+
+class _Progress:
+    """A callable (done, total) that draws a progress bar: tqdm.auto's if available, else a
+    line on stderr."""
+
+    def __init__(self) -> None:
+        self._tqdm = None
+        self._shown = -1
+        try:
+            from tqdm.auto import tqdm  # type: ignore
+            self._tqdm = tqdm(total=0, unit="member", desc="femvi ensemble")
+        except ImportError:
+            pass
+
+    def __call__(self, done: int, total: int) -> None:
+        if self._tqdm is not None:
+            self._tqdm.total = total
+            self._tqdm.update(done - self._tqdm.n)
+        elif done != self._shown:
+            self._shown = done
+            sys.stderr.write(f"\rfemvi ensemble: {done}/{total} members ({100 * done // max(total, 1)} %)")
+            sys.stderr.flush()
+
+    def close(self) -> None:
+        if self._tqdm is not None:
+            self._tqdm.close()
+        elif self._shown >= 0:
+            sys.stderr.write("\n")
+
+
+def _progress_bar(progress: Optional[bool]) -> Optional[_Progress]:
+    if progress is None:
+        progress = sys.stderr.isatty() or _in_notebook()
+    return _Progress() if progress else None
+
+
+def _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar):
     d, _ = to_dict(problem)
     apply_overrides(d, merged)
     size = len(next(iter(params.values())))
@@ -160,7 +212,7 @@ def _parameter_ensemble(problem, merged, params, states, velocity, workers, path
             f = Path(tmp) / f"{path.stem}-{i}.toml"
             f.write_text(dumps(di), encoding="utf-8")
             files.append(str(f))
-        return _core.ensemble_file(str(path), files, states, velocity, size, workers)
+        return _core.ensemble_file(str(path), files, states, velocity, size, workers, bar)
 
 
 def models() -> List[Dict[str, Any]]:

@@ -1,7 +1,7 @@
 """Type stubs of the Rust extension (femvi._core); the public API is in femvi/__init__.py."""
 
 from os import PathLike
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Callable, Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -35,6 +35,7 @@ def ensemble_file(
     velocity: bool = False,
     count: int = 1,
     workers: Optional[int] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Dict[str, Any]: ...
 def models() -> List[Dict[str, Any]]: ...
 def model_problem(name: str) -> str: ...

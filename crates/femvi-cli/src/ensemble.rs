@@ -1,0 +1,311 @@
+//! Ensembles: N runs of one problem with other initial states and/or parameter values, on a
+//! rayon pool. Each member is driven exactly as `femvi run` drives a run (the same integrator,
+//! the same energy observer), so a member's numbers are those of the single run bit for bit;
+//! a member's failure is its own error and does not stop the others. `femvi ensemble` and the
+//! Python package (`femvi.ensemble`) both run through [`run_all`] and write or return what
+//! [`Member`] holds.
+
+use crate::problem::Problem;
+use crate::record::{write_table, EnergyError};
+use femvi::step::drive;
+use femvi::{Integrator, Lagrangian, Start};
+use rayon::prelude::*;
+use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// What one member ends with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Member {
+    /// Time of the last node.
+    pub final_t: f64,
+    /// Positions there (NaN if the member never started).
+    pub q: Vec<f64>,
+    /// Momenta there.
+    pub p: Vec<f64>,
+    /// Largest relative energy error over its nodes.
+    pub energy_error: f64,
+    /// Steps taken.
+    pub steps: usize,
+    /// The error that stopped it, if any.
+    pub error: Option<String>,
+}
+
+impl Member {
+    /// A member that did not start.
+    pub fn failed(n: usize, t: f64, error: String) -> Self {
+        Member {
+            final_t: t,
+            q: vec![f64::NAN; n],
+            p: vec![f64::NAN; n],
+            energy_error: f64::NAN,
+            steps: 0,
+            error: Some(error),
+        }
+    }
+}
+
+/// Drives `problem` from `start` to its end (or its first failure), as `femvi run` does.
+pub fn run_member(problem: &Problem, start: Start) -> Member {
+    crate::with_system!(&problem.system, l => drive_member(l, problem, start))
+}
+
+fn drive_member<L: Lagrangian>(lag: &L, problem: &Problem, start: Start) -> Member {
+    let n = lag.dim();
+    let mut energy = EnergyError::new(n, &start, lag.is_autonomous());
+    let grid = problem.grid.clone();
+    let made = match problem.energy {
+        None => Integrator::new(lag, &problem.element, grid, start, problem.options),
+        Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
+    };
+    let mut it = match made {
+        Ok(it) => it,
+        Err(femvi::Error::Step(e)) => return Member::failed(n, problem.grid.t0(), format!("first element: {e}")),
+        Err(e) => return Member::failed(n, problem.grid.t0(), e.to_string()),
+    };
+    let report = drive(&mut it, &mut [&mut energy]);
+    let node = it.node();
+    Member {
+        final_t: node.t,
+        q: node.q.to_vec(),
+        p: node.p.to_vec(),
+        energy_error: energy.max_rel(),
+        steps: report.steps,
+        error: report.error.map(|e| e.to_string()),
+    }
+}
+
+/// The start of member i: row i of `states` (rows of 2n numbers) as (q, p), or (q, v) with
+/// `velocity`; the problem's own start without `states`. Err: the row does not exist.
+pub fn start_of(problem: &Problem, states: Option<&[f64]>, i: usize, velocity: bool) -> Result<Start, String> {
+    let n = problem.coordinates.len();
+    let Some(s) = states else {
+        return Ok(problem.start.clone());
+    };
+    let row = s
+        .get(i * 2 * n..(i + 1) * 2 * n)
+        .ok_or_else(|| format!("initial state {i} is missing (rows of 2n = {} numbers)", 2 * n))?;
+    let (q, x) = (row[..n].to_vec(), row[n..].to_vec());
+    Ok(if velocity {
+        Start::Velocity { q, v: x }
+    } else {
+        Start::Momentum { q, p: x }
+    })
+}
+
+/// Runs members `0..size` (member i is `member(i)`) on `workers` threads (0: all cores),
+/// counting finished members in `done` (for a progress display). Err: the pool cannot start.
+pub fn run_all(
+    size: usize,
+    workers: usize,
+    done: &AtomicUsize,
+    member: impl Fn(usize) -> Member + Sync,
+) -> Result<Vec<Member>, String> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(workers)
+        .build()
+        .map_err(|e| e.to_string())?;
+    Ok(pool.install(|| {
+        (0..size)
+            .into_par_iter()
+            .map(|i| {
+                let m = member(i);
+                done.fetch_add(1, Ordering::Relaxed);
+                m
+            })
+            .collect()
+    }))
+}
+
+/// The column names of an ensemble table: `member`, `final_t`, the coordinates, `p_` and the
+/// coordinates, `energy_error`, `steps`.
+pub fn columns(coordinates: &[String]) -> Vec<String> {
+    let mut c = vec!["member".to_string(), "final_t".to_string()];
+    c.extend(coordinates.iter().cloned());
+    c.extend(coordinates.iter().map(|x| format!("p_{x}")));
+    c.push("energy_error".into());
+    c.push("steps".into());
+    c
+}
+
+/// Writes `ensemble.csv` (the [`columns`] and `error`, numbers in shortest round-trip form)
+/// and `ensemble.npy` (the numeric columns, NaN for what a failed member lacks, with
+/// `ensemble_columns.txt`) into `dir`.
+///
+/// # Errors
+/// The files cannot be written.
+pub fn write(dir: &Path, coordinates: &[String], members: &[Member]) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let cols = columns(coordinates);
+    let mut table = Vec::with_capacity(members.len() * cols.len());
+    let mut w = csv::Writer::from_path(dir.join("ensemble.csv"))?;
+    let mut header = cols.clone();
+    header.push("error".into());
+    w.write_record(&header)?;
+    for (i, m) in members.iter().enumerate() {
+        let mut row = vec![i as f64, m.final_t];
+        row.extend(&m.q);
+        row.extend(&m.p);
+        row.push(m.energy_error);
+        row.push(m.steps as f64);
+        let mut text: Vec<String> = row.iter().map(|x| x.to_string()).collect();
+        text[0] = i.to_string();
+        text.push(m.error.clone().unwrap_or_default());
+        w.write_record(&text)?;
+        table.extend(row);
+    }
+    w.flush()?;
+    write_table(
+        &dir.join("ensemble.npy"),
+        &dir.join("ensemble_columns.txt"),
+        &cols,
+        &table,
+    )
+}
+
+/// What `femvi ensemble` was asked for.
+#[derive(Debug, Clone, Default)]
+pub struct EnsembleArgs {
+    /// `--set` overrides of every member's problem.
+    pub set: Vec<String>,
+    /// A file of initial states (CSV rows or an (N, 2n) NPY array of q0 then p0 or v0).
+    pub states: Option<std::path::PathBuf>,
+    /// The states' second half is v0.
+    pub velocity: bool,
+    /// `NAME=LO:HI:N`: a parameter of `[system] parameters` over the members.
+    pub param: Option<String>,
+    /// Threads (0: all cores).
+    pub workers: usize,
+    /// Output directory (default: the problem's).
+    pub out: Option<std::path::PathBuf>,
+    /// No progress bar or report.
+    pub quiet: bool,
+}
+
+/// Initial states from a CSV (rows of numbers; a first row that is not numbers is a header)
+/// or an NPY file (a 2-D float64 array), as one row-major vector and its row count.
+///
+/// # Errors
+/// The file cannot be read, a value is not a number, or the rows do not have `width` numbers.
+pub fn read_states(path: &Path, width: usize) -> Result<(Vec<f64>, usize), String> {
+    let at = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let values: Vec<f64> = if path.extension().is_some_and(|e| e == "npy") {
+        let bytes = std::fs::read(path).map_err(|e| at(&e))?;
+        let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| at(&e))?;
+        let shape = npy.shape().to_vec();
+        if shape.len() != 2 || shape[1] as usize != width {
+            return Err(at(&format!("expected an (N, {width}) array, got shape {shape:?}")));
+        }
+        npy.into_vec::<f64>().map_err(|e| at(&e))?
+    } else {
+        let text = std::fs::read_to_string(path).map_err(|e| at(&e))?;
+        let mut v = Vec::new();
+        for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+            let row: Result<Vec<f64>, _> = line.split(',').map(|x| x.trim().parse::<f64>()).collect();
+            match row {
+                Ok(r) if r.len() == width => v.extend(r),
+                Ok(r) => return Err(at(&format!("line {}: {} numbers, expected {width}", k + 1, r.len()))),
+                Err(_) if k == 0 => {} // a header
+                Err(e) => return Err(at(&format!("line {}: {e}", k + 1))),
+            }
+        }
+        v
+    };
+    if values.iter().any(|x| !x.is_finite()) {
+        return Err(at(&"initial states must be finite"));
+    }
+    let rows = values.len() / width.max(1);
+    Ok((values, rows))
+}
+
+/// `femvi ensemble`: runs the members and writes ensemble.csv/.npy. Ok(true): every member
+/// reached the end; Ok(false): some failed (their rows say why). Err: a message and exit code.
+pub fn command(path: &Path, args: &EnsembleArgs) -> Result<bool, (String, u8)> {
+    let bad = |e: String| (e, crate::BAD_INPUT);
+    let problem = crate::problem::load_with(path, &args.set).map_err(|e| bad(e.to_string()))?;
+    let n = problem.coordinates.len();
+    let states = match &args.states {
+        Some(f) => Some(read_states(f, 2 * n).map_err(bad)?),
+        None => None,
+    };
+    let axis = args
+        .param
+        .as_deref()
+        .map(crate::chaos::Axis::parse)
+        .transpose()
+        .map_err(bad)?;
+    let size = match (&states, &axis) {
+        (Some((_, a)), Some(b)) if *a != b.n => {
+            return Err(bad(format!("--states has {a} rows but --param gives {} values", b.n)));
+        }
+        (Some((_, a)), _) => *a,
+        (None, Some(b)) => b.n,
+        (None, None) => {
+            return Err(bad(format!(
+                "{}: give --states FILE and/or --param NAME=LO:HI:N",
+                path.display()
+            )))
+        }
+    };
+    let member_problem = |a: &crate::chaos::Axis, i: usize| -> Result<Problem, String> {
+        let mut set = args.set.clone();
+        set.push(format!("system.parameters.{}={:?}", a.name, a.value(i)));
+        crate::problem::load_with(path, &set).map_err(|e| e.to_string())
+    };
+    // A parameter that the problem does not have is an input error, found on the first member.
+    if let Some(a) = &axis {
+        member_problem(a, 0).map_err(bad)?;
+    }
+    let rows = states.as_ref().map(|(v, _)| v.as_slice());
+    let done = AtomicUsize::new(0);
+    let member = |i: usize| {
+        let owned;
+        let p = match &axis {
+            Some(a) => match member_problem(a, i) {
+                Ok(p) => {
+                    owned = p;
+                    &owned
+                }
+                Err(e) => return Member::failed(n, f64::NAN, e),
+            },
+            None => &problem,
+        };
+        match start_of(p, rows, i, args.velocity) {
+            Ok(start) => run_member(p, start),
+            Err(e) => Member::failed(n, f64::NAN, e),
+        }
+    };
+    let members = with_progress(size, args.quiet, &done, || run_all(size, args.workers, &done, member))
+        .map_err(|e| (e, crate::NUMERICAL))?;
+    let dir = args.out.clone().unwrap_or_else(|| problem.directory.clone());
+    write(&dir, &problem.coordinates, &members)
+        .map_err(|e| (format!("cannot write {}: {e}", dir.display()), crate::BAD_INPUT))?;
+    let failed = members.iter().filter(|m| m.error.is_some()).count();
+    if !args.quiet {
+        println!(
+            "{size} members, {failed} failed; wrote {}",
+            dir.join("ensemble.csv").display()
+        );
+    }
+    Ok(failed == 0)
+}
+
+/// Runs `work` while a progress bar (unless `quiet`) follows `done` out of `size`.
+fn with_progress<T: Send>(size: usize, quiet: bool, done: &AtomicUsize, work: impl FnOnce() -> T + Send) -> T {
+    if quiet {
+        return work();
+    }
+    let bar = indicatif::ProgressBar::new(size as u64);
+    let out = std::thread::scope(|scope| {
+        let worker = scope.spawn(work);
+        while !worker.is_finished() {
+            bar.set_position(done.load(Ordering::Relaxed) as u64);
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        worker.join()
+    });
+    bar.finish_and_clear();
+    match out {
+        Ok(t) => t,
+        Err(p) => std::panic::resume_unwind(p),
+    }
+}
