@@ -255,6 +255,8 @@ pub struct ChaosArgs {
     pub out: Option<std::path::PathBuf>,
     /// Threads (0: all cores).
     pub threads: usize,
+    /// Draw the map in this format.
+    pub plot: Option<crate::plot::Format>,
 }
 
 /// `femvi chaos`: exit code 0, 1 (a run failed) or 2 (bad input).
@@ -299,6 +301,9 @@ pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u
     } else {
         let dir = args.out.clone().unwrap_or_else(|| problem.directory.clone());
         write_map(&dir, &axes, &rows, &wanted).map_err(io)?;
+        if let Some(format) = args.plot {
+            plot_map(&dir, format, problem, &axes, &rows, &wanted).map_err(bad)?;
+        }
         println!(
             "{}: {points} points ({failed} failed) written to {}",
             problem.name,
@@ -326,5 +331,61 @@ fn print_one(problem: &Problem, r: &Indicators) {
     }
     if let Some(e) = &r.error {
         println!("  error: {e}");
+    }
+}
+
+/// Draws the map's first scalar indicator (MEGNO, else FLI, else the largest exponent):
+/// `chaos_map.<ext>`, a heat map over two axes or a line over one.
+fn plot_map(
+    dir: &Path,
+    format: crate::plot::Format,
+    problem: &Problem,
+    axes: &[Axis],
+    rows: &[Indicators],
+    wanted: &[Indicator],
+) -> Result<(), String> {
+    let (label, pick): (&str, fn(&Indicators) -> Option<f64>) = if wanted.contains(&Indicator::Megno) {
+        ("MEGNO <Y>", |r| r.megno)
+    } else if wanted.contains(&Indicator::Fli) {
+        ("FLI", |r| r.fli)
+    } else {
+        ("largest Lyapunov exponent", |r| r.lyapunov)
+    };
+    let values: Vec<Option<f64>> = rows.iter().map(|r| pick(r).filter(|_| r.error.is_none())).collect();
+    let path = crate::plot::file(dir, "chaos_map", format);
+    let title = format!("{}: {label}", problem.name);
+    match axes {
+        [a] => {
+            let points = (0..a.n)
+                .filter_map(|i| values.get(i).copied().flatten().map(|v| (a.value(i), v)))
+                .collect();
+            let series = [crate::plot::Series {
+                name: label.to_string(),
+                points,
+            }];
+            crate::plot::lines(&path, format, &title, &a.name, label, &series)
+        }
+        [a, b] => {
+            let finite = values.iter().flatten().copied().filter(|v| v.is_finite());
+            let range = if label.starts_with("MEGNO") {
+                (0.0, 8.0)
+            } else {
+                let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(v), h.max(v)));
+                if lo < hi {
+                    (lo, hi)
+                } else {
+                    (lo - 1.0, lo + 1.0)
+                }
+            };
+            let map = crate::chaos_plot::HeatMap {
+                axes: (a, b),
+                values: &values,
+                label,
+                range,
+                title: &title,
+            };
+            crate::chaos_plot::heat_map(&path, format, &map)
+        }
+        _ => Err("--plot draws maps over one or two axes".into()),
     }
 }

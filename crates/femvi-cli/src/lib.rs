@@ -6,6 +6,7 @@
 
 pub mod bvp;
 pub mod chaos;
+pub mod chaos_plot;
 pub mod check;
 pub mod convergence;
 pub mod ensemble;

@@ -86,6 +86,13 @@ enum Command {
         /// Threads for maps (0: all cores).
         #[arg(long, default_value_t = 0)]
         threads: usize,
+        /// Draw the map: a heat map (chaos_map.svg) over two axes, the indicator against the
+        /// axis over one.
+        #[arg(long)]
+        plot: bool,
+        /// Image format of the plot: svg or png.
+        #[arg(long, default_value = "svg")]
+        plot_format: String,
     },
     /// Solve a two-point boundary value problem ([boundary] table) by the discrete variational
     /// principle; writes trajectory.csv and summary.json.
@@ -236,13 +243,20 @@ fn dispatch(cli: Cli) -> ExitCode {
             json,
             out,
             threads,
+            plot,
+            plot_format,
         } => {
+            let plot = match plot_format_of(&plot_format) {
+                Ok(f) => plot.then_some(f),
+                Err(code) => return code,
+            };
             let args = femvi_cli::chaos::ChaosArgs {
                 indicators: indicator,
                 grid,
                 json,
                 out,
                 threads,
+                plot,
             };
             match load(&problem, &set).map(|p| femvi_cli::chaos::cmd_chaos(&p, &args)) {
                 Ok(Ok(true)) => ExitCode::SUCCESS,

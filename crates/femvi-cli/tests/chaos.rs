@@ -102,6 +102,43 @@ fn a_map_over_two_axes_is_written_and_independent_of_threads() {
 }
 
 #[test]
+fn plots_of_maps_over_one_and_two_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hh.toml");
+    let file = FILE
+        .replace("end = 300.0", "end = 20.0")
+        .replace("p = [0.5, 0.1]", "p = [0.3, 0.1]");
+    std::fs::write(&path, file).unwrap();
+    let draw = |grids: &[&str], out: &str| {
+        let out_dir = dir.path().join(out);
+        let mut cmd = femvi();
+        cmd.args([
+            "chaos",
+            path.to_str().unwrap(),
+            "--plot",
+            "--out",
+            out_dir.to_str().unwrap(),
+        ]);
+        for g in grids {
+            cmd.args(["--grid", g]);
+        }
+        cmd.assert().success();
+        std::fs::read_to_string(out_dir.join("chaos_map.svg")).unwrap()
+    };
+    // Two axes: one cell per point (15) and the colour bar's 200 bands.
+    let heat = draw(&["x=-0.2:0.2:5", "p_y=0.1:0.3:3"], "two");
+    assert!(
+        heat.matches("<rect").count() >= 15 + 200,
+        "{}",
+        heat.matches("<rect").count()
+    );
+    assert!(heat.contains("MEGNO"));
+    // One axis: the indicator against the axis, a line.
+    let line = draw(&["x=-0.2:0.2:5"], "one");
+    assert!(line.contains("<polyline") || line.contains("<path"));
+}
+
+#[test]
 fn bad_axes_and_indicators_are_input_errors() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("hh.toml");

@@ -36,7 +36,7 @@ impl Format {
 
 const SIZE: (u32, u32) = (900, 540);
 
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         let font: &'static [u8] = include_bytes!("../../assets/DejaVuSans.ttf");
