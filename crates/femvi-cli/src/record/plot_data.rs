@@ -4,6 +4,13 @@
 //! outer-solar-system) the orbits, one curve per body in the plane of its first two
 //! coordinates. They show the nodes trajectory.csv keeps; every title names the scheme and
 //! the step.
+//!
+//! Memory is bounded whatever the length of the run: the nodes kept for the plots (after
+//! `every`) are decimated by halving — when [`PlotData`] holds its limit of nodes
+//! ([`max_nodes`], at most 65 536 and about 32 MB of values), every other one is dropped and
+//! from then on only every 2nd, 4th, … node is taken — and the last node is always kept. A
+//! plot draws at most 5 000 points per line anyway (`plot::thin`), so for runs of up to 65 536
+//! kept nodes the plots are unchanged.
 
 use super::{NodeEnergy, Thinning, WriteFailure};
 use crate::plot::{file, lines, log_lines, orbits, step_label, Format, Series};
@@ -26,7 +33,34 @@ pub struct PlotData<'a> {
     q: Vec<f64>,
     p: Vec<f64>,
     rel_energy: Vec<f64>,
-    steps: Vec<(f64, f64)>,
+    /// Per kept node: the time since the previous node after `every` (NaN for the first).
+    steps: Vec<f64>,
+    /// The previous node after `every`, kept or not.
+    previous: Option<f64>,
+    /// Nodes after `every` seen so far, and the decimation: only those whose index is a
+    /// multiple of `stride` are kept (and the last node).
+    seen: usize,
+    stride: usize,
+    limit: usize,
+}
+
+/// Most values (times, coordinates, momenta, energies, steps) [`PlotData`] keeps.
+const MAX_VALUES: usize = 1 << 22;
+
+/// Most nodes [`PlotData`] keeps for a system with n coordinates: 65 536, fewer when a node's
+/// 2n + 3 values would take more than [`MAX_VALUES`] in all, and at least 16.
+pub fn max_nodes(n: usize) -> usize {
+    (MAX_VALUES / (2 * n + 3)).clamp(16, 1 << 16)
+}
+
+/// Keeps the chunks of `width` values of `v` at even positions (0, 2, 4, …).
+fn keep_even(v: &mut Vec<f64>, width: usize) {
+    let chunks = v.len() / width.max(1);
+    for c in (0..chunks).step_by(2) {
+        let to = c / 2 * width;
+        v.copy_within(c * width..(c + 1) * width, to);
+    }
+    v.truncate(chunks.div_ceil(2) * width);
 }
 
 impl<'a> PlotData<'a> {
@@ -50,7 +84,22 @@ impl<'a> PlotData<'a> {
             p: vec![],
             rel_energy: vec![],
             steps: vec![],
+            previous: None,
+            seen: 0,
+            stride: 1,
+            limit: max_nodes(problem.coordinates.len()),
         }
+    }
+
+    /// Halves the nodes kept (those at even positions stay) and doubles the stride.
+    fn decimate(&mut self) {
+        let n = self.problem.coordinates.len();
+        keep_even(&mut self.t, 1);
+        keep_even(&mut self.q, n);
+        keep_even(&mut self.p, n);
+        keep_even(&mut self.rel_energy, 1);
+        keep_even(&mut self.steps, 1);
+        self.stride *= 2;
     }
 
     /// Draws coordinates against time, phase portraits, the energy error and (energy mode)
@@ -99,7 +148,7 @@ impl<'a> PlotData<'a> {
         if problem.energy.is_some() {
             let steps = [Series {
                 name: "step".into(),
-                points: self.steps.clone(),
+                points: self.t.iter().zip(&self.steps).skip(1).map(|(t, h)| (*t, *h)).collect(),
             }];
             let title = format!("{name}: step size (energy mode)");
             lines(&file(dir, "step_size", f), f, &title, "t", "h", &steps)?;
@@ -166,9 +215,21 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
         if !self.thinning.keep(node.k, last) {
             return Ok(());
         }
-        if let Some(&previous) = self.t.last() {
-            self.steps.push((node.t, node.t - previous));
+        let step = self.previous.map_or(f64::NAN, |previous| node.t - previous);
+        self.previous = Some(node.t);
+        let index = self.seen;
+        self.seen += 1;
+        if !(last || index.is_multiple_of(self.stride)) {
+            return Ok(());
         }
+        if self.t.len() >= self.limit {
+            self.decimate();
+            // The stride doubled: this node stays only if it is on it (or the last).
+            if !(last || index.is_multiple_of(self.stride)) {
+                return Ok(());
+            }
+        }
+        self.steps.push(step);
         self.t.push(node.t);
         self.q.extend_from_slice(node.q);
         self.p.extend_from_slice(node.p);
