@@ -15,6 +15,8 @@ use femvi::diagnostics::{exact, fit_order, L2Sum, PiecewiseTrajectory};
 use femvi::{Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, Start, TimeGrid};
 use serde::Serialize;
 
+/// A run's final state (q, p) and its L² error.
+type FinalState = (Vec<f64>, f64);
 /// A closed-form state (q, p) as a function of time.
 type ExactState = Box<dyn Fn(f64) -> Option<Vec<f64>>>;
 
@@ -120,7 +122,7 @@ struct Coarse<'a, L: Lagrangian> {
 enum Path<'a, L: Lagrangian> {
     Exact(ExactState),
     Run {
-        it: Integrator<'a, L>,
+        it: Box<Integrator<'a, L>>,
         window: PiecewiseTrajectory,
         done: bool,
     },
@@ -164,7 +166,7 @@ fn lockstep<'a, L: Lagrangian>(
     problem: &'a Problem,
     steps: &[f64],
     path: &mut Path<'a, L>,
-) -> Result<Vec<(Vec<f64>, f64)>, (String, u8)> {
+) -> Result<Vec<FinalState>, (String, u8)> {
     let (n, el) = (lag.dim(), &problem.element);
     let points = el.degree() + 3;
     let mut runs = steps
@@ -271,7 +273,7 @@ fn study_with<L: Lagrangian>(
                 _ => finest / 4.0,
             };
             let label = format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}");
-            let it = integrator(lag, &reference_element, problem, h)?;
+            let it = Box::new(integrator(lag, &reference_element, problem, h)?);
             let window = PiecewiseTrajectory::new(&reference_element.basis, lag.dim());
             (Path::Run { it, window, done: false }, label)
         }
@@ -286,7 +288,7 @@ fn study_with<L: Lagrangian>(
     }
     let reference_state = match path {
         Path::Exact(f) => f(t_end).ok_or_else(|| ("the closed form failed at the end time".to_string(), 1))?,
-        Path::Run { it, .. } => run_to_end(it)?,
+        Path::Run { it, .. } => run_to_end(*it)?,
     };
     if !l2 {
         for &h in steps {
