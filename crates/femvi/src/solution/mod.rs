@@ -55,6 +55,7 @@ impl<L> Problem<L> {
     /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
     /// let problem = Problem::new(models::kepler(1.0)?, start, 0.0, 100.0);
     /// assert_eq!(problem.t_end, 100.0);
+    /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn new(lagrangian: L, start: Start, t0: f64, t_end: f64) -> Self {
         Self {
