@@ -2,6 +2,10 @@
 //! (2.46); in energy mode the extended form of (3.6)), the energy error and its drift, the
 //! Noether momenta of declared symmetries, and the time-reversal error of the symmetric
 //! schemes. The command `femvi check` prints this report.
+//!
+//! The check streams: everything is tallied node by node, and the time reversal takes the
+//! forward steps again from the grid (they are not stored), so its memory does not grow with
+//! the length of the run.
 
 use super::symplecticity_defect;
 pub use super::Symmetry;
