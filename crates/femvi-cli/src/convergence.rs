@@ -4,16 +4,21 @@
 //! run with a finer step and an element of degree s + 2. With --l2 it also measures the L²
 //! error of the piecewise-polynomial trajectory over the whole span ((2.33), (2.56)); with
 //! --plot it draws the errors against the step with the fitted slopes ([`plot`]).
+//!
+//! The study streams: memory does not grow with the length of the runs. Without --l2 each run
+//! keeps only its state; with --l2 the runs go in lockstep with the reference run, each
+//! element's L² contribution summed as it is solved against a sliding window of the
+//! reference's elements ([`femvi::diagnostics::L2Sum`]).
 
 use crate::problem::Problem;
-use femvi::diagnostics::{exact, fit_order, PiecewiseTrajectory};
+use femvi::diagnostics::{exact, fit_order, L2Sum, PiecewiseTrajectory};
 use femvi::{Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, Start, TimeGrid};
 use serde::Serialize;
 
+/// A run's final state (q, p) and its L² error.
+type FinalState = (Vec<f64>, f64);
 /// A closed-form state (q, p) as a function of time.
 type ExactState = Box<dyn Fn(f64) -> Option<Vec<f64>>>;
-/// q_ref(t) written into a buffer.
-type Path = Box<dyn Fn(f64, &mut [f64])>;
 
 /// Which reference the errors are measured against.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,18 +105,123 @@ fn fail(e: femvi::Error) -> (String, u8) {
     (e.to_string(), code)
 }
 
-/// Final state (q, p) of a run with step h, and its piecewise trajectory.
-fn run<L: Lagrangian>(
-    lag: &L,
-    el: &Element,
+/// The integrator of a run with step h and element `el`.
+fn integrator<'a, L: Lagrangian>(
+    lag: &'a L,
+    el: &'a Element,
     problem: &Problem,
     h: f64,
-) -> Result<(Vec<f64>, PiecewiseTrajectory), (String, u8)> {
+) -> Result<Integrator<'a, L>, (String, u8)> {
     let grid = TimeGrid::uniform(problem.grid.t0(), h, problem.grid.end()).map_err(fail)?;
-    let mut it = Integrator::new(lag, el, grid, problem.start.clone(), problem.options).map_err(fail)?;
-    let trajectory = PiecewiseTrajectory::record(&mut it, &el.basis, lag.dim()).map_err(fail)?;
+    Integrator::new(lag, el, grid, problem.start.clone(), problem.options).map_err(fail)
+}
+
+/// The state (q, p) of a run's current node.
+fn state<L: Lagrangian>(it: &Integrator<'_, L>) -> Vec<f64> {
     let n = it.node();
-    Ok((n.q.iter().chain(n.p).cloned().collect(), trajectory))
+    n.q.iter().chain(n.p).cloned().collect()
+}
+
+/// Final state (q, p) of a run to its end.
+fn run_to_end<L: Lagrangian>(mut it: Integrator<'_, L>) -> Result<Vec<f64>, (String, u8)> {
+    while it.step().map_err(fail)? {}
+    Ok(state(&it))
+}
+
+/// A run of the study with its L² sum (if measured).
+struct Coarse<'a, L: Lagrangian> {
+    it: Integrator<'a, L>,
+    l2: L2Sum,
+    done: bool,
+}
+
+/// The reference of the L² errors: the closed form, or a run kept as a sliding window of its
+/// elements (those the coarse runs can still ask for).
+enum Path<'a, L: Lagrangian> {
+    Exact(ExactState),
+    Run {
+        it: Box<Integrator<'a, L>>,
+        window: PiecewiseTrajectory,
+        done: bool,
+    },
+}
+
+impl<L: Lagrangian> Path<'_, L> {
+    /// Makes q_ref(t) known for t ≤ `until`: advances the reference run until an element
+    /// starts after `until` (or the run ends).
+    fn cover(&mut self, until: f64) -> Result<(), (String, u8)> {
+        if let Path::Run { it, window, done } = self {
+            while !*done && window.last_start().is_none_or(|s| s <= until) {
+                if it.step().map_err(fail)? {
+                    if let Some(e) = it.last_element() {
+                        window.push(&e).map_err(fail)?;
+                    }
+                } else {
+                    *done = true;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// q_ref(t) into `out`.
+    fn eval(&self, t: f64, out: &mut [f64]) {
+        match self {
+            Path::Exact(f) => {
+                let s = f(t).unwrap_or_else(|| vec![f64::NAN; 2 * out.len()]);
+                out.copy_from_slice(&s[..out.len()]);
+            }
+            Path::Run { window, .. } => window.eval(t, out),
+        }
+    }
+}
+
+/// Runs `steps` in lockstep (always the one furthest behind), summing each element's L² error
+/// against `path` as it is solved; the reference run's window forgets what no run can need.
+/// Returns each run's final state and L² error.
+fn lockstep<'a, L: Lagrangian>(
+    lag: &'a L,
+    problem: &'a Problem,
+    steps: &[f64],
+    path: &mut Path<'a, L>,
+) -> Result<Vec<FinalState>, (String, u8)> {
+    let (n, el) = (lag.dim(), &problem.element);
+    let points = el.degree() + 3;
+    let mut runs = steps
+        .iter()
+        .map(|&h| {
+            Ok(Coarse {
+                it: integrator(lag, el, problem, h)?,
+                l2: L2Sum::new(points, n),
+                done: false,
+            })
+        })
+        .collect::<Result<Vec<_>, (String, u8)>>()?;
+    let mut nodes = vec![];
+    let behind = |runs: &[Coarse<'a, L>]| {
+        (0..runs.len())
+            .filter(|&i| !runs[i].done)
+            .min_by(|&i, &j| runs[i].it.node().t.total_cmp(&runs[j].it.node().t))
+    };
+    while let Some(i) = behind(&runs) {
+        let run = &mut runs[i];
+        if !run.it.step().map_err(fail)? {
+            run.done = true;
+            continue;
+        }
+        let Some(e) = run.it.last_element() else { continue };
+        let (t0, h) = (e.t, e.h);
+        nodes.clear();
+        for j in 0..el.basis.len() {
+            nodes.extend((0..n).map(|c| e.base[c] + e.incr[j * n + c]));
+        }
+        path.cover(t0 + h)?;
+        run.l2.add(&el.basis, t0, h, &nodes, |t, out| path.eval(t, out));
+        if let (Path::Run { window, .. }, Some(k)) = (&mut *path, behind(&runs)) {
+            window.forget_before(runs[k].it.node().t);
+        }
+    }
+    Ok(runs.iter().map(|r| (state(&r.it), r.l2.value())).collect())
 }
 
 /// The closed-form state (q, p) as a function of t, if the model has one and the start gives
@@ -161,17 +271,13 @@ fn study_with<L: Lagrangian>(
     });
     let finest = steps.iter().cloned().fold(f64::INFINITY, f64::min);
     let t_end = problem.grid.end();
-    // The reference: its final state, and q_ref(t) for the L² errors.
-    let (reference_state, reference_path, label): (Vec<f64>, Path, String) = match reference {
+    let s = problem.element.degree() + 2;
+    let reference_element =
+        Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).map_err(fail)?;
+    // The reference: q_ref(t), and its label.
+    let (mut path, label) = match reference {
         Reference::Exact => match exact {
-            Some(f) => {
-                let end = f(t_end).ok_or_else(|| ("the closed form failed at the end time".to_string(), 1))?;
-                let path = move |t: f64, out: &mut [f64]| {
-                    let s = f(t).unwrap_or_else(|| vec![f64::NAN; 2 * out.len()]);
-                    out.copy_from_slice(&s[..out.len()]);
-                };
-                (end, Box::new(path), "exact (closed form)".to_string())
-            }
+            Some(f) => (Path::Exact(f), "exact (closed form)".to_string()),
             None => {
                 return Err((
                     "no closed form for this problem (only the harmonic and kepler models, started from v or p, have one); use --reference finest or a step".into(),
@@ -184,25 +290,38 @@ fn study_with<L: Lagrangian>(
                 Reference::Step(h) => h,
                 _ => finest / 4.0,
             };
-            let s = problem.element.degree() + 2;
-            let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).map_err(fail)?;
-            let (end, trajectory) = run(lag, &el, problem, h)?;
             let label = format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}");
-            (end, Box::new(move |t: f64, out: &mut [f64]| trajectory.eval(t, out)), label)
+            let it = Box::new(integrator(lag, &reference_element, problem, h)?);
+            let window = PiecewiseTrajectory::new(&reference_element.basis, lag.dim());
+            (Path::Run { it, window, done: false }, label)
         }
     };
-    let points = problem.element.degree() + 3;
+    // Each run's final state and L² error (with --l2 in lockstep with the reference, which
+    // then also ends; without, one after the other after the reference).
+    let mut finals: Vec<(Vec<f64>, Option<f64>)> = vec![];
+    if l2 {
+        for (end, e) in lockstep(lag, problem, steps, &mut path)? {
+            finals.push((end, Some(e)));
+        }
+    }
+    let reference_state = match path {
+        Path::Exact(f) => f(t_end).ok_or_else(|| ("the closed form failed at the end time".to_string(), 1))?,
+        Path::Run { it, .. } => run_to_end(*it)?,
+    };
+    if !l2 {
+        for &h in steps {
+            finals.push((run_to_end(integrator(lag, &problem.element, problem, h)?)?, None));
+        }
+    }
     let mut runs: Vec<Run> = vec![];
-    for &h in steps {
-        let (state, trajectory) = run(lag, &problem.element, problem, h)?;
-        let error = state
+    for (&h, (end, l2_error)) in steps.iter().zip(finals) {
+        let error = end
             .iter()
             .zip(&reference_state)
             .map(|(a, b)| (a - b).powi(2))
             .sum::<f64>()
             .sqrt();
         let order_from_previous = runs.last().map(|r: &Run| (error / r.error).ln() / (h / r.step).ln());
-        let l2_error = l2.then(|| trajectory.l2_distance(points, |t, out| reference_path(t, out)));
         runs.push(Run {
             step: h,
             error,

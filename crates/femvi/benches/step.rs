@@ -51,7 +51,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20);
     g.measurement_time(std::time::Duration::from_secs(3));
     g.bench_function("verlet_hand_loop", |b| b.iter(|| verlet(black_box(STEPS))));
-    let kepler = models::kepler(1.0);
+    let kepler = models::kepler(1.0).unwrap();
     let trap = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
     g.bench_function("femvi_degree1_trapezoid", |b| {
         b.iter(|| run(&kepler, &trap, Method::Auto))

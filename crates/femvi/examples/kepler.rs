@@ -12,7 +12,12 @@ fn main() -> Result<(), femvi::Error> {
         p: vec![0.0, ((1.0 + e) / (1.0 - e)).sqrt()],
     };
     let periods = 100.0;
-    let problem = Problem::new(models::kepler(1.0), start, 0.0, periods * 2.0 * std::f64::consts::PI);
+    let problem = Problem::new(
+        models::kepler(1.0).unwrap(),
+        start,
+        0.0,
+        periods * 2.0 * std::f64::consts::PI,
+    );
     let options = SolveOptions {
         every: 100,
         ..SolveOptions::step(2.0 * std::f64::consts::PI / 200.0)

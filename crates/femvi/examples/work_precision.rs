@@ -106,7 +106,7 @@ fn run<L: Lagrangian>(
 }
 
 fn p1() {
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     let t_end = 2.0 * std::f64::consts::PI * 1000.0;
     let (qe, _) = exact::kepler(1.0, 0.0, [0.4, 0.0], [0.0, 2.0], t_end).unwrap();
     let per_period: &[(usize, &[usize])] = &[

@@ -325,7 +325,7 @@ pub fn velocity_from_momentum<L: Lagrangian>(
 /// ```
 /// use femvi::lagrangian::{hamiltonian, PointDerivatives};
 ///
-/// let kepler = femvi::models::kepler(1.0);
+/// let kepler = femvi::models::kepler(1.0)?;
 /// let (mut v, mut work) = (vec![0.0; 2], PointDerivatives::new(2));
 /// // The circular orbit of radius 1: H = ½ − 1.
 /// let h = hamiltonian(&kepler, 0.0, &[1.0, 0.0], &[0.0, 1.0], &mut v, &mut work)?;

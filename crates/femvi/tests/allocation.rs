@@ -49,7 +49,7 @@ fn allocations_in_steps<L: Lagrangian>(
 #[test]
 fn the_step_loop_does_not_allocate() {
     let pendulum = models::pendulum(2.0, 1.0, 1.0).unwrap();
-    let kepler = models::kepler(1.0);
+    let kepler = models::kepler(1.0).unwrap();
     let p_start = || Start::Momentum {
         q: vec![0.3],
         p: vec![1.0],

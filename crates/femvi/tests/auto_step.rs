@@ -49,7 +49,7 @@ fn kepler_meets_the_requested_accuracy() {
     // P1's orbit (e = 0.6) over 10 periods against Kepler's equation; the first trial step
     // (the span / 200) is too large for the pericentre and fails, so the search also goes
     // through the solver's typed failures.
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     let start = Start::Momentum {
         q: vec![0.4, 0.0],
         p: vec![0.0, 2.0],

@@ -51,7 +51,7 @@ fn harmonic_oscillator_nodal_order_2s() {
 
 #[test]
 fn boundary_solution_reproduced_by_the_initial_value_integrator() {
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     for s in [1usize, 2, 3] {
         let el = gauss(s);
         let bv = BoundaryValues {

@@ -144,7 +144,7 @@ fn megno_tends_to_two_on_regular_orbits() {
     let period = 2.0 * std::f64::consts::PI;
     let e: f64 = 0.3;
     let kepler = Problem::new(
-        models::kepler(1.0),
+        models::kepler(1.0).unwrap(),
         Start::Momentum {
             q: vec![1.0 - e, 0.0],
             p: vec![0.0, ((1.0 + e) / (1.0 - e)).sqrt()],

@@ -6,7 +6,7 @@ use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptio
 
 #[test]
 fn kepler_angular_momentum_over_1e5_steps() {
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     for (s, h) in [(1usize, 0.002), (2, 0.01), (3, 0.02)] {
         let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).unwrap();
         let steps = 100_000;

@@ -51,7 +51,7 @@ fn kepler_config(s: usize) -> (f64, f64, Vec<usize>) {
 }
 
 fn kepler_orders(random: bool) {
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     for s in 1..=6 {
         let (e, periods, counts) = kepler_config(s);
         let t_end = periods * 2.0 * std::f64::consts::PI;
@@ -205,7 +205,7 @@ fn l2_orders_of_2_33_and_2_56() {
 
 #[test]
 fn midpoint_has_order_2_on_kepler() {
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     let (q0, p0) = kepler_exact(0.5, 0.0);
     let (qe, _) = kepler_exact(0.5, 2.0);
     let (mut hs, mut errs) = (vec![], vec![]);

@@ -69,7 +69,7 @@ fn conserve<L: Lagrangian>(
 #[test]
 fn discrete_energy_conserved_over_1e5_steps() {
     let pend = models::pendulum(1.0, 1.0, 1.0).unwrap();
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let hh = models::henon_heiles();
     let steps = 100_000;
     let p_start = || Start::Momentum {
@@ -397,7 +397,7 @@ fn energy_mode_converges_as_the_first_step_shrinks() {
 fn extended_two_form_3_6_is_preserved() {
     use femvi::diagnostics::symplecticity_defect;
     let hh = models::henon_heiles();
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let forced = Forced;
     /// (max absolute defect, max defect relative to max(1, |M|²), max |M|) over `steps` steps.
     fn defect<L: Lagrangian>(lag: &L, el: &Element, start: Start, h: f64, steps: usize) -> (f64, f64, f64) {

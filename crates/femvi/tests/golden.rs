@@ -105,9 +105,9 @@ fn runs() -> Vec<(&'static str, Vec<u64>)> {
 
 /// Explicit steps through step() and advance(), cyclic steps, a generic size.
 fn explicit_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let heavy = models::harmonic(2.5, 3.0).unwrap();
-    let fpu = models::fpu(8, 0.25, 0.0);
+    let fpu = models::fpu(8, 0.25, 0.0).unwrap();
     let t3 = trapezoid();
     let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
     let cyc = |steps: Vec<f64>, end: f64| TimeGrid::steps(0.0, steps, end).unwrap();
@@ -151,10 +151,10 @@ fn explicit_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
 
 /// The fixed-point solver.
 fn fixed_point_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
     let hh = models::henon_heiles();
-    let fpu = models::fpu(8, 0.25, 0.0);
+    let fpu = models::fpu(8, 0.25, 0.0).unwrap();
     let (t4, t2, t1) = (gauss(3), gauss(2), gauss(4));
     let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
     let cyc = |steps: Vec<f64>, end: f64| TimeGrid::steps(0.0, steps, end).unwrap();
@@ -218,7 +218,7 @@ fn fixed_point_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
 }
 
 fn more_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
     let heavy = models::harmonic(2.5, 3.0).unwrap();
     let coords = vec!["x".to_string(), "y".to_string()];
@@ -292,7 +292,7 @@ fn more_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
 
 /// Energy mode, and the tangent maps of three kinds of steps.
 fn energy_runs(out: &mut Vec<(&'static str, Vec<u64>)>) {
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
     let (t4, t2) = (gauss(3), gauss(2));
     let uni = |h: f64, end: f64| TimeGrid::uniform(0.0, h, end).unwrap();
@@ -429,7 +429,7 @@ fn resume<'a, L: Lagrangian + 'a>(make: impl Fn() -> Integrator<'a, L>, stops: &
 /// many stopping points.
 #[test]
 fn checkpoints_resume_bit_for_bit() {
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let pend = models::pendulum(1.0, 9.81, 1.0).unwrap();
     let (trap, deg2, deg6, mid) = (trapezoid(), gauss(2), gauss(6), Element::midpoint());
     let mut checked = 0;

@@ -119,7 +119,7 @@ fn lattice(bodies: usize) -> Vec<f64> {
 #[test]
 fn the_largest_documented_systems_set_up_in_linear_memory() {
     setup(
-        &models::fpu(models::MAX_FPU_MASSES, 0.25, 0.0),
+        &models::fpu(models::MAX_FPU_MASSES, 0.25, 0.0).unwrap(),
         chain(models::MAX_FPU_MASSES),
     );
     let bodies = models::MAX_BODIES;
@@ -135,7 +135,7 @@ fn setup_time() {
     let (kind, size) = case.split_once(' ').unwrap();
     let size: usize = size.parse().unwrap();
     let elapsed = match kind {
-        "fpu" => setup(&models::fpu(size, 0.25, 0.0), chain(size)),
+        "fpu" => setup(&models::fpu(size, 0.25, 0.0).unwrap(), chain(size)),
         _ => setup(&models::n_body(1.0, vec![1.0; size], 3).unwrap(), lattice(size)),
     };
     println!("SETUP {kind} {size}: {:.2} ms", 1e3 * elapsed.as_secs_f64());
@@ -191,7 +191,11 @@ fn zero_dimensional_systems_are_rejected() {
     ] {
         let e = Integrator::new(&Empty, &element, grid(), start.clone(), SolverOptions::default()).err();
         assert!(e.is_some(), "{start:?}");
-        let fpu = models::fpu(0, 0.0, 0.0);
+        let fpu = femvi::Mechanical::unit_mass(models::FpuPotential {
+            n: 0,
+            alpha: 0.0,
+            beta: 0.0,
+        });
         assert!(Integrator::new(&fpu, &element, grid(), start, SolverOptions::default()).is_err());
     }
     let no_coordinates = ExprLagrangian::new("t", &[], &[]).unwrap();
@@ -262,7 +266,7 @@ fn boundary_value_problems_with_huge_meshes_are_rejected_before_allocating() {
 #[test]
 fn check_rejects_symmetries_that_do_not_fit_the_system() {
     use femvi::diagnostics::{check, Symmetry};
-    let kepler = models::kepler(1.0);
+    let kepler = models::kepler(1.0).unwrap();
     let element = Element::with_order(2).unwrap();
     for sym in [
         Symmetry::Rotation(0, 2),
@@ -292,7 +296,7 @@ fn check_rejects_symmetries_that_do_not_fit_the_system() {
 #[test]
 fn element_functions_with_buffers_of_the_wrong_length_do_not_panic() {
     use femvi::ElementWork;
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     let el = Element::with_order(4).unwrap();
     let (base, incr) = ([1.0, 0.0], [0.0, 0.0, 0.0, 0.1, 0.0, 0.2]);
     let mut work = ElementWork::new(&el, 2);
@@ -375,7 +379,7 @@ fn huge_elements_rules_and_newton_sizes_are_errors() {
 
 #[test]
 fn elements_changed_after_construction_are_rejected() {
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     let corruptions: [fn(&mut Element); 4] = [
         |e| e.rule.weights.truncate(1),
         |e| e.basis.nodes.push(2.0),
@@ -392,7 +396,7 @@ fn elements_changed_after_construction_are_rejected() {
 #[test]
 fn trajectories_and_defects_with_wrong_sizes() {
     use femvi::diagnostics::{symplecticity_defect, PiecewiseTrajectory};
-    let lag = models::kepler(1.0);
+    let lag = models::kepler(1.0).unwrap();
     let element = Element::with_order(4).unwrap();
     let other = femvi::fem::LagrangeBasis::new(5, femvi::NodeFamily::Equispaced).unwrap();
     let record = |basis, n| {

@@ -148,7 +148,7 @@ fn quadratic_element_gives_corrected_2_48_to_2_50() {
 
 #[test]
 fn linear_element_with_trapezoid_rule_is_stormer_verlet() {
-    let lag = femvi::models::kepler(1.0);
+    let lag = femvi::models::kepler(1.0).unwrap();
     let el = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
     let h = 0.01;
     let n = 2000;
@@ -200,7 +200,7 @@ fn advance_is_bit_identical_to_step() {
         q: vec![0.4, 0.0],
         p: vec![0.0, 2.0],
     };
-    let lag = femvi::models::kepler(1.0);
+    let lag = femvi::models::kepler(1.0).unwrap();
     let hh = Mechanical::new(
         femvi::models::HenonHeilesPotential,
         femvi::MassMatrix::diagonal(vec![2.0, 0.5]).unwrap(),
@@ -381,7 +381,7 @@ fn explicit_steps_on_a_variable_grid_are_verlet() {
         assert!(worst_newton < 1e-11, "against Newton: {worst_newton:e}");
     }
     check(
-        &femvi::models::kepler(1.0),
+        &femvi::models::kepler(1.0).unwrap(),
         [1.0, 1.0],
         &trap,
         &grid,

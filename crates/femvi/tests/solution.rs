@@ -239,11 +239,11 @@ fn an_owned_integrator_runs_on_another_thread_with_the_same_numbers() {
         v: vec![0.0, 2.0],
     };
     let grid = || femvi::TimeGrid::uniform(0.0, 0.01, 10.0).unwrap();
-    let (kep, el) = (models::kepler(1.0), Element::with_order(6).unwrap());
+    let (kep, el) = (models::kepler(1.0).unwrap(), Element::with_order(6).unwrap());
     let mut borrowed = femvi::Integrator::new(&kep, &el, grid(), make_start(), Default::default()).unwrap();
     while borrowed.step().unwrap() {}
     let mut owned = femvi::Integrator::owned(
-        models::kepler(1.0),
+        models::kepler(1.0).unwrap(),
         Element::with_order(6).unwrap(),
         grid(),
         make_start(),

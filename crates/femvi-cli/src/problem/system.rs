@@ -166,10 +166,10 @@ fn built_in(model: &str, p: &[f64]) -> femvi::Result<System> {
     Ok(match model {
         "harmonic" => System::Harmonic(models::harmonic(p[0], p[1])?),
         "pendulum" => System::Pendulum(models::pendulum(p[0], p[1], p[2])?),
-        "kepler" => System::Kepler(models::kepler(p[0])),
+        "kepler" => System::Kepler(models::kepler(p[0])?),
         "henon-heiles" => System::HenonHeiles(models::henon_heiles()),
         "forced-oscillator" => System::Forced(models::forced_oscillator(p[0], p[1], p[2], p[3])?),
-        "fpu" => System::Fpu(models::fpu(p[0] as usize, p[1], p[2])),
+        "fpu" => System::Fpu(models::fpu(p[0] as usize, p[1], p[2])?),
         "n-body" => System::Gravity(models::n_body(p[2], p[3..].to_vec(), p[1] as usize)?),
         "outer-solar-system" => System::Gravity(models::outer_solar_system()),
         _ => System::DoublePendulum(models::DoublePendulum {

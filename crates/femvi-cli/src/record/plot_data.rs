@@ -4,6 +4,13 @@
 //! outer-solar-system) the orbits, one curve per body in the plane of its first two
 //! coordinates. They show the nodes trajectory.csv keeps; every title names the scheme and
 //! the step.
+//!
+//! Memory is bounded whatever the length of the run: the nodes kept for the plots (after
+//! `every`) are decimated by halving — when [`PlotData`] holds its limit of nodes
+//! ([`max_nodes`], at most 65 536 and about 32 MB of values), every other one is dropped and
+//! from then on only every 2nd, 4th, … node is taken — and the last node is always kept. A
+//! plot draws at most 5 000 points per line anyway (`plot::thin`), so for runs of up to 65 536
+//! kept nodes the plots are unchanged.
 
 use super::{NodeEnergy, Thinning, WriteFailure};
 use crate::plot::{file, lines, log_lines, orbits, step_label, Format, Series};
@@ -26,7 +33,64 @@ pub struct PlotData<'a> {
     q: Vec<f64>,
     p: Vec<f64>,
     rel_energy: Vec<f64>,
-    steps: Vec<(f64, f64)>,
+    /// Per kept node: the time since the previous node after `every` (NaN for the first).
+    steps: Vec<f64>,
+    /// The previous node after `every`, kept or not.
+    previous: Option<f64>,
+    decimation: Decimation,
+}
+
+/// Which nodes (after `every`) the plots hold: those whose index is a multiple of `stride`,
+/// and the last; when `limit` are held, every other one goes and the stride doubles.
+#[derive(Debug, Clone, Copy)]
+struct Decimation {
+    seen: usize,
+    stride: usize,
+    limit: usize,
+}
+
+impl Decimation {
+    fn new(limit: usize) -> Self {
+        Decimation {
+            seen: 0,
+            stride: 1,
+            limit: limit.max(2),
+        }
+    }
+
+    /// For the next node (`last`: the run's final one), with `held` nodes held: whether to
+    /// halve those first, and whether to keep this one.
+    fn offer(&mut self, held: usize, last: bool) -> (bool, bool) {
+        let index = self.seen;
+        self.seen += 1;
+        if !(last || index.is_multiple_of(self.stride)) {
+            return (false, false);
+        }
+        if held >= self.limit {
+            self.stride *= 2;
+            return (true, last || index.is_multiple_of(self.stride));
+        }
+        (false, true)
+    }
+}
+
+/// Most values (times, coordinates, momenta, energies, steps) [`PlotData`] keeps.
+const MAX_VALUES: usize = 1 << 22;
+
+/// Most nodes [`PlotData`] keeps for a system with n coordinates: 65 536, fewer when a node's
+/// 2n + 3 values would take more than [`MAX_VALUES`] in all, and at least 16.
+pub fn max_nodes(n: usize) -> usize {
+    (MAX_VALUES / (2 * n + 3)).clamp(16, 1 << 16)
+}
+
+/// Keeps the chunks of `width` values of `v` at even positions (0, 2, 4, …).
+fn keep_even<T: Copy>(v: &mut Vec<T>, width: usize) {
+    let chunks = v.len() / width.max(1);
+    for c in (0..chunks).step_by(2) {
+        let to = c / 2 * width;
+        v.copy_within(c * width..(c + 1) * width, to);
+    }
+    v.truncate(chunks.div_ceil(2) * width);
 }
 
 impl<'a> PlotData<'a> {
@@ -50,7 +114,19 @@ impl<'a> PlotData<'a> {
             p: vec![],
             rel_energy: vec![],
             steps: vec![],
+            previous: None,
+            decimation: Decimation::new(max_nodes(problem.coordinates.len())),
         }
+    }
+
+    /// Halves the nodes kept (those at even positions stay).
+    fn decimate(&mut self) {
+        let n = self.problem.coordinates.len();
+        keep_even(&mut self.t, 1);
+        keep_even(&mut self.q, n);
+        keep_even(&mut self.p, n);
+        keep_even(&mut self.rel_energy, 1);
+        keep_even(&mut self.steps, 1);
     }
 
     /// Draws coordinates against time, phase portraits, the energy error and (energy mode)
@@ -99,7 +175,7 @@ impl<'a> PlotData<'a> {
         if problem.energy.is_some() {
             let steps = [Series {
                 name: "step".into(),
-                points: self.steps.clone(),
+                points: self.t.iter().zip(&self.steps).skip(1).map(|(t, h)| (*t, *h)).collect(),
             }];
             let title = format!("{name}: step size (energy mode)");
             lines(&file(dir, "step_size", f), f, &title, "t", "h", &steps)?;
@@ -166,9 +242,16 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
         if !self.thinning.keep(node.k, last) {
             return Ok(());
         }
-        if let Some(&previous) = self.t.last() {
-            self.steps.push((node.t, node.t - previous));
+        let step = self.previous.map_or(f64::NAN, |previous| node.t - previous);
+        self.previous = Some(node.t);
+        let (halve, keep) = self.decimation.offer(self.t.len(), last);
+        if halve {
+            self.decimate();
         }
+        if !keep {
+            return Ok(());
+        }
+        self.steps.push(step);
         self.t.push(node.t);
         self.q.extend_from_slice(node.q);
         self.p.extend_from_slice(node.p);
@@ -188,5 +271,62 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
             Observer::<L>::node(self, it, true)?;
         }
         self.draw().map_err(femvi::Error::Observer)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Nodes offered one by one: never more than the limit held, evenly spaced by the final
+    /// stride from node 0, and the last one always held.
+    #[test]
+    fn decimation_holds_a_bounded_evenly_spaced_subset_and_the_last_node() {
+        for (total, limit) in [
+            (1usize, 16usize),
+            (10, 16),
+            (16, 16),
+            (17, 16),
+            (1000, 16),
+            (100_003, 1000),
+        ] {
+            let mut d = Decimation::new(limit);
+            let mut held: Vec<usize> = vec![];
+            for i in 0..total {
+                let (halve, keep) = d.offer(held.len(), i + 1 == total);
+                if halve {
+                    keep_even(&mut held, 1);
+                }
+                if keep {
+                    held.push(i);
+                }
+                assert!(held.len() <= limit, "{total} {limit}: {} held", held.len());
+            }
+            assert_eq!(held.last(), Some(&(total - 1)));
+            let body = &held[..held.len() - 1];
+            for (j, &i) in body.iter().enumerate() {
+                assert_eq!(i, j * d.stride, "{total} {limit}");
+            }
+            // Not thinned more than needed: at least a quarter of the limit held.
+            assert!(held.len() >= (limit / 4).min(total), "{total} {limit}: {}", held.len());
+        }
+    }
+
+    #[test]
+    fn keep_even_keeps_chunks_at_even_positions() {
+        let mut v: Vec<f64> = (0..10).map(f64::from).collect();
+        keep_even(&mut v, 2);
+        assert_eq!(v, [0.0, 1.0, 4.0, 5.0, 8.0, 9.0]);
+        let mut w = vec![1, 2, 3];
+        keep_even(&mut w, 1);
+        assert_eq!(w, [1, 3]);
+    }
+
+    #[test]
+    fn node_limits_are_bounded() {
+        assert_eq!(max_nodes(1), 1 << 16);
+        assert!(max_nodes(1000) * 2003 <= MAX_VALUES);
+        assert!(max_nodes(100_000) * 200_003 <= MAX_VALUES);
+        assert_eq!(max_nodes(10_000_000), 16);
     }
 }

@@ -23,10 +23,11 @@ use rayon::prelude::*;
 /// use femvi::{models, Element, Problem, SolveOptions, Start};
 ///
 /// // Circular Kepler orbits of radius 1 … 2: all regular.
+/// let kepler = models::kepler(1.0)?;
 /// let problem = |i: usize| {
 ///     let r = 1.0 + i as f64 / 3.0;
 ///     let start = Start::Momentum { q: vec![r, 0.0], p: vec![0.0, r.sqrt().recip()] };
-///     Problem::new(models::kepler(1.0), start, 0.0, 500.0)
+///     Problem::new(kepler.clone(), start, 0.0, 500.0)
 /// };
 /// let reports = map(4, problem, &Element::with_order(4)?, &SolveOptions::step(0.1), &ChaosOptions::default(), 2)?;
 /// for r in &reports {

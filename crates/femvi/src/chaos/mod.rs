@@ -90,7 +90,7 @@ pub struct ChaosReport {
 ///
 /// // A circular Kepler orbit: regular, MEGNO tends to 2, the exponent to 0.
 /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
-/// let problem = Problem::new(models::kepler(1.0), start, 0.0, 2000.0);
+/// let problem = Problem::new(models::kepler(1.0)?, start, 0.0, 2000.0);
 /// let report = indicators(&problem, &Element::with_order(4)?, &SolveOptions::step(0.1), &ChaosOptions::default())?;
 /// assert!((report.last.mean_megno - 2.0).abs() < 0.1);
 /// assert!(report.last.lyapunov.abs() < 0.01);

@@ -2,6 +2,10 @@
 //! (2.46); in energy mode the extended form of (3.6)), the energy error and its drift, the
 //! Noether momenta of declared symmetries, and the time-reversal error of the symmetric
 //! schemes. The command `femvi check` prints this report.
+//!
+//! The check streams: everything is tallied node by node, and the time reversal takes the
+//! forward steps again from the grid (they are not stored), so its memory does not grow with
+//! the length of the run.
 
 use super::symplecticity_defect;
 pub use super::Symmetry;
@@ -143,6 +147,8 @@ pub fn check<L: Lagrangian>(
         (1, Some(mass), None) if mass.is_identity() && lag.is_autonomous() => paper_formula(element),
         _ => None,
     };
+    // The node each step starts from: the last one's, for the time reversal.
+    let mut previous = (0, t0);
     while it.step()? {
         let k = it.node().k;
         // In energy mode the first element has its step as a parameter: no extended map there.
@@ -153,6 +159,8 @@ pub fn check<L: Lagrangian>(
         let node = it.node();
         let h = hamiltonian(lag, node.t, node.q, node.p, &mut v, &mut work)?;
         tally.node(node.t, h, node.q, node.p, symmetries);
+        tally.last_node = previous;
+        previous = (node.k, node.t);
     }
     let node = it.node();
     let (final_q, final_p, final_t) = (node.q.to_vec(), node.p.to_vec(), node.t);
@@ -165,14 +173,18 @@ pub fn check<L: Lagrangian>(
     if energy.is_some() {
         notes.push("energy mode: symplecticity of the extended map in (q, t; p, -E), paper (3.6)".into());
     }
-    let time_reversal_error = if energy.is_none() && lag.is_autonomous() && !tally.steps_taken.is_empty() {
-        let end = (final_q, final_p);
+    let time_reversal_error = if energy.is_none() && lag.is_autonomous() && tally.steps > 0 {
+        let reverse = Reverse {
+            grid: it.grid(),
+            steps: tally.steps,
+            last: tally.last_node,
+        };
         Some(time_reversal(
             lag,
             element,
             options,
-            &tally.steps_taken,
-            end,
+            &reverse,
+            (final_q, final_p),
             (&q0, &p0),
         )?)
     } else {
@@ -234,32 +246,77 @@ fn sample_tangent_map<L: Lagrangian>(
     Ok(())
 }
 
-/// The time-reversal error: from (q_N, −p_N) = (`end.0`, −`end.1`) back over `steps_taken`
-/// in reverse order, the largest distance of the positions from q_0 and of the momenta from
-/// −p_0 (`start` = (q_0, p_0)).
+/// The time-reversal error: from (q_N, −p_N) = (`end.0`, −`end.1`) back over the steps of
+/// the forward run in reverse order, the largest distance of the positions from q_0 and of
+/// the momenta from −p_0 (`start` = (q_0, p_0)).
+///
+/// The reverse run takes the steps the forward run took on `grid` (`steps` of them, the last
+/// from node `last` = (k, t)) without storing them, so that its memory does not grow with the
+/// run: first the forward run's last step (shortened to land on the end) on its own, then the
+/// others from a grid with the same step (uniform) or the list of steps rotated to run
+/// backwards (a list of steps, cyclic). The second part starts from the node the first one
+/// reaches, so its solver starts afresh there.
 fn time_reversal<L: Lagrangian>(
     lag: &L,
     element: &Element,
     options: SolverOptions,
-    steps_taken: &[f64],
+    reverse: &Reverse,
     end: (Vec<f64>, Vec<f64>),
     start: (&[f64], &[f64]),
 ) -> Result<f64> {
-    let (final_q, final_p) = end;
+    let (mut q, final_p) = end;
+    let mut p: Vec<f64> = final_p.iter().map(|x| -x).collect();
     let (q0, p0) = start;
-    let back: Vec<f64> = steps_taken.iter().rev().cloned().collect();
-    let span: f64 = back.iter().sum();
-    let grid = TimeGrid::steps(0.0, back, span)?;
-    let start = Start::Momentum {
-        q: final_q,
-        p: final_p.iter().map(|x| -x).collect(),
-    };
-    let mut rev = Integrator::new(lag, element, grid, start, options)?;
-    while rev.step()? {}
-    let r = rev.node();
-    let dq = r.q.iter().zip(q0).map(|(a, b)| (a - b).abs());
-    let dp = r.p.iter().zip(p0).map(|(a, b)| (a + b).abs());
+    for grid in [Some(reverse.first()?), reverse.rest()?].into_iter().flatten() {
+        let mut rev = Integrator::new(lag, element, grid, Start::Momentum { q, p }, options)?;
+        while rev.step()? {}
+        let r = rev.node();
+        (q, p) = (r.q.to_vec(), r.p.to_vec());
+    }
+    let dq = q.iter().zip(q0).map(|(a, b)| (a - b).abs());
+    let dp = p.iter().zip(p0).map(|(a, b)| (a + b).abs());
     Ok(dq.chain(dp).fold(0.0, f64::max))
+}
+
+/// The steps of a forward run, to be taken backwards ([`time_reversal`]): its grid, the
+/// number of steps taken and the node (k, t) the last step started from.
+struct Reverse<'g> {
+    grid: &'g TimeGrid,
+    steps: usize,
+    last: (usize, f64),
+}
+
+impl Reverse<'_> {
+    /// A grid of one step: the forward run's last.
+    fn first(&self) -> Result<TimeGrid> {
+        let (k, t) = self.last;
+        let h = match self.grid.next(k, t) {
+            Some((h, _)) => h,
+            None => self.grid.nominal(k),
+        };
+        TimeGrid::uniform(0.0, h, h)
+    }
+
+    /// The grid of the forward steps before the last, in reverse order; None for a run of
+    /// one step.
+    fn rest(&self) -> Result<Option<TimeGrid>> {
+        let m = self.steps.saturating_sub(1);
+        if m == 0 {
+            return Ok(None);
+        }
+        if self.grid.is_uniform() {
+            let h = self.grid.nominal(0);
+            return TimeGrid::uniform(0.0, h, m as f64 * h).map(Some);
+        }
+        // Step j of the reverse run is forward step m − 1 − j: the list rotated and reversed,
+        // and the end where the reverse run's own sums of steps put it.
+        let period = self.grid.period();
+        let list: Vec<f64> = (0..period)
+            .map(|j| self.grid.nominal((m - 1 + period - j) % period))
+            .collect();
+        let end = (0..m).fold(0.0, |t, j| t + list[j % period]);
+        TimeGrid::steps(0.0, list, end).map(Some)
+    }
 }
 
 /// The quantities accumulated step by step over a run.
@@ -279,8 +336,9 @@ struct Tally {
     se: f64,
     stt: f64,
     ste: f64,
-    steps_taken: Vec<f64>,
-    last_t: f64,
+    /// Steps taken, and the node (k, t) the last one started from.
+    steps: usize,
+    last_node: (usize, f64),
     two_form_worst: f64,
     two_form_samples: usize,
 }
@@ -301,8 +359,8 @@ impl Tally {
             se: 0.0,
             stt: 0.0,
             ste: 0.0,
-            steps_taken: vec![],
-            last_t: t0,
+            steps: 0,
+            last_node: (0, t0),
             two_form_worst: 0.0,
             two_form_samples: 0,
         }
@@ -311,8 +369,7 @@ impl Tally {
     /// The node (t, q, p) reached by a step, with energy h: the step, the relative energy
     /// error and the momenta's drifts.
     fn node(&mut self, t: f64, h: f64, q: &[f64], p: &[f64], symmetries: &[Symmetry]) {
-        self.steps_taken.push(t - self.last_t);
-        self.last_t = t;
+        self.steps += 1;
         let h0 = self.h0;
         let rel = if h0 != 0.0 { (h - h0) / h0.abs() } else { h - h0 };
         self.max_rel = self.max_rel.max(rel.abs());
@@ -354,7 +411,7 @@ impl Tally {
             (None, None)
         };
         CheckReport {
-            steps: self.steps_taken.len(),
+            steps: self.steps,
             final_t,
             symplecticity_defect,
             symplecticity_defect_relative,

@@ -10,7 +10,7 @@ pub mod trajectory;
 
 pub use check::{check, CheckReport, TwoFormCheck};
 pub use symmetry::Symmetry;
-pub use trajectory::PiecewiseTrajectory;
+pub use trajectory::{L2Sum, PiecewiseTrajectory};
 
 /// max |MᵀJM − J| for a row-major 2n×2n tangent map M in variables (q, p), with
 /// J = [[0, I], [−I, 0]]. Zero for a symplectic map (up to round-off); NaN if `m` does not

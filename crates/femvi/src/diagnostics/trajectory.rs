@@ -1,13 +1,18 @@
 //! The piecewise-polynomial trajectory q_h(t) of a run (the paper's (2.26)/(2.38b) interpolant),
 //! recorded element by element, evaluated anywhere, and its L² distance to a reference — the
 //! norm of the paper's error estimates (2.33) and (2.56).
+//!
+//! A trajectory can also be kept as a sliding window ([`PiecewiseTrajectory::push`],
+//! [`PiecewiseTrajectory::forget_before`]) and an L² distance summed element by element as a
+//! run goes ([`L2Sum`]), so that a convergence study needs memory independent of the length
+//! of its runs.
 
 use crate::error::{check_len, Result};
 use crate::fem::{LagrangeBasis, QuadratureKind, QuadratureRule, MAX_POINTS};
 use crate::lagrangian::Lagrangian;
-use crate::step::Integrator;
+use crate::step::{ElementNodes, Integrator};
 
-/// The elements of a run: start times, steps and nodal values.
+/// The elements of a run (or of a window of it): start times, steps and nodal values.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PiecewiseTrajectory {
     n: usize,
@@ -16,9 +21,47 @@ pub struct PiecewiseTrajectory {
     h: Vec<f64>,
     /// Nodal values, (s+1)·n per element.
     nodes: Vec<f64>,
+    /// Elements before this one have been forgotten (and are removed in batches).
+    first: usize,
 }
 
 impl PiecewiseTrajectory {
+    /// An empty trajectory of dimension n with elements of `basis`, to be filled by
+    /// [`PiecewiseTrajectory::push`].
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::diagnostics::PiecewiseTrajectory;
+    /// use femvi::{models, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let (lag, el) = (models::harmonic(1.0, 1.0)?, Element::with_order(4)?);
+    /// let start = Start::Velocity { q: vec![1.0], v: vec![0.0] };
+    /// let mut it = Integrator::new(&lag, &el, TimeGrid::uniform(0.0, 0.1, 10.0)?, start, SolverOptions::default())?;
+    /// let mut window = PiecewiseTrajectory::new(&el.basis, 1);
+    /// while it.step()? {
+    ///     if let Some(e) = it.last_element() {
+    ///         window.push(&e)?;
+    ///     }
+    ///     // Only what is needed from t - 1 on.
+    ///     window.forget_before(it.node().t - 1.0);
+    /// }
+    /// assert!(window.len() <= 11);
+    /// let mut q = [0.0];
+    /// window.eval(9.95, &mut q);
+    /// assert!((q[0] - 9.95f64.cos()).abs() < 1e-6);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn new(basis: &LagrangeBasis, n: usize) -> Self {
+        Self {
+            n,
+            basis: basis.clone(),
+            t: vec![],
+            h: vec![],
+            nodes: vec![],
+            first: 0,
+        }
+    }
+
     /// Runs `it` to its end, recording every element; `basis` is its element's basis and n
     /// its dimension.
     ///
@@ -27,75 +70,166 @@ impl PiecewiseTrajectory {
     /// element's; any step error.
     pub fn record<L: Lagrangian>(it: &mut Integrator<L>, basis: &LagrangeBasis, n: usize) -> Result<Self> {
         check_len("trajectory dimension", it.node().q.len(), n)?;
-        let mut me = Self {
-            n,
-            basis: basis.clone(),
-            t: vec![],
-            h: vec![],
-            nodes: vec![],
-        };
+        let mut me = Self::new(basis, n);
         while it.step()? {
             if let Some(e) = it.last_element() {
-                check_len(
-                    "nodal values of the element (basis nodes x n)",
-                    e.incr.len(),
-                    basis.len() * n,
-                )?;
-                me.t.push(e.t);
-                me.h.push(e.h);
-                for j in 0..basis.len() {
-                    for c in 0..n {
-                        me.nodes.push(e.base[c] + e.incr[j * n + c]);
-                    }
-                }
+                me.push(&e)?;
             }
         }
         Ok(me)
     }
 
-    /// Number of elements.
+    /// Appends an element (it must start at or after the last one).
+    ///
+    /// # Errors
+    /// [`crate::Error::Dimension`] if its nodal values are not (basis nodes) × n.
+    pub fn push(&mut self, e: &ElementNodes<'_>) -> Result<()> {
+        let (n, w) = (self.n, self.basis.len());
+        check_len("nodal values of the element (basis nodes x n)", e.incr.len(), w * n)?;
+        check_len("element base point", e.base.len(), n)?;
+        self.t.push(e.t);
+        self.h.push(e.h);
+        for j in 0..w {
+            for c in 0..n {
+                self.nodes.push(e.base[c] + e.incr[j * n + c]);
+            }
+        }
+        Ok(())
+    }
+
+    /// Forgets the elements that [`PiecewiseTrajectory::eval`] no longer needs for times from
+    /// `t` on: those followed by an element that starts at or before `t`. Values at t and later
+    /// are unchanged.
+    pub fn forget_before(&mut self, t: f64) {
+        while self.first + 1 < self.t.len() && self.t[self.first + 1] <= t {
+            self.first += 1;
+        }
+        // Remove in batches, so that forgetting costs O(1) per element on average.
+        if self.first > 0 && self.first * 2 >= self.t.len() {
+            let (k, w) = (self.first, self.basis.len() * self.n);
+            self.t.drain(..k);
+            self.h.drain(..k);
+            self.nodes.drain(..k * w);
+            self.first = 0;
+        }
+    }
+
+    /// Number of elements kept.
     pub fn len(&self) -> usize {
-        self.t.len()
+        self.t.len() - self.first
     }
 
-    /// Whether no element was recorded.
+    /// Whether no element is kept.
     pub fn is_empty(&self) -> bool {
-        self.t.is_empty()
+        self.len() == 0
     }
 
-    /// q_h(t) into `out` (t is clamped to the recorded span); NaN if nothing was recorded or
-    /// `out` does not have the trajectory's dimension.
+    /// Start time of the last element kept, if any.
+    pub fn last_start(&self) -> Option<f64> {
+        (!self.is_empty()).then(|| self.t[self.t.len() - 1])
+    }
+
+    /// q_h(t) into `out` (t is clamped to the span kept); NaN if nothing is kept or `out`
+    /// does not have the trajectory's dimension.
     pub fn eval(&self, t: f64, out: &mut [f64]) {
-        if self.t.is_empty() || out.len() != self.n {
+        if self.is_empty() || out.len() != self.n {
             out.iter_mut().for_each(|x| *x = f64::NAN);
             return;
         }
-        let k = self.t.partition_point(|&tk| tk <= t).saturating_sub(1);
-        let tau = ((t - self.t[k]) / self.h[k]).clamp(0.0, 1.0);
+        let k = self.first + self.t[self.first..].partition_point(|&tk| tk <= t).saturating_sub(1);
         let w = self.basis.len();
-        let mut l = vec![0.0; w];
-        self.basis.values_in_place(tau, &mut l);
         let nodes = &self.nodes[k * w * self.n..(k + 1) * w * self.n];
-        for (c, o) in out.iter_mut().enumerate() {
-            *o = (0..w).map(|j| l[j] * nodes[j * self.n + c]).sum();
+        element_value(&self.basis, self.t[k], self.h[k], nodes, t, out);
+    }
+
+    /// (∫ |q_h(t) − q_ref(t)|² dt)^½ over the span kept, by a Gauss rule of `points` points
+    /// per element (clamped to 1 ..= [`MAX_POINTS`]); `reference(t, out)` writes q_ref(t).
+    pub fn l2_distance(&self, points: usize, mut reference: impl FnMut(f64, &mut [f64])) -> f64 {
+        let mut sum = L2Sum::new(points, self.n);
+        let w = self.basis.len() * self.n;
+        for k in self.first..self.t.len() {
+            let nodes = &self.nodes[k * w..(k + 1) * w];
+            sum.add(&self.basis, self.t[k], self.h[k], nodes, &mut reference);
+        }
+        sum.value()
+    }
+}
+
+/// q_h(t) on one element starting at `t0` with step h and nodal values `nodes` ((s+1)·n).
+fn element_value(basis: &LagrangeBasis, t0: f64, h: f64, nodes: &[f64], t: f64, out: &mut [f64]) {
+    let n = out.len();
+    let tau = ((t - t0) / h).clamp(0.0, 1.0);
+    let w = basis.len();
+    let mut l = vec![0.0; w];
+    basis.values_in_place(tau, &mut l);
+    for (c, o) in out.iter_mut().enumerate() {
+        *o = (0..w).map(|j| l[j] * nodes[j * n + c]).sum();
+    }
+}
+
+/// ∫ |q_h(t) − q_ref(t)|² dt summed element by element, by a Gauss rule on each: the L²
+/// distance of [`PiecewiseTrajectory::l2_distance`] (the same sums in the same order) without
+/// keeping the elements.
+///
+/// # Example
+///
+/// ```
+/// use femvi::diagnostics::L2Sum;
+/// use femvi::fem::{LagrangeBasis, NodeFamily};
+/// // q_h = t on [0, 1] (degree 1), against q_ref = 0: ∫ t² = 1/3.
+/// let basis = LagrangeBasis::new(1, NodeFamily::Equispaced)?;
+/// let mut sum = L2Sum::new(2, 1);
+/// sum.add(&basis, 0.0, 1.0, &[0.0, 1.0], |_, out: &mut [f64]| out[0] = 0.0);
+/// assert!((sum.value() - (1.0f64 / 3.0).sqrt()).abs() < 1e-15);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct L2Sum {
+    rule: QuadratureRule,
+    qh: Vec<f64>,
+    qr: Vec<f64>,
+    sum: f64,
+}
+
+impl L2Sum {
+    /// A sum for a trajectory of dimension n with a Gauss rule of `points` points per element
+    /// (clamped to 1 ..= [`MAX_POINTS`]).
+    pub fn new(points: usize, n: usize) -> Self {
+        let rule = QuadratureRule::new(QuadratureKind::GaussLegendre(points.clamp(1, MAX_POINTS)))
+            .unwrap_or_else(|_| unreachable!("1 ..= MAX_POINTS points"));
+        Self {
+            rule,
+            qh: vec![0.0; n],
+            qr: vec![0.0; n],
+            sum: 0.0,
         }
     }
 
-    /// (∫ |q_h(t) − q_ref(t)|² dt)^½ over the recorded span, by a Gauss rule of `points` points
-    /// per element (clamped to 1 ..= [`MAX_POINTS`]); `reference(t, out)` writes q_ref(t).
-    pub fn l2_distance(&self, points: usize, mut reference: impl FnMut(f64, &mut [f64])) -> f64 {
-        let rule = QuadratureRule::new(QuadratureKind::GaussLegendre(points.clamp(1, MAX_POINTS)))
-            .unwrap_or_else(|_| unreachable!("1 ..= MAX_POINTS points"));
-        let (mut qh, mut qr) = (vec![0.0; self.n], vec![0.0; self.n]);
-        let mut sum = 0.0;
-        for k in 0..self.t.len() {
-            for (c, b) in rule.nodes.iter().zip(&rule.weights) {
-                let t = self.t[k] + c * self.h[k];
-                self.eval(t, &mut qh);
-                reference(t, &mut qr);
-                sum += self.h[k] * b * qh.iter().zip(&qr).map(|(a, r)| (a - r).powi(2)).sum::<f64>();
-            }
+    /// Adds the element starting at `t0` with step h and nodal values `nodes` ((basis
+    /// nodes) × n); `reference(t, out)` writes q_ref(t). An element whose nodal values do not
+    /// have that length adds NaN.
+    pub fn add(
+        &mut self,
+        basis: &LagrangeBasis,
+        t0: f64,
+        h: f64,
+        nodes: &[f64],
+        mut reference: impl FnMut(f64, &mut [f64]),
+    ) {
+        if nodes.len() != basis.len() * self.qh.len() {
+            self.sum = f64::NAN;
+            return;
         }
-        sum.sqrt()
+        for (c, b) in self.rule.nodes.iter().zip(&self.rule.weights) {
+            let t = t0 + c * h;
+            element_value(basis, t0, h, nodes, t, &mut self.qh);
+            reference(t, &mut self.qr);
+            self.sum += h * b * self.qh.iter().zip(&self.qr).map(|(a, r)| (a - r).powi(2)).sum::<f64>();
+        }
+    }
+
+    /// The distance so far, (Σ)^½.
+    pub fn value(&self) -> f64 {
+        self.sum.sqrt()
     }
 }

@@ -39,6 +39,15 @@ impl DoublePendulum {
         if [m1, m2, l1, l2].iter().any(|&x| x <= 0.0) {
             return Err(invalid("double-pendulum", "masses and rods must be positive"));
         }
+        // Finite parameters can still overflow in the products the Lagrangian uses.
+        let products = [
+            ("(m1 + m2) l1^2", (m1 + m2) * l1 * l1),
+            ("m2 l2^2", m2 * l2 * l2),
+            ("m2 l1 l2", m2 * l1 * l2),
+            ("(m1 + m2) g l1", (m1 + m2) * g * l1),
+            ("m2 g l2", m2 * g * l2),
+        ];
+        finite("double-pendulum", &products)?;
         Ok(Self { m1, m2, l1, l2, g })
     }
 }

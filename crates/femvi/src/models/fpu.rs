@@ -71,10 +71,17 @@ impl Potential for FpuPotential {
 /// The FPUT chain with unit masses (O(n) memory: the identity mass matrix is stored by its
 /// diagonal).
 ///
-/// It does not check its arguments (its signature is kept for existing callers): n = 0 gives
-/// a system without coordinates, which an integrator rejects, and α or β not finite give
-/// non-finite forces. [`FpuPotential::new`] checks them:
-/// `Mechanical::unit_mass(FpuPotential::new(n, alpha, beta)?)`.
-pub fn fpu(n: usize, alpha: f64, beta: f64) -> Mechanical<FpuPotential> {
-    Mechanical::unit_mass(FpuPotential { n, alpha, beta })
+/// # Errors
+/// n = 0, or α or β not finite ([`crate::Error::Invalid`]).
+///
+/// # Example
+///
+/// ```
+/// use femvi::models::fpu;
+/// assert!(fpu(8, 0.25, 0.0).is_ok());
+/// assert!(fpu(0, 0.25, 0.0).is_err());
+/// assert!(fpu(8, f64::NAN, 0.0).is_err() && fpu(8, 0.0, f64::NEG_INFINITY).is_err());
+/// ```
+pub fn fpu(n: usize, alpha: f64, beta: f64) -> Result<Mechanical<FpuPotential>> {
+    Ok(Mechanical::unit_mass(FpuPotential::new(n, alpha, beta)?))
 }

@@ -71,8 +71,8 @@ impl Potential for GravityPotential {
 /// dimensions (O(n) memory: the mass matrix is stored by its diagonal).
 ///
 /// # Errors
-/// A dimension other than 1, 2 or 3, no body, G not finite, or a mass that is not positive
-/// and finite.
+/// A dimension other than 1, 2 or 3, no body, G (or G m_i m_j) not finite, or a mass that is
+/// not positive and finite.
 pub fn n_body(g: f64, masses: Vec<f64>, dim: usize) -> Result<Mechanical<GravityPotential>> {
     if !(1..=3).contains(&dim) {
         return Err(invalid(
@@ -84,6 +84,12 @@ pub fn n_body(g: f64, masses: Vec<f64>, dim: usize) -> Result<Mechanical<Gravity
         return Err(invalid("n-body", "there is no body"));
     }
     finite("n-body", &[("G", g)])?;
+    // Finite parameters can still overflow in G m_i m_j.
+    let heaviest = masses.iter().fold(0.0f64, |a, m| a.max(m.abs()));
+    finite(
+        "n-body",
+        &[("G m_i m_j of the heaviest bodies", g * heaviest * heaviest)],
+    )?;
     let diag: Vec<f64> = masses.iter().flat_map(|m| std::iter::repeat_n(*m, dim)).collect();
     Mechanical::new(GravityPotential { g, masses, dim }, MassMatrix::diagonal(diag)?)
 }

@@ -157,9 +157,11 @@ pub fn harmonic(m: f64, k: f64) -> Result<Mechanical<HarmonicPotential>> {
 /// The pendulum with mass m, gravity g and length l.
 ///
 /// # Errors
-/// A parameter that is not finite, or m l² not positive.
+/// A parameter (or m g l, m l²) that is not finite, or m l² not positive.
 pub fn pendulum(m: f64, g: f64, l: f64) -> Result<Mechanical<PendulumPotential>> {
     finite("pendulum", &[("m", m), ("g", g), ("l", l)])?;
+    // Finite parameters can still overflow in the products the system uses.
+    finite("pendulum", &[("m g l", m * g * l), ("m l^2", m * l * l)])?;
     Mechanical::new(
         PendulumPotential { mgl: m * g * l },
         MassMatrix::diagonal(vec![m * l * l])?,
@@ -168,11 +170,18 @@ pub fn pendulum(m: f64, g: f64, l: f64) -> Result<Mechanical<PendulumPotential>>
 
 /// Kepler's problem with gravitational parameter μ, unit mass.
 ///
-/// It does not check μ (its signature is kept for existing callers); a μ that is not finite
-/// gives non-finite forces, which a run reports as a step error. [`KeplerPotential::new`]
-/// checks it: `Mechanical::unit_mass(KeplerPotential::new(mu)?)`.
-pub fn kepler(mu: f64) -> Mechanical<KeplerPotential> {
-    Mechanical::unit_mass(KeplerPotential { mu })
+/// # Errors
+/// μ not finite ([`crate::Error::Invalid`]).
+///
+/// # Example
+///
+/// ```
+/// use femvi::models::kepler;
+/// assert!(kepler(1.0).is_ok());
+/// assert!(kepler(f64::NAN).is_err() && kepler(f64::INFINITY).is_err());
+/// ```
+pub fn kepler(mu: f64) -> Result<Mechanical<KeplerPotential>> {
+    Ok(Mechanical::unit_mass(KeplerPotential::new(mu)?))
 }
 
 /// Hénon–Heiles, unit masses.
@@ -226,7 +235,7 @@ mod tests {
         }
         check(&pendulum(2.0, 9.81, 0.5).unwrap(), 1);
         check(&Mechanical::unit_mass(PendulumPotential { mgl: 1.0 }), 1);
-        check(&kepler(1.0), 2);
+        check(&kepler(1.0).unwrap(), 2);
         check(&henon_heiles(), 2);
     }
 }

@@ -12,7 +12,7 @@
 //! // Kepler, eccentricity 0.5, ten periods with degree 4 (order 8).
 //! let e: f64 = 0.5;
 //! let start = Start::Momentum { q: vec![1.0 - e, 0.0], p: vec![0.0, ((1.0 + e) / (1.0 - e)).sqrt()] };
-//! let problem = Problem::new(models::kepler(1.0), start, 0.0, 20.0 * std::f64::consts::PI);
+//! let problem = Problem::new(models::kepler(1.0)?, start, 0.0, 20.0 * std::f64::consts::PI);
 //! let sol = solve(&problem, &Element::with_order(8)?, &SolveOptions::step(0.05))?;
 //! assert!(sol.error.is_none());
 //! let (first, last) = (sol.energy[0], *sol.energy.last().unwrap());
@@ -55,8 +55,9 @@ impl<L> Problem<L> {
     /// ```
     /// use femvi::{models, Problem, Start};
     /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
-    /// let problem = Problem::new(models::kepler(1.0), start, 0.0, 100.0);
+    /// let problem = Problem::new(models::kepler(1.0)?, start, 0.0, 100.0);
     /// assert_eq!(problem.t_end, 100.0);
+    /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn new(lagrangian: L, start: Start, t0: f64, t_end: f64) -> Self {
         Self {

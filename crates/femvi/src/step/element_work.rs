@@ -4,6 +4,31 @@
 //! so that explicit and fixed-point runs never hold the (s+1)n-square Hessian.
 
 use crate::discrete::{Element, ElementWork};
+use crate::error::{invalid, Result};
+
+/// The largest (s+1)·n for which the dense element Hessian ((s+1)n)² and Newton's s·n-square
+/// Jacobians are allocated: 4 096, about 128 MB for the Hessian and 256 MB for the Jacobians.
+pub const MAX_DENSE_NEWTON: usize = 4096;
+
+/// Checks, before anything is allocated, that Newton's dense matrices for `element` in
+/// dimension n stay within [`MAX_DENSE_NEWTON`].
+///
+/// # Errors
+/// [`crate::Error::Invalid`] naming the size, the limit and the way out.
+pub(crate) fn check_dense_newton(element: &Element, n: usize) -> Result<()> {
+    let w = element.nodes().checked_mul(n);
+    match w {
+        Some(w) if w <= MAX_DENSE_NEWTON => Ok(()),
+        _ => Err(invalid(
+            "Newton's method",
+            format!(
+                "an element of {} nodes in dimension {n} needs dense ({}n)^2 Hessians; the limit is (s+1) n <= {MAX_DENSE_NEWTON} (use a mechanical Lagrangian with method = \"fixed-point\", a lower degree or a smaller system)",
+                element.nodes(),
+                element.nodes(),
+            ),
+        )),
+    }
+}
 
 /// Buffers for evaluating one element of dimension n.
 #[derive(Debug, Clone)]

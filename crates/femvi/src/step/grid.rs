@@ -114,6 +114,12 @@ impl TimeGrid {
         }
     }
 
+    /// The length of the list of steps taken in turn (1 for a uniform grid): the nominal steps
+    /// repeat with this period.
+    pub fn period(&self) -> usize {
+        self.steps.len()
+    }
+
     /// Whether all steps are equal.
     pub fn is_uniform(&self) -> bool {
         self.steps.len() == 1

@@ -52,7 +52,7 @@ macro_rules! context {
 /// use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
 ///
 /// // The Kepler problem, degree 2 with 2-point Gauss, h = 0.01 over one period.
-/// let kepler = models::kepler(1.0);
+/// let kepler = models::kepler(1.0)?;
 /// let element = Element::galerkin(2, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(2))?;
 /// let grid = TimeGrid::uniform(0.0, 0.01, 2.0 * std::f64::consts::PI)?;
 /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
@@ -250,7 +250,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// ```
     /// use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
     /// // Störmer–Verlet (degree 1, trapezoid): 1000 steps in chunks of 300.
-    /// let kepler = models::kepler(1.0);
+    /// let kepler = models::kepler(1.0)?;
     /// let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid)?;
     /// let grid = TimeGrid::uniform(0.0, 0.001, 1.0)?;
     /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };

@@ -62,6 +62,7 @@ mod tangent;
 
 pub use checkpoint::Checkpoint;
 pub use drive::{drive, DriveReport, Observer};
+pub use element_work::MAX_DENSE_NEWTON;
 pub use energy::{Degenerate, EnergyOptions, EnergyStats};
 pub use grid::{TimeGrid, UniformRule};
 pub use integrator::Integrator;

@@ -4,7 +4,7 @@
 //! Jacobian the element Hessian ∂²L_d/∂Q∂Q by automatic differentiation. Then
 //! Δq = X^s and Δp = h Σ_i b_i ∂L/∂q(c_i) (the sum of the residual rows).
 
-use super::element_work::{buffers, ElementBuffers};
+use super::element_work::{buffers, check_dense_newton, ElementBuffers};
 use super::guess::Guess;
 use super::solver::StepContext;
 use super::state::{Increments, LastElement, RunState};
@@ -31,11 +31,18 @@ pub(crate) fn step_error(state: &RunState, f: NewtonFailure) -> Error {
 }
 
 impl NewtonStep {
-    pub(crate) fn new(s: usize, n: usize) -> Self {
-        Self {
+    /// The workspace for `element` in dimension n.
+    ///
+    /// # Errors
+    /// Dense matrices past [`super::element_work::MAX_DENSE_NEWTON`] (checked before they are
+    /// allocated).
+    pub(crate) fn new(element: &crate::Element, n: usize) -> Result<Self> {
+        check_dense_newton(element, n)?;
+        let s = element.degree();
+        Ok(Self {
             guess: Guess::new(s, n),
             newton: DenseNewtonWork::new(s * n),
-        }
+        })
     }
 
     /// Solves the step from the current node with step h into `out`; returns the iterations.

@@ -72,7 +72,7 @@ impl Solver {
         Ok(match kind {
             Kind::Explicit => Solver::Explicit(ExplicitStep::new(n)),
             Kind::FixedPoint => Solver::FixedPoint(Box::new(FixedPointStep::new(element, n)?)),
-            Kind::Newton => Solver::Newton(NewtonStep::new(element.degree(), n)),
+            Kind::Newton => Solver::Newton(NewtonStep::new(element, n)?),
         })
     }
 
