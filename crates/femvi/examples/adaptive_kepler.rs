@@ -14,10 +14,18 @@ fn main() -> femvi::Result<()> {
     let q0 = [1.0 - e, 0.0];
     let p0 = [0.0, ((1.0 + e) / (1.0 - e)).sqrt()];
     let t_end = periods * 2.0 * std::f64::consts::PI;
-    let start = Start::Momentum { q: q0.to_vec(), p: p0.to_vec() };
+    let start = Start::Momentum {
+        q: q0.to_vec(),
+        p: p0.to_vec(),
+    };
     let problem = Problem::new(models::kepler(1.0), start, 0.0, t_end);
     let by_ad = args.get(4).copied().unwrap_or(0.0) != 0.0;
-    let options = AdaptiveOptions { every: 0, saveat: vec![t_end], hand_derivatives: !by_ad, ..AdaptiveOptions::step(ds) };
+    let options = AdaptiveOptions {
+        every: 0,
+        saveat: vec![t_end],
+        hand_derivatives: !by_ad,
+        ..AdaptiveOptions::step(ds)
+    };
     let clock = std::time::Instant::now();
     let sol = solve_adaptive(&problem, KeplerMonitor, &Element::with_order(order)?, &options)?;
     let secs = clock.elapsed().as_secs_f64();
@@ -30,7 +38,11 @@ fn main() -> femvi::Result<()> {
     );
     // Fixed steps, as many as the adaptive run took.
     let h = t_end / sol.steps as f64;
-    let fixed = SolveOptions { every: 0, saveat: vec![t_end], ..SolveOptions::step(h) };
+    let fixed = SolveOptions {
+        every: 0,
+        saveat: vec![t_end],
+        ..SolveOptions::step(h)
+    };
     let clock = std::time::Instant::now();
     let fsol = solve(&problem, &Element::with_order(order)?, &fixed)?;
     let fsecs = clock.elapsed().as_secs_f64();

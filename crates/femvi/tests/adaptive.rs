@@ -75,8 +75,13 @@ fn the_momentum_is_the_physical_momentum() {
     // And along a run: the nodes' p against the closed-form physical momentum at their t.
     let e = 0.9;
     let problem = Problem::new(models::kepler(1.0), kepler_start(e), 0.0, 4.0 * std::f64::consts::PI);
-    let sol = solve_adaptive(&problem, KeplerMonitor, &Element::with_order(6).unwrap(), &AdaptiveOptions::step(0.05))
-        .unwrap();
+    let sol = solve_adaptive(
+        &problem,
+        KeplerMonitor,
+        &Element::with_order(6).unwrap(),
+        &AdaptiveOptions::step(0.05),
+    )
+    .unwrap();
     let mut worst = 0.0f64;
     for (i, &t) in sol.t.iter().enumerate() {
         let (_, p) = kepler_exact(e, t);
@@ -96,11 +101,17 @@ fn the_step_map_is_symplectic() {
     let e0 = hamiltonian(&kepler, 0.0, &q0, &p0, &mut [0.0; 2], &mut PointDerivatives::new(2)).unwrap();
     for (lg, order) in [
         (TimeTransformed::new(kepler.clone(), KeplerMonitor, e0).unwrap(), 4),
-        (TimeTransformed::new(kepler.clone(), KeplerMonitor, e0).unwrap().by_ad(), 8),
+        (
+            TimeTransformed::new(kepler.clone(), KeplerMonitor, e0).unwrap().by_ad(),
+            8,
+        ),
     ] {
         let element = Element::with_order(order).unwrap();
         let grid = TimeGrid::uniform(0.0, 0.1, 8.4).unwrap(); // about one period
-        let start = Start::Momentum { q: q0.clone(), p: p0.clone() };
+        let start = Start::Momentum {
+            q: q0.clone(),
+            p: p0.clone(),
+        };
         let mut it = Integrator::new(&lg, &element, grid, start, SolverOptions::default()).unwrap();
         let mut worst = 0.0f64;
         while it.step().unwrap() {
@@ -126,7 +137,10 @@ fn saveat_answers_physical_times_from_the_element() {
             ..AdaptiveOptions::step(ds)
         };
         let sol = solve_adaptive(&problem, KeplerMonitor, &element, &options).unwrap();
-        assert_eq!(sol.saved.t, times, "every requested time is answered, exactly that time");
+        assert_eq!(
+            sol.saved.t, times,
+            "every requested time is answered, exactly that time"
+        );
         let (mut worst_q, mut worst_p) = (0.0f64, 0.0f64);
         for (i, &t) in times.iter().enumerate() {
             let (q, p) = kepler_exact(e, t);
@@ -168,28 +182,64 @@ fn an_expression_monitor_gives_the_same_run_as_the_built_in_one() {
 fn refusals_are_typed_errors_and_nothing_hangs() {
     let element = Element::with_order(2).unwrap();
     let options = AdaptiveOptions::step(0.1);
-    let start = Start::Velocity { q: vec![1.0], v: vec![0.0] };
+    let start = Start::Velocity {
+        q: vec![1.0],
+        v: vec![0.0],
+    };
     // A non-autonomous Lagrangian.
-    let forced = Problem::new(models::forced_oscillator(1.0, 1.0, 0.5, 2.0).unwrap(), start.clone(), 0.0, 1.0);
+    let forced = Problem::new(
+        models::forced_oscillator(1.0, 1.0, 0.5, 2.0).unwrap(),
+        start.clone(),
+        0.0,
+        1.0,
+    );
     let g = ExprMonitor::new("1", &["x".into()], &[]).unwrap();
     let err = solve_adaptive(&forced, &g, &element, &options).unwrap_err();
-    assert!(matches!(err, Error::Invalid { .. }) && err.to_string().contains("autonomous"), "{err}");
+    assert!(
+        matches!(err, Error::Invalid { .. }) && err.to_string().contains("autonomous"),
+        "{err}"
+    );
     // A start from (q0, q1), a bad ds, a monitor that is not positive at q0.
     let osc = models::harmonic(1.0, 1.0).unwrap();
-    let positions = Problem::new(osc.clone(), Start::Positions { q0: vec![1.0], q1: vec![0.9] }, 0.0, 1.0);
-    assert!(matches!(solve_adaptive(&positions, &g, &element, &options), Err(Error::Invalid { .. })));
+    let positions = Problem::new(
+        osc.clone(),
+        Start::Positions {
+            q0: vec![1.0],
+            q1: vec![0.9],
+        },
+        0.0,
+        1.0,
+    );
+    assert!(matches!(
+        solve_adaptive(&positions, &g, &element, &options),
+        Err(Error::Invalid { .. })
+    ));
     let problem = Problem::new(osc, start, 0.0, 10.0);
     for ds in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         let bad = AdaptiveOptions::step(ds);
-        assert!(matches!(solve_adaptive(&problem, &g, &element, &bad), Err(Error::Invalid { .. })));
+        assert!(matches!(
+            solve_adaptive(&problem, &g, &element, &bad),
+            Err(Error::Invalid { .. })
+        ));
     }
     let negative = ExprMonitor::new("x - 2", &["x".into()], &[]).unwrap();
-    assert!(matches!(solve_adaptive(&problem, &negative, &element, &options), Err(Error::Invalid { .. })));
+    assert!(matches!(
+        solve_adaptive(&problem, &negative, &element, &options),
+        Err(Error::Invalid { .. })
+    ));
     // g = x² vanishes where the oscillator crosses 0: physical time stalls there, and the
     // step limit ends the run (stopped) instead of a hang.
     let stall = ExprMonitor::new("x^2", &["x".into()], &[]).unwrap();
-    let limited = AdaptiveOptions { max_steps: 2000, ..AdaptiveOptions::step(0.1) };
+    let limited = AdaptiveOptions {
+        max_steps: 2000,
+        ..AdaptiveOptions::step(0.1)
+    };
     let sol = solve_adaptive(&problem, &stall, &element, &limited).unwrap();
-    assert!(sol.steps <= 2000 && (sol.stopped || sol.error.is_some()), "{} {:?}", sol.steps, sol.error);
+    assert!(
+        sol.steps <= 2000 && (sol.stopped || sol.error.is_some()),
+        "{} {:?}",
+        sol.steps,
+        sol.error
+    );
     assert!(*sol.t.last().unwrap() < 10.0);
 }

@@ -19,8 +19,17 @@ fn problem(e: f64, periods: f64) -> Problem<femvi::Mechanical<models::KeplerPote
 }
 
 fn run(e: f64, periods: f64, order: usize, ds: f64, every: usize) -> AdaptiveSolution {
-    let options = AdaptiveOptions { every, ..AdaptiveOptions::step(ds) };
-    let sol = solve_adaptive(&problem(e, periods), KeplerMonitor, &Element::with_order(order).unwrap(), &options).unwrap();
+    let options = AdaptiveOptions {
+        every,
+        ..AdaptiveOptions::step(ds)
+    };
+    let sol = solve_adaptive(
+        &problem(e, periods),
+        KeplerMonitor,
+        &Element::with_order(order).unwrap(),
+        &options,
+    )
+    .unwrap();
     assert!(sol.error.is_none(), "{:?}", sol.error);
     sol
 }
@@ -43,9 +52,15 @@ fn order_2s_in_the_fictitious_step() {
         (8, [0.4, 0.2, 0.1]),
     ];
     for (order, steps) in cases {
-        let errors: Vec<f64> = steps.iter().map(|&ds| final_error(e, &run(e, 1.0, order, ds, 0))).collect();
+        let errors: Vec<f64> = steps
+            .iter()
+            .map(|&ds| final_error(e, &run(e, 1.0, order, ds, 0)))
+            .collect();
         let fitted = fit_order(&steps, &errors);
-        println!("Kepler e = 0.9, one period, order {order}: errors {} fitted order {fitted:.2}", Errs(&errors));
+        println!(
+            "Kepler e = 0.9, one period, order {order}: errors {} fitted order {fitted:.2}",
+            Errs(&errors)
+        );
         assert!((fitted - order as f64).abs() < 0.5, "order {order}: fitted {fitted}");
     }
 }
@@ -91,7 +106,15 @@ fn adaptive_steps_beat_fixed_steps_of_the_same_number() {
         // Fixed steps: as many steps over the same span, the same element (order 4).
         let p = problem(e, periods);
         let h = p.t_end / sol.steps as f64;
-        let fixed = solve(&p, &Element::with_order(4).unwrap(), &SolveOptions { every: 0, ..SolveOptions::step(h) }).unwrap();
+        let fixed = solve(
+            &p,
+            &Element::with_order(4).unwrap(),
+            &SolveOptions {
+                every: 0,
+                ..SolveOptions::step(h)
+            },
+        )
+        .unwrap();
         let i = fixed.t.len() - 1;
         let (q, _) = kepler_exact(e, fixed.t[i]);
         let fixed_error = (fixed.q[2 * i] - q[0]).hypot(fixed.q[2 * i + 1] - q[1]);

@@ -6,8 +6,8 @@
 
 use super::errors::{InputError, Source};
 use super::system::System;
-use femvi::step::auto::StepChoice;
 use crate::adaptive::AdaptiveTime;
+use femvi::step::auto::StepChoice;
 use femvi::{Element, SolverOptions, Start, TimeGrid};
 use serde::Deserialize;
 
@@ -24,7 +24,6 @@ pub enum Mode {
     /// Fixed steps `ds` in fictitious time, dt/ds = `monitor`(q) (issue 21).
     Adaptive,
 }
-
 
 /// `[time] on_degenerate`: what energy mode does at a step whose energy equation has no
 /// admissible root.
@@ -70,9 +69,7 @@ pub struct TimeTable {
 impl TimeTable {
     /// Energy mode's options (None in fixed mode), checked against the other keys.
     pub fn energy(&self, src: &Source) -> Result<Option<femvi::EnergyOptions>, InputError> {
-        if self.mode != Mode::Adaptive
-            && (self.monitor.is_some() || self.ds.is_some() || self.output_step.is_some())
-        {
+        if self.mode != Mode::Adaptive && (self.monitor.is_some() || self.ds.is_some() || self.output_step.is_some()) {
             return Err(src.error("[time] monitor, ds and output_step apply only to mode = \"adaptive\""));
         }
         if self.mode == Mode::Adaptive {

@@ -67,7 +67,13 @@ impl Clock {
     }
 
     /// t(σ) − t_k = σΔs Σ_i b_i g(q_h(σ c_i)); at σ = 1 the element's physical step.
-    pub(crate) fn elapsed<G: Monitor>(&mut self, element: &Element, monitor: &G, el: &ElementNodes<'_>, sigma: f64) -> f64 {
+    pub(crate) fn elapsed<G: Monitor>(
+        &mut self,
+        element: &Element,
+        monitor: &G,
+        el: &ElementNodes<'_>,
+        sigma: f64,
+    ) -> f64 {
         let mut sum = 0.0;
         for (&c, &b) in element.rule.nodes.iter().zip(&element.rule.weights) {
             sum += b * self.g_at(element, monitor, el, sigma * c);

@@ -64,7 +64,10 @@ impl<L: Lagrangian, G: Monitor> TimeTransformed<L, G> {
             check_len("monitor", lag.dim(), monitor.dim())?;
         }
         if !e0.is_finite() {
-            return Err(invalid("adaptive steps", format!("the energy level E0 = {e0} is not finite")));
+            return Err(invalid(
+                "adaptive steps",
+                format!("the energy level E0 = {e0} is not finite"),
+            ));
         }
         let fast = lag.mass_matrix().is_some();
         Ok(Self { lag, monitor, e0, fast })

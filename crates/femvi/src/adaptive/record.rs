@@ -97,9 +97,7 @@ impl<'e> Recorder<'e> {
             }
             self.next_save += 1;
             let (q, qs, p) = (&mut self.scratch.0, &mut self.scratch.1, &mut self.scratch.2);
-            let sigma = self
-                .clock
-                .locate(self.element, lg.monitor(), el, ts - t_prev, total);
+            let sigma = self.clock.locate(self.element, lg.monitor(), el, ts - t_prev, total);
             self.clock.interpolate(self.element, el, sigma, q, Some(qs));
             // The physical velocity v = q'/g and its momentum ∂L/∂v (= ∂L_g/∂q').
             let g = lg.monitor().value(q);

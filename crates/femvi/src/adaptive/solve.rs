@@ -78,7 +78,10 @@ pub fn solve_adaptive<L: Lagrangian, G: Monitor>(
     let lag = &problem.lagrangian;
     let (t0, t_end) = (problem.t0, problem.t_end);
     if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
-        return Err(invalid("time span", format!("need finite t0 < t_end, got [{t0}, {t_end}]")));
+        return Err(invalid(
+            "time span",
+            format!("need finite t0 < t_end, got [{t0}, {t_end}]"),
+        ));
     }
     let ds = options.ds;
     if !(ds.is_finite() && ds > 0.0) {

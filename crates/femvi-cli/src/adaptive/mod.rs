@@ -5,7 +5,9 @@
 //! default "kepler" for the Kepler model and "nbody" for n-body). Writes trajectory.csv with
 //! the physical time t (columns step, t, q, p, energy, s) — or, with `output_step`, rows at
 //! uniform physical times from the element polynomials (columns row, t, q, p, energy) — and
-//! summary.json. NPY output and plots are not written in this mode.
+//! summary.json; plots with `--plot` (`plots.rs`). NPY output is not written in this mode.
+
+mod plots;
 
 use crate::problem::{Problem, ProblemFile, System};
 use crate::run::{empty_summary, finish, Outcome, RunOutput};
@@ -95,10 +97,10 @@ pub fn run(
     problem: &Problem,
     settings: &AdaptiveTime,
     dir: &Path,
-    _out: RunOutput,
+    out: RunOutput,
     command: &[String],
 ) -> std::io::Result<Outcome> {
-    crate::with_system!(&problem.system, l => run_with(l.clone(), problem, settings, dir, command))
+    crate::with_system!(&problem.system, l => run_with(l.clone(), problem, settings, dir, out, command))
 }
 
 fn run_with<L: Lagrangian>(
@@ -106,6 +108,7 @@ fn run_with<L: Lagrangian>(
     problem: &Problem,
     settings: &AdaptiveTime,
     dir: &Path,
+    out: RunOutput,
     command: &[String],
 ) -> std::io::Result<Outcome> {
     let clock = Instant::now();
@@ -150,6 +153,11 @@ fn run_with<L: Lagrangian>(
     summary.max_rel_energy_error = sol.energy.iter().fold(0.0, |m, h| m.max((h - sol.e0).abs() / scale));
     summary.mean_solver_iterations = sol.mean_iterations;
     summary.error = sol.error.as_ref().map(|e| e.to_string());
+    if out.plots {
+        if let Err(e) = plots::draw(dir, out.plot_format, problem, &sol, settings.ds) {
+            summary.error.get_or_insert(e);
+        }
+    }
     summary.wall_seconds = clock.elapsed().as_secs_f64();
     finish(dir, summary)
 }
