@@ -8,8 +8,9 @@
 //!   ∂²L_g/∂q_a∂q_b = −½T₂(∂²_ab g/g² − 2∂_a g ∂_b g/g³) − φ∂²_ab g + ∂_a g F_b + F_a ∂_b g + gJ_ab.
 //!
 //! V, F and J come from the physical Lagrangian (its hand-coded force and force Jacobian for
-//! the built-in models), g's gradient and Hessian from dual numbers over g alone (n and
-//! n(n+1)/2 passes over a cheap function), instead of hyper-dual passes over the whole of L_g
+//! the built-in models), g's gradient and Hessian from [`Monitor::derivatives`] (by hand for
+//! the Kepler monitor, otherwise dual numbers over g alone: n and n(n+1)/2 passes over a
+//! cheap function), instead of hyper-dual passes over the whole of L_g
 //! ((2n+1)(n+1) passes, each evaluating V and g). Scratch lives on the stack up to
 //! [`STACK`] numbers, so the step loop does not allocate for small systems.
 
@@ -18,12 +19,17 @@ use super::monitor::Monitor;
 use crate::lagrangian::{Lagrangian, PointDerivatives};
 use num_dual::{Dual64, HyperDual64};
 
-/// Numbers of scratch kept on the stack (beyond: the heap).
+/// Numbers of scratch kept on the stack (beyond: the heap), in two sizes: zeroing the large
+/// buffer for a small system cost a quarter of the step time (measured with perf, Kepler).
+const SMALL: usize = 32;
 const STACK: usize = 640;
 
 /// Runs `f` with a zeroed scratch slice of `len` numbers of type T.
 fn scratch<T: Copy, R>(len: usize, zero: T, f: impl FnOnce(&mut [T]) -> R) -> R {
-    if len <= STACK {
+    if len <= SMALL {
+        let mut fixed = [zero; SMALL];
+        f(&mut fixed[..len])
+    } else if len <= STACK {
         let mut fixed = [zero; STACK];
         f(&mut fixed[..len])
     } else {
@@ -46,7 +52,7 @@ fn fits(n: usize, q: &[f64], v: &[f64], out: &mut PointDerivatives, second: bool
 }
 
 /// g and ∇g into `grad` (n dual passes).
-fn monitor_gradient<G: Monitor>(g: &G, q: &[f64], grad: &mut [f64]) -> f64 {
+pub(super) fn monitor_gradient<G: Monitor + ?Sized>(g: &G, q: &[f64], grad: &mut [f64]) -> f64 {
     let n = q.len();
     scratch(n, Dual64::from(0.0), |d| {
         for (di, &x) in d.iter_mut().zip(q) {
@@ -65,7 +71,7 @@ fn monitor_gradient<G: Monitor>(g: &G, q: &[f64], grad: &mut [f64]) -> f64 {
 }
 
 /// g, ∇g and ∇²g (row-major n²) (n(n+1)/2 hyper-dual passes).
-fn monitor_hessian<G: Monitor>(g: &G, q: &[f64], grad: &mut [f64], hess: &mut [f64]) -> f64 {
+pub(super) fn monitor_hessian<G: Monitor + ?Sized>(g: &G, q: &[f64], grad: &mut [f64], hess: &mut [f64]) -> f64 {
     let n = q.len();
     scratch(n, HyperDual64::from(0.0), |d| {
         for (di, &x) in d.iter_mut().zip(q) {
@@ -111,7 +117,7 @@ pub(super) fn first<L: Lagrangian, G: Monitor>(
         let (force, rest) = buf.split_at_mut(n);
         let (dg, rest) = rest.split_at_mut(n);
         let (u, zeros) = rest.split_at_mut(n);
-        let g = monitor_gradient(lg.monitor(), q, dg);
+        let g = lg.monitor().derivatives(q, dg, None);
         lg.inner().force(t, q, force);
         let phi = -lg.inner().value(t, q, zeros) - lg.e0();
         mass.apply(v, u);
@@ -149,7 +155,7 @@ pub(super) fn second<L: Lagrangian, G: Monitor>(
         let (u, rest) = rest.split_at_mut(n);
         let (zeros, rest) = rest.split_at_mut(n);
         let (d2g, jac) = rest.split_at_mut(n * n);
-        let g = monitor_hessian(lg.monitor(), q, dg, d2g);
+        let g = lg.monitor().derivatives(q, dg, Some(d2g));
         // The physical Lagrangian at v = 0: value −V, ∂L/∂q = F, ∂²L/∂q² = J.
         lg.inner().second_derivatives(t, q, zeros, false, out);
         let phi = -out.value - lg.e0();

@@ -35,6 +35,17 @@ pub trait Monitor {
     /// g(q) for any scalar type (f64 or dual numbers). Called with slices of the
     /// Lagrangian's dimension only.
     fn value<D: Scalar>(&self, q: &[D]) -> D;
+
+    /// g(q), its gradient into `grad` (n entries) and, if given, its Hessian into `hess`
+    /// (row-major n²). The default differentiates [`Monitor::value`] with dual numbers (n
+    /// passes, or n(n+1)/2 hyper-dual passes with the Hessian); override it with hand-coded
+    /// derivatives for speed.
+    fn derivatives(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        match hess {
+            Some(h) => super::derivatives::monitor_hessian(self, q, grad, h),
+            None => super::derivatives::monitor_gradient(self, q, grad),
+        }
+    }
 }
 
 impl<G: Monitor> Monitor for &G {
@@ -43,6 +54,9 @@ impl<G: Monitor> Monitor for &G {
     }
     fn value<D: Scalar>(&self, q: &[D]) -> D {
         (**self).value(q)
+    }
+    fn derivatives(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        (**self).derivatives(q, grad, hess)
     }
 }
 
@@ -66,8 +80,31 @@ impl Monitor for KeplerMonitor {
         for &x in q {
             r2 += x * x;
         }
-        // r^{3/2} = (r²)^{3/4}.
-        r2.powf(0.75)
+        // r^{3/2} = r·√r by square roots: cheaper on dual numbers than powf (ln and exp).
+        let r = r2.sqrt();
+        r * r.sqrt()
+    }
+    /// By hand: ∇g = (3/2)√r q/r, ∇²g = (3/2)(I/√r − q qᵀ/(2 r^{5/2})).
+    fn derivatives(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        let r = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let sr = r.sqrt();
+        let c = 1.5 / sr; // (3/2) r^{-1/2}
+        for (g, &x) in grad.iter_mut().zip(q) {
+            *g = c * x;
+        }
+        if let Some(h) = hess {
+            let n = q.len();
+            let d = 0.5 * c / (r * r);
+            for a in 0..n {
+                for b in 0..n {
+                    let eye = if a == b { c } else { 0.0 };
+                    if let Some(hab) = h.get_mut(a * n + b) {
+                        *hab = eye - d * q[a] * q[b];
+                    }
+                }
+            }
+        }
+        r * sr
     }
 }
 
