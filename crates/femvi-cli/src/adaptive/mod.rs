@@ -93,6 +93,8 @@ fn monitor(problem: &Problem, name: Option<&str>) -> Result<AnyMonitor, String> 
 }
 
 /// Runs `problem` in adaptive mode with output into `dir` (the module documentation).
+// One arm of the macro is a Copy type; the others need the clone.
+#[allow(clippy::clone_on_copy)]
 pub fn run(
     problem: &Problem,
     settings: &AdaptiveTime,
