@@ -28,8 +28,7 @@ use crate::lagrangian::{Lagrangian, PointDerivatives, Scalar};
 /// use femvi::lagrangian::PointDerivatives;
 /// use femvi::{models, Lagrangian};
 ///
-/// let kepler = models::kepler(1.0);
-/// let lg = TimeTransformed::new(&kepler, KeplerMonitor, -0.5)?;
+/// let lg = TimeTransformed::new(models::kepler(1.0), KeplerMonitor, -0.5)?;
 /// // The momentum is the physical one: ∂L_g/∂q' = ∂L/∂v with v = q'/g.
 /// let (q, qs) = ([2.0, 0.0], [0.3, 0.4]);
 /// let g = 2f64.powf(1.5);

@@ -119,7 +119,7 @@ impl Monitor for KeplerMonitor {
 /// use femvi::adaptive::{Monitor, NBodyMonitor};
 /// // Two bodies in the plane at distance 4: g = 4^{3/2} = 8.
 /// let g = NBodyMonitor::new(2, 2);
-/// assert!((g.value(&[0.0, 0.0, 4.0, 0.0]) - 8.0).abs() < 1e-14);
+/// assert!((g.value::<f64>(&[0.0, 0.0, 4.0, 0.0]) - 8.0).abs() < 1e-14);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NBodyMonitor {
