@@ -126,3 +126,32 @@ fn adaptive_steps_beat_fixed_steps_of_the_same_number() {
         assert!(adaptive < 1e-4 * fixed_error, "{adaptive:e} vs {fixed_error:e}");
     }
 }
+
+#[test]
+fn two_bodies_with_the_n_body_monitor_follow_kepler() {
+    // Two bodies of mass ½ (G = 1): their separation is a Kepler orbit with μ = 1, and the
+    // n-body monitor is that orbit's r^{3/2}. Centre of mass at rest at the origin.
+    let e: f64 = 0.9;
+    let bodies = models::n_body(1.0, vec![0.5, 0.5], 2).unwrap();
+    let (r0, w0) = (1.0 - e, ((1.0 + e) / (1.0 - e)).sqrt());
+    let start = Start::Velocity {
+        q: vec![-0.5 * r0, 0.0, 0.5 * r0, 0.0],
+        v: vec![0.0, -0.5 * w0, 0.0, 0.5 * w0],
+    };
+    let problem = Problem::new(bodies, start, 0.0, 4.0 * PI);
+    let options = AdaptiveOptions::step(0.05);
+    let monitor = femvi::adaptive::NBodyMonitor::new(2, 2);
+    let sol = solve_adaptive(&problem, monitor, &Element::with_order(6).unwrap(), &options).unwrap();
+    assert!(sol.error.is_none(), "{:?}", sol.error);
+    let mut worst = 0.0f64;
+    for (i, &t) in sol.t.iter().enumerate() {
+        let q = &sol.q[4 * i..4 * i + 4];
+        let (exact, _) = kepler_exact(e, t);
+        worst = worst.max((q[2] - q[0] - exact[0]).hypot(q[3] - q[1] - exact[1]));
+    }
+    println!("two bodies, e = 0.9, two orbits, order 6, ds = 0.05, n-body monitor: {} steps, max separation error {worst:.2e}", sol.steps);
+    // The Kepler run of the same order and ds has the same steps (same g along the orbit).
+    let kepler = run(e, 2.0, 6, 0.05, 0);
+    assert_eq!(sol.steps, kepler.steps);
+    assert!(worst < 1e-7, "{worst:e}");
+}
