@@ -4,6 +4,7 @@
 //! observers, [`record`]), [`check`], [`convergence`], [`bvp`], [`models`] (the model
 //! catalogue's text), [`plot`]. `main.rs` is only the argument parsing and exit codes.
 
+pub mod adaptive;
 pub mod bvp;
 pub mod chaos;
 pub mod chaos_plot;

@@ -138,6 +138,11 @@ pub fn run_as(problem: &Problem, dir: &Path, out: RunOutput, command: &[String])
         plots: out.plots || problem.plots,
         ..out
     };
+    match crate::adaptive::settings(problem) {
+        Ok(Some(a)) => return crate::adaptive::run(problem, &a, dir, out, command),
+        Ok(None) => {}
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    }
     if problem.events.is_empty() {
         crate::with_system!(&problem.system, l => run_with(l, problem, dir, out, command))
     } else {

@@ -13,6 +13,7 @@
 //! [`models`] (built-in systems).
 #![deny(missing_docs)]
 
+pub mod adaptive;
 pub mod bvp;
 pub mod chaos;
 pub mod diagnostics;
@@ -26,6 +27,7 @@ pub mod solution;
 pub mod solve;
 pub mod step;
 
+pub use adaptive::{solve_adaptive, AdaptiveOptions, AdaptiveSolution};
 pub use discrete::{Element, ElementWork};
 pub use error::{Error, Result, StepError, StepFailure};
 pub use fem::{NodeFamily, QuadratureKind};

@@ -1,9 +1,12 @@
 //! The `[time]` table: the time grid of an initial value problem (a uniform step, a list of
-//! steps used in turn, or a step chosen for a requested accuracy) and energy mode (time steps
-//! as variables), checked and turned into a [`TimeGrid`] and [`femvi::EnergyOptions`].
+//! steps used in turn, or a step chosen for a requested accuracy), energy mode (time steps
+//! as variables) and adaptive mode (fixed steps `ds` in the fictitious time of the Poincaré
+//! transformation dt/ds = g(q), [`femvi::adaptive`]), checked and turned into a [`TimeGrid`],
+//! [`femvi::EnergyOptions`] and [`AdaptiveTime`].
 
 use super::errors::{InputError, Source};
 use super::system::System;
+use crate::adaptive::AdaptiveTime;
 use femvi::step::auto::StepChoice;
 use femvi::{Element, SolverOptions, Start, TimeGrid};
 use serde::Deserialize;
@@ -18,6 +21,8 @@ pub enum Mode {
     Fixed,
     /// Steps as variables (paper §3).
     Energy,
+    /// Fixed steps `ds` in fictitious time, dt/ds = `monitor`(q) (issue 21).
+    Adaptive,
 }
 
 /// `[time] on_degenerate`: what energy mode does at a step whose energy equation has no
@@ -53,11 +58,24 @@ pub struct TimeTable {
     pub max_step: Option<f64>,
     /// Energy mode: the policy where the energy equation degenerates.
     pub on_degenerate: Option<OnDegenerate>,
+    /// Adaptive mode: the monitor g(q) ("kepler", "nbody" or an expression in q).
+    pub monitor: Option<String>,
+    /// Adaptive mode: the step in fictitious time.
+    pub ds: Option<f64>,
+    /// Adaptive mode: write rows at uniform physical times with this spacing.
+    pub output_step: Option<f64>,
 }
 
 impl TimeTable {
     /// Energy mode's options (None in fixed mode), checked against the other keys.
     pub fn energy(&self, src: &Source) -> Result<Option<femvi::EnergyOptions>, InputError> {
+        if self.mode != Mode::Adaptive && (self.monitor.is_some() || self.ds.is_some() || self.output_step.is_some()) {
+            return Err(src.error("[time] monitor, ds and output_step apply only to mode = \"adaptive\""));
+        }
+        if self.mode == Mode::Adaptive {
+            self.adaptive(src)?;
+            return Ok(None);
+        }
         if self.mode == Mode::Fixed {
             if self.min_step.is_some() || self.max_step.is_some() || self.on_degenerate.is_some() {
                 return Err(src.error("[time] min_step, max_step and on_degenerate apply only to mode = \"energy\""));
@@ -86,9 +104,55 @@ impl TimeTable {
         }))
     }
 
+    /// Adaptive mode's settings (None in the other modes), checked against the other keys.
+    pub fn adaptive(&self, src: &Source) -> Result<Option<AdaptiveTime>, InputError> {
+        self.adaptive_checked().map_err(|e| src.error(e))
+    }
+
+    /// [`TimeTable::adaptive`] with the error as a message without the file name.
+    pub fn adaptive_checked(&self) -> Result<Option<AdaptiveTime>, String> {
+        if self.mode != Mode::Adaptive {
+            return Ok(None);
+        }
+        let others = [
+            (self.step.is_some(), "step"),
+            (self.steps.is_some(), "steps"),
+            (self.accuracy.is_some(), "accuracy"),
+            (self.min_step.is_some(), "min_step"),
+            (self.max_step.is_some(), "max_step"),
+            (self.on_degenerate.is_some(), "on_degenerate"),
+        ];
+        if let Some((_, key)) = others.iter().find(|(given, _)| *given) {
+            return Err(format!(
+                "[time] mode = \"adaptive\" takes `ds` (the step in fictitious time), not `{key}`"
+            ));
+        }
+        let ds = self
+            .ds
+            .ok_or("[time] mode = \"adaptive\" needs `ds`, the step in fictitious time s (dt/ds = monitor)")?;
+        if !(ds.is_finite() && ds > 0.0) {
+            return Err(format!("[time] ds = {ds} is not a positive finite number"));
+        }
+        if let Some(h) = self.output_step {
+            if !(h.is_finite() && h > 0.0) {
+                return Err(format!("[time] output_step = {h} is not a positive finite number"));
+            }
+        }
+        Ok(Some(AdaptiveTime {
+            ds,
+            monitor: self.monitor.clone(),
+            output_step: self.output_step,
+        }))
+    }
+
     /// The grid from `t0` to `end`; with `accuracy`, a placeholder until
-    /// [`TimeTable::choose_step`] has the initial values.
+    /// [`TimeTable::choose_step`] has the initial values; in adaptive mode a nominal grid with
+    /// step `ds` (the run's nodes are in fictitious time and end at the first node at or past
+    /// `end`).
     pub fn grid(&self, t0: f64, src: &Source) -> Result<TimeGrid, InputError> {
+        if let Some(a) = self.adaptive(src)? {
+            return TimeGrid::uniform(t0, a.ds, self.end).map_err(|e| src.error(format!("[time]: {e}")));
+        }
         match (&self.step, &self.steps, &self.accuracy) {
             (Some(h), None, None) => TimeGrid::uniform(t0, *h, self.end),
             (None, Some(list), None) => TimeGrid::steps(t0, list.clone(), self.end),

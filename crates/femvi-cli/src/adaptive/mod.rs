@@ -1,0 +1,215 @@
+//! `femvi run` in `[time] mode = "adaptive"`: fixed steps `ds` in the fictitious time s of
+//! the Poincaré transformation dt/ds = g(q) ([`femvi::adaptive`], issue 21), with the monitor
+//! g named in `[time] monitor` ("kepler": |q|^{3/2}; "nbody": the smoothed closest-pair
+//! r^{3/2} of the n-body model; otherwise an expression in the coordinates and parameters;
+//! default "kepler" for the Kepler model and "nbody" for n-body). Writes trajectory.csv with
+//! the physical time t (columns step, t, q, p, energy, s) — or, with `output_step`, rows at
+//! uniform physical times from the element polynomials (columns row, t, q, p, energy) — and
+//! summary.json; plots with `--plot` (`plots.rs`). NPY output is not written in this mode.
+
+mod plots;
+
+use crate::problem::{Problem, ProblemFile, System};
+use crate::run::{empty_summary, finish, Outcome, RunOutput};
+use femvi::adaptive::{
+    solve_adaptive, AdaptiveOptions, AdaptiveSolution, ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor,
+};
+use femvi::{Lagrangian, Scalar};
+use std::path::Path;
+use std::time::Instant;
+
+/// Adaptive mode's settings from `[time]`, checked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveTime {
+    /// The step in fictitious time.
+    pub ds: f64,
+    /// "kepler", "nbody" or an expression in the coordinates; None: the model's default.
+    pub monitor: Option<String>,
+    /// Write rows at t0, t0 + output_step, … (physical times) instead of the nodes.
+    pub output_step: Option<f64>,
+}
+
+/// The adaptive settings of a loaded problem (its `[time]` table, re-read from the problem's
+/// text as run), or None for the other modes.
+///
+/// # Errors
+/// A message if the text does not parse (it did when the problem was loaded).
+pub fn settings(problem: &Problem) -> Result<Option<AdaptiveTime>, String> {
+    let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
+    match file.time {
+        Some(tt) => tt.adaptive_checked(),
+        None => Ok(None),
+    }
+}
+
+/// The monitors a problem file can name.
+enum AnyMonitor {
+    Kepler(KeplerMonitor),
+    NBody(NBodyMonitor),
+    Expr(ExprMonitor),
+}
+
+impl Monitor for AnyMonitor {
+    fn dim(&self) -> usize {
+        match self {
+            AnyMonitor::Kepler(g) => g.dim(),
+            AnyMonitor::NBody(g) => g.dim(),
+            AnyMonitor::Expr(g) => g.dim(),
+        }
+    }
+    fn value<D: Scalar>(&self, q: &[D]) -> D {
+        match self {
+            AnyMonitor::Kepler(g) => g.value(q),
+            AnyMonitor::NBody(g) => g.value(q),
+            AnyMonitor::Expr(g) => g.value(q),
+        }
+    }
+}
+
+/// The monitor named in `[time] monitor`, or the model's default.
+fn monitor(problem: &Problem, name: Option<&str>) -> Result<AnyMonitor, String> {
+    let nbody = || match &problem.system {
+        System::Gravity(l) => Ok(AnyMonitor::NBody(NBodyMonitor::new(
+            l.potential.masses.len(),
+            l.potential.dim,
+        ))),
+        _ => Err("[time] monitor = \"nbody\" needs the n-body model".to_string()),
+    };
+    match (name, &problem.system) {
+        (Some("kepler"), _) | (None, System::Kepler(_)) => Ok(AnyMonitor::Kepler(KeplerMonitor)),
+        (Some("nbody"), _) | (None, System::Gravity(_)) => nbody(),
+        (Some(expr), _) => {
+            let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
+            let params: Vec<(String, f64)> = file.system.parameters.into_iter().collect();
+            ExprMonitor::new(expr, &problem.coordinates, &params)
+                .map(AnyMonitor::Expr)
+                .map_err(|e| format!("[time] monitor: {}", e.render()))
+        }
+        (None, _) => Err(
+            "[time] mode = \"adaptive\" needs `monitor` (\"kepler\", \"nbody\" or an expression in the coordinates)"
+                .to_string(),
+        ),
+    }
+}
+
+/// Runs `problem` in adaptive mode with output into `dir` (the module documentation).
+// One arm of the macro is a Copy type; the others need the clone.
+#[allow(clippy::clone_on_copy)]
+pub fn run(
+    problem: &Problem,
+    settings: &AdaptiveTime,
+    dir: &Path,
+    out: RunOutput,
+    command: &[String],
+) -> std::io::Result<Outcome> {
+    crate::with_system!(&problem.system, l => run_with(l.clone(), problem, settings, dir, out, command))
+}
+
+fn run_with<L: Lagrangian>(
+    lag: L,
+    problem: &Problem,
+    settings: &AdaptiveTime,
+    dir: &Path,
+    out: RunOutput,
+    command: &[String],
+) -> std::io::Result<Outcome> {
+    let clock = Instant::now();
+    if !problem.events.is_empty() {
+        return Ok(Outcome::Rejected(
+            "[[events]] are not located in [time] mode = \"adaptive\" (yet); use fixed steps".to_string(),
+        ));
+    }
+    let g = match monitor(problem, settings.monitor.as_deref()) {
+        Ok(g) => g,
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    };
+    let (t0, end) = (problem.grid.t0(), problem.grid.end());
+    let saveat: Vec<f64> = match settings.output_step {
+        Some(h) => {
+            let rows = ((end - t0) / h * (1.0 + 4.0 * f64::EPSILON)).floor() as usize;
+            (0..=rows).map(|i| t0 + i as f64 * h).filter(|&t| t <= end).collect()
+        }
+        None => vec![],
+    };
+    let options = AdaptiveOptions {
+        solver: problem.options,
+        every: problem.every,
+        saveat,
+        ..AdaptiveOptions::step(settings.ds)
+    };
+    let p = femvi::Problem::new(lag, problem.start.clone(), t0, end);
+    let sol = match solve_adaptive(&p, g, &problem.element, &options) {
+        Ok(sol) => sol,
+        Err(e) => return Ok(Outcome::Rejected(e.to_string())),
+    };
+    std::fs::create_dir_all(dir)?;
+    write_csv(dir, problem, &p.lagrangian, &sol, settings)?;
+    let mut summary = empty_summary(problem, clock, String::new(), command);
+    let last = sol.t.len().saturating_sub(1);
+    let n = sol.n;
+    summary.steps = sol.steps;
+    summary.final_t = sol.t.get(last).copied().unwrap_or(t0);
+    summary.final_q = sol.q.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
+    summary.final_p = sol.p.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
+    let scale = if sol.e0 == 0.0 { 1.0 } else { sol.e0.abs() };
+    summary.max_rel_energy_error = sol.energy.iter().fold(0.0, |m, h| m.max((h - sol.e0).abs() / scale));
+    summary.mean_solver_iterations = sol.mean_iterations;
+    summary.error = sol.error.as_ref().map(|e| e.to_string());
+    if out.plots {
+        if let Err(e) = plots::draw(dir, out.plot_format, problem, &sol, settings.ds) {
+            summary.error.get_or_insert(e);
+        }
+    }
+    summary.wall_seconds = clock.elapsed().as_secs_f64();
+    finish(dir, summary)
+}
+
+/// trajectory.csv: the kept nodes with their physical t and fictitious s, or (`uniform`) the
+/// rows at the requested physical times.
+fn write_csv<L: Lagrangian>(
+    dir: &Path,
+    problem: &Problem,
+    lag: &L,
+    sol: &AdaptiveSolution,
+    settings: &AdaptiveTime,
+) -> std::io::Result<()> {
+    let (n, uniform) = (sol.n, settings.output_step.is_some());
+    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
+    let mut header = vec![if uniform { "row" } else { "step" }.to_string(), "t".to_string()];
+    header.extend(problem.coordinates.iter().cloned());
+    header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+    header.push("energy".into());
+    if !uniform {
+        header.push("s".into());
+    }
+    w.write_record(&header)?;
+    let num = |x: f64| format!("{x:?}");
+    let mut work = femvi::lagrangian::PointDerivatives::new(n);
+    let mut v = vec![0.0; n];
+    let (t, q, p) = if uniform {
+        (&sol.saved.t, &sol.saved.q, &sol.saved.p)
+    } else {
+        (&sol.t, &sol.q, &sol.p)
+    };
+    for (i, &ti) in t.iter().enumerate() {
+        let (qi, pi) = (&q[i * n..(i + 1) * n], &p[i * n..(i + 1) * n]);
+        let energy = if uniform {
+            femvi::lagrangian::hamiltonian(lag, ti, qi, pi, &mut v, &mut work).unwrap_or(f64::NAN)
+        } else {
+            sol.energy[i]
+        };
+        let mut row = vec![i.to_string(), num(ti)];
+        if !uniform {
+            // The node index: s = k ds.
+            row[0] = ((sol.s[i] / settings.ds).round() as usize).to_string();
+        }
+        row.extend(qi.iter().map(|&x| num(x)));
+        row.extend(pi.iter().map(|&x| num(x)));
+        row.push(num(energy));
+        if !uniform {
+            row.push(num(sol.s[i]));
+        }
+        w.write_record(&row)?;
+    }
+    w.flush()
+}

@@ -1,0 +1,119 @@
+//! `[time] mode = "adaptive"` through the binary: physical times in trajectory.csv (nodes
+//! with their s, or uniform rows with `output_step`), a Kepler orbit of eccentricity 0.99
+//! against its closed form, and bad settings rejected with exit code 2.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+fn femvi() -> Command {
+    Command::cargo_bin("femvi").unwrap()
+}
+
+fn rows(dir: &Path) -> (String, Vec<Vec<f64>>) {
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap().to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+#[test]
+fn uniform_physical_times_land_on_the_closed_form() {
+    // Ten periods of e = 0.99: after each period the orbit is back at pericentre (0.01, 0).
+    let out = tempfile::tempdir().unwrap();
+    let period = 2.0 * std::f64::consts::PI;
+    femvi()
+        .args(["run", "--quiet", "--set"])
+        .arg(format!("time.end={:?}", 10.0 * period))
+        .arg("--set")
+        .arg(format!("time.output_step={:?}", period / 4.0))
+        .arg(examples().join("kepler-eccentric.toml"))
+        .arg("--out")
+        .arg(out.path())
+        .assert()
+        .success();
+    let (header, rows) = rows(out.path());
+    assert_eq!(header, "row,t,x,y,p_x,p_y,energy");
+    assert_eq!(rows.len(), 41);
+    let mut worst = 0.0f64;
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r[1], i as f64 * (period / 4.0), "row {i}: t is the requested time");
+        if i % 4 == 0 {
+            worst = worst.max((r[2] - 0.01).abs()).max(r[3].abs());
+        }
+    }
+    println!("adaptive CLI, Kepler e = 0.99, 10 periods: max distance from pericentre at whole periods {worst:.2e}");
+    assert!(worst < 1e-8, "{worst:e}");
+}
+
+#[test]
+fn nodes_carry_physical_time_and_fictitious_time() {
+    let text = r#"
+name = "oscillator-adaptive"
+[system]
+coordinates = ["x"]
+parameters = { k = 4.0 }
+lagrangian = "0.5*x_dot^2 - 0.5*k*x^2"
+[initial]
+q = [1.0]
+v = [0.0]
+[scheme]
+order = 4
+[time]
+mode = "adaptive"
+monitor = "1/sqrt(k) + 0*x"
+ds = 0.1
+end = 3.0
+"#;
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["run", "-", "--quiet", "--out"])
+        .arg(out.path())
+        .write_stdin(text)
+        .assert()
+        .success();
+    let (header, rows) = rows(out.path());
+    assert_eq!(header, "step,t,x,p_x,energy,s");
+    // A constant monitor g = 1/2: t = s/2 (to round-off), and q = cos(2t).
+    for r in &rows {
+        assert!((r[1] - 0.5 * r[5]).abs() < 1e-12, "{r:?}");
+        assert!((r[2] - (2.0 * r[1]).cos()).abs() < 1e-4, "{r:?}");
+    }
+    let last = rows.last().unwrap();
+    assert!(
+        last[1] >= 3.0 && last[1] < 3.0 + 0.05 + 1e-12,
+        "stops at the first node past the end: {last:?}"
+    );
+}
+
+#[test]
+fn bad_adaptive_settings_are_bad_input() {
+    let kepler = examples().join("kepler-eccentric.toml");
+    for (key, value, message) in [
+        ("time.step", "0.1", "takes `ds`"),
+        ("time.ds", "-1.0", "ds"),
+        ("time.monitor", "nbody", "n-body"),
+        ("time.monitor", "x +", "monitor"),
+        ("time.monitor", "z", "unknown symbol"),
+        ("time.mode", "fixed", "apply only to mode"),
+    ] {
+        let out = tempfile::tempdir().unwrap();
+        let res = femvi()
+            .args(["run", "--quiet", "--set"])
+            .arg(format!("{key}={value}"))
+            .arg(&kepler)
+            .arg("--out")
+            .arg(out.path())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&res.stderr);
+        assert_eq!(res.status.code(), Some(2), "{key}={value}: {stderr}");
+        assert!(stderr.contains(message), "{key}={value}: {stderr}");
+    }
+}

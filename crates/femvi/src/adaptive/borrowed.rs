@@ -1,0 +1,36 @@
+//! A borrowed Lagrangian as a Lagrangian: every method delegated, so that
+//! [`super::solve_adaptive`] can wrap the problem's Lagrangian in L_g without cloning it
+//! (the trait has no blanket implementation for references).
+
+use crate::lagrangian::{Lagrangian, MassMatrix, PointDerivatives, Scalar};
+
+/// `&L`, delegating every method of [`Lagrangian`] (the hand-coded ones included).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Borrowed<'a, L>(pub(crate) &'a L);
+
+impl<L: Lagrangian> Lagrangian for Borrowed<'_, L> {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
+        self.0.value(t, q, v)
+    }
+    fn is_autonomous(&self) -> bool {
+        self.0.is_autonomous()
+    }
+    fn mass_matrix(&self) -> Option<&MassMatrix> {
+        self.0.mass_matrix()
+    }
+    fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        self.0.force(t, q, out)
+    }
+    fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
+        self.0.forces(t, q, out)
+    }
+    fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
+        self.0.first_derivatives(t, q, v, with_t, out)
+    }
+    fn second_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
+        self.0.second_derivatives(t, q, v, with_t, out)
+    }
+}

@@ -1,0 +1,174 @@
+//! The observer of an adaptive run: accumulates the physical time t(s) element by element
+//! (`clock.rs`, compensated sum), keeps every `every`-th node with its s, t, q, p, physical
+//! velocity and energy H, answers requested physical times (`saveat`) from the element
+//! polynomial in s mapped through t(s), and stops the run at the first node at or past the
+//! physical end time (steps are not clipped: a shorter last step in s would be a change of
+//! the discrete Lagrangian, and nothing in s is aligned with t anyway).
+
+use super::clock::Clock;
+use super::lagrangian::TimeTransformed;
+use super::monitor::Monitor;
+use crate::discrete::Element;
+use crate::error::{Error, Result};
+use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
+use crate::solution::Saved;
+use crate::step::{Integrator, Observer};
+
+pub(crate) struct Recorder<'e> {
+    element: &'e Element,
+    every: usize,
+    t_end: f64,
+    max_steps: usize,
+    /// Physical time of the current node and its compensation term.
+    t: f64,
+    t_comp: f64,
+    pub(crate) s: Vec<f64>,
+    pub(crate) time: Vec<f64>,
+    pub(crate) q: Vec<f64>,
+    pub(crate) p: Vec<f64>,
+    pub(crate) v: Vec<f64>,
+    pub(crate) energy: Vec<f64>,
+    saveat: Vec<f64>,
+    next_save: usize,
+    pub(crate) saved: Saved,
+    clock: Clock,
+    work: PointDerivatives,
+    node_v: Vec<f64>,
+    scratch: (Vec<f64>, Vec<f64>, Vec<f64>),
+    last_kept: Option<usize>,
+    pub(crate) reached: bool,
+    k: usize,
+}
+
+impl<'e> Recorder<'e> {
+    pub(crate) fn new(element: &'e Element, n: usize, t0: f64, t_end: f64, options: &super::AdaptiveOptions) -> Self {
+        Self {
+            element,
+            every: options.every,
+            t_end,
+            max_steps: options.max_steps,
+            t: t0,
+            t_comp: 0.0,
+            s: vec![],
+            time: vec![],
+            q: vec![],
+            p: vec![],
+            v: vec![],
+            energy: vec![],
+            saveat: options.saveat.clone(),
+            next_save: 0,
+            saved: Saved::default(),
+            clock: Clock::new(element, n),
+            work: PointDerivatives::new(n),
+            node_v: vec![0.0; n],
+            scratch: (vec![0.0; n], vec![0.0; n], vec![0.0; n]),
+            last_kept: None,
+            reached: false,
+            k: 0,
+        }
+    }
+
+    fn keep<L: Lagrangian>(&mut self, lag: &L, k: usize, s: f64, q: &[f64], p: &[f64]) -> Result<()> {
+        if self.last_kept == Some(k) {
+            return Ok(());
+        }
+        let h = hamiltonian(lag, self.t, q, p, &mut self.node_v, &mut self.work)?;
+        self.last_kept = Some(k);
+        self.s.push(s);
+        self.time.push(self.t);
+        self.q.extend_from_slice(q);
+        self.p.extend_from_slice(p);
+        self.v.extend_from_slice(&self.node_v);
+        self.energy.push(h);
+        Ok(())
+    }
+
+    /// The saveat times in (t_prev, t] (t_prev: the previous node's) from the element.
+    fn save_element<L: Lagrangian, G: Monitor>(
+        &mut self,
+        lg: &TimeTransformed<L, G>,
+        el: &crate::step::ElementNodes<'_>,
+        t_prev: f64,
+        total: f64,
+    ) {
+        while let Some(&ts) = self.saveat.get(self.next_save) {
+            if ts > self.t {
+                break;
+            }
+            self.next_save += 1;
+            let (q, qs, p) = (&mut self.scratch.0, &mut self.scratch.1, &mut self.scratch.2);
+            let sigma = self.clock.locate(self.element, lg.monitor(), el, ts - t_prev, total);
+            self.clock.interpolate(self.element, el, sigma, q, Some(qs));
+            // The physical velocity v = q'/g and its momentum ∂L/∂v (= ∂L_g/∂q').
+            let g = lg.monitor().value(q);
+            qs.iter_mut().for_each(|x| *x /= g);
+            lg.inner().first_derivatives(ts, q, qs, false, &mut self.work);
+            p.copy_from_slice(self.work.l_v());
+            self.saved.t.push(ts);
+            self.saved.q.extend_from_slice(q);
+            self.saved.v.extend_from_slice(qs);
+            self.saved.p.extend_from_slice(p);
+        }
+    }
+}
+
+impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_> {
+    fn node(&mut self, it: &Integrator<'_, TimeTransformed<L, G>>, _last: bool) -> Result<()> {
+        let node = it.node();
+        let lg = it.lagrangian();
+        self.k = node.k;
+        if node.k == 0 {
+            while self.saveat.get(self.next_save).is_some_and(|&ts| ts < self.t) {
+                self.next_save += 1; // before the start
+            }
+            if self.saveat.get(self.next_save) == Some(&self.t) {
+                self.next_save += 1;
+                hamiltonian(lg.inner(), self.t, node.q, node.p, &mut self.node_v, &mut self.work)?;
+                self.saved.t.push(self.t);
+                self.saved.q.extend_from_slice(node.q);
+                self.saved.v.extend_from_slice(&self.node_v);
+                self.saved.p.extend_from_slice(node.p);
+            }
+            return self.keep(lg.inner(), node.k, node.t, node.q, node.p);
+        }
+        let Some(el) = it.last_element() else {
+            return Ok(());
+        };
+        let total = self.clock.elapsed(self.element, lg.monitor(), &el, 1.0);
+        if !(total.is_finite() && total > 0.0) {
+            return Err(Error::Invalid {
+                what: "monitor".into(),
+                reason: format!(
+                    "the physical time step {total} at s = {} (t = {}) is not positive and finite: g(q) must be > 0",
+                    el.t, self.t
+                ),
+            });
+        }
+        let t_prev = self.t;
+        let y = total + self.t_comp;
+        let sum = self.t + y;
+        self.t_comp = (self.t - sum) + y;
+        self.t = sum;
+        if self.saveat.get(self.next_save).is_some_and(|&ts| ts <= self.t) {
+            self.save_element(lg, &el, t_prev, total);
+        }
+        self.reached = self.t >= self.t_end;
+        let keep = self.reached || (self.every > 0 && node.k.is_multiple_of(self.every));
+        if keep {
+            self.keep(lg.inner(), node.k, node.t, node.q, node.p)?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, it: &Integrator<'_, TimeTransformed<L, G>>, _error: Option<&Error>) -> Result<()> {
+        let node = it.node();
+        // The node the run ended on is kept, whatever stopped it (a failed Legendre transform
+        // there leaves it out).
+        let _ = self.keep(it.lagrangian().inner(), node.k, node.t, node.q, node.p);
+        Ok(())
+    }
+
+    fn stop(&self) -> bool {
+        self.reached || self.k >= self.max_steps
+    }
+}
