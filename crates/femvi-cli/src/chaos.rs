@@ -262,6 +262,7 @@ pub struct ChaosArgs {
 /// `femvi chaos`: exit code 0, 1 (a run failed) or 2 (bad input).
 pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u8)> {
     let bad = |m: String| (m, crate::BAD_INPUT);
+    crate::adaptive::refuse(problem, "femvi chaos").map_err(bad)?;
     let mut wanted = args
         .indicators
         .iter()

@@ -117,3 +117,32 @@ fn bad_adaptive_settings_are_bad_input() {
         assert!(stderr.contains(message), "{key}={value}: {stderr}");
     }
 }
+
+/// The commands that integrate with fixed steps refuse an adaptive problem (they would run
+/// its nominal grid) with exit 2 and a message, instead of a silently different run.
+#[test]
+fn fixed_step_commands_refuse_adaptive_problems() {
+    let file = examples().join("kepler-eccentric.toml");
+    let out = tempfile::tempdir().unwrap();
+    let states = out.path().join("s.csv");
+    std::fs::write(&states, "0.01,0,0,14.1\n").unwrap();
+    let cases: [&[&str]; 4] = [
+        &["check"],
+        &["convergence", "--steps", "0.1,0.05"],
+        &["chaos"],
+        &["ensemble", "--states", states.to_str().unwrap()],
+    ];
+    for args in cases {
+        let o = femvi()
+            .arg(args[0])
+            .arg(&file)
+            .args(&args[1..])
+            .arg("--out")
+            .arg(out.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("adaptive"), "{args:?}: {err}");
+    }
+}

@@ -134,3 +134,10 @@ def test_unreadable_problems_are_input_errors(tmp_path):
         femvi.solve("[system\nmodel = 1\n", **{"time.end": 1.0})
     with pytest.raises(TypeError):
         femvi.solve(42)
+
+
+def test_adaptive_problems_are_refused_not_run_with_fixed_steps():
+    with pytest.raises(femvi.InputError, match="adaptive"):
+        femvi.solve(EXAMPLES / "kepler-eccentric.toml")
+    with pytest.raises(femvi.InputError, match="adaptive"):
+        femvi.ensemble(EXAMPLES / "kepler-eccentric.toml", initial_states=np.array([[0.01, 0, 0, 14.1]]))

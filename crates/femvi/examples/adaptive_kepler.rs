@@ -23,7 +23,7 @@ fn main() -> femvi::Result<()> {
         q: q0.to_vec(),
         p: p0.to_vec(),
     };
-    let problem = Problem::new(models::kepler(1.0), start, 0.0, t_end);
+    let problem = Problem::new(models::kepler(1.0).unwrap(), start, 0.0, t_end);
     let element = Element::with_order(order)?;
     let options = AdaptiveOptions {
         every: 0,

@@ -15,7 +15,7 @@ fn problem(e: f64, periods: f64) -> Problem<femvi::Mechanical<models::KeplerPote
         q: vec![1.0 - e, 0.0],
         p: vec![0.0, ((1.0 + e) / (1.0 - e)).sqrt()],
     };
-    Problem::new(models::kepler(1.0), start, 0.0, periods * 2.0 * PI)
+    Problem::new(models::kepler(1.0).unwrap(), start, 0.0, periods * 2.0 * PI)
 }
 
 fn run(e: f64, periods: f64, order: usize, ds: f64, every: usize) -> AdaptiveSolution {

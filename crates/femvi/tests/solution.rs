@@ -269,7 +269,7 @@ fn the_energy_report_covers_every_node() {
         q: vec![0.5, 0.0],
         p: vec![0.0, 3f64.sqrt()],
     };
-    let problem = Problem::new(models::kepler(1.0), start, 0.0, 30.0);
+    let problem = Problem::new(models::kepler(1.0).unwrap(), start, 0.0, 30.0);
     let all = solve(&problem, &element, &SolveOptions::step(0.05)).unwrap();
     let h = |q: &[f64], p: &[f64]| 0.5 * (p[0] * p[0] + p[1] * p[1]) - 1.0 / q[0].hypot(q[1]);
     let h0 = h(&[0.5, 0.0], &[0.0, 3f64.sqrt()]);

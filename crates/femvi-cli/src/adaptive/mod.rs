@@ -42,6 +42,22 @@ pub fn settings(problem: &Problem) -> Result<Option<AdaptiveTime>, String> {
     }
 }
 
+/// Err for a problem in adaptive mode, which only `femvi run` (and the library's
+/// `femvi::adaptive`) integrate: `what` (another command or the Python package) would
+/// otherwise run the nominal grid of fixed steps.
+///
+/// # Errors
+/// The message to print (exit code 2).
+pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
+    match settings(problem)? {
+        Some(_) => Err(format!(
+            "{what} does not support [time] mode = \"adaptive\" (only `femvi run` and the library's \
+             femvi::adaptive do); use mode = \"fixed\""
+        )),
+        None => Ok(()),
+    }
+}
+
 /// The monitors a problem file can name.
 enum AnyMonitor {
     Kepler(KeplerMonitor),

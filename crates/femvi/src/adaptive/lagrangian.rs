@@ -28,7 +28,7 @@ use crate::lagrangian::{Lagrangian, PointDerivatives, Scalar};
 /// use femvi::lagrangian::PointDerivatives;
 /// use femvi::{models, Lagrangian};
 ///
-/// let lg = TimeTransformed::new(models::kepler(1.0), KeplerMonitor, -0.5)?;
+/// let lg = TimeTransformed::new(models::kepler(1.0)?, KeplerMonitor, -0.5)?;
 /// // The momentum is the physical one: ∂L_g/∂q' = ∂L/∂v with v = q'/g.
 /// let (q, qs) = ([2.0, 0.0], [0.3, 0.4]);
 /// let g = 2f64.powf(1.5);
@@ -78,7 +78,7 @@ impl<L: Lagrangian, G: Monitor> TimeTransformed<L, G> {
     ///
     /// ```
     /// use femvi::adaptive::{KeplerMonitor, TimeTransformed};
-    /// let lg = TimeTransformed::new(femvi::models::kepler(1.0), KeplerMonitor, -0.5)?.by_ad();
+    /// let lg = TimeTransformed::new(femvi::models::kepler(1.0)?, KeplerMonitor, -0.5)?.by_ad();
     /// assert!(!lg.is_fast());
     /// # Ok::<(), femvi::Error>(())
     /// ```

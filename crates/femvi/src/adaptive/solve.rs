@@ -61,7 +61,7 @@ fn start_qp<L: Lagrangian>(lag: &L, t0: f64, start: &Start) -> Result<(Vec<f64>,
 /// let e: f64 = 0.9;
 /// let start = Start::Momentum { q: vec![1.0 - e, 0.0], p: vec![0.0, ((1.0 + e) / (1.0 - e)).sqrt()] };
 /// let period = 2.0 * std::f64::consts::PI;
-/// let problem = Problem::new(models::kepler(1.0), start, 0.0, 10.0);
+/// let problem = Problem::new(models::kepler(1.0)?, start, 0.0, 10.0);
 /// let options = AdaptiveOptions { saveat: vec![period], ..AdaptiveOptions::step(0.05) };
 /// let sol = solve_adaptive(&problem, KeplerMonitor, &Element::with_order(4)?, &options)?;
 /// assert!(sol.error.is_none() && *sol.t.last().unwrap() >= 10.0);
