@@ -207,7 +207,8 @@ fn dispatch(cli: Cli) -> ExitCode {
             checkpoint_every_seconds,
             max_output,
         } => {
-            if !(checkpoint_every_seconds >= 0.0) || checkpoint_every_steps == Some(0) {
+            if checkpoint_every_seconds.is_nan() || checkpoint_every_seconds < 0.0 || checkpoint_every_steps == Some(0)
+            {
                 eprintln!("error: --checkpoint-every-seconds must be >= 0 and --checkpoint-every-steps >= 1");
                 return ExitCode::from(BAD_INPUT);
             }

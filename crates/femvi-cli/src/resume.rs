@@ -172,6 +172,22 @@ pub fn load(dir: &Path, problem: &Problem, out: &RunOutput) -> Result<RunCheckpo
     Ok(cp)
 }
 
+/// Whether `dir` holds a run of `problem` that was killed before its first checkpoint: no
+/// checkpoint, and a summary.json of the same problem text with `"status": "running"`. Such a
+/// run is resumed by starting it again.
+pub fn killed_before_first_checkpoint(dir: &Path, problem: &Problem) -> bool {
+    if dir.join(FILE).exists() {
+        return false;
+    }
+    let Ok(text) = std::fs::read_to_string(dir.join("summary.json")) else {
+        return false;
+    };
+    let Ok(summary) = serde_json::from_str::<serde_json::Value>(&text) else {
+        return false;
+    };
+    summary["status"] == "running" && summary["problem"] == problem.source.as_str()
+}
+
 /// Whether a run can be resumed: not with `[[events]]` or plots, and only for a Lagrangian
 /// whose energy observer state the checkpoint restores exactly: autonomous (the energy
 /// balance of a time-dependent L is a running sum the observer does not expose) with a
@@ -191,7 +207,10 @@ pub fn resumable<L: Lagrangian>(lag: &L, problem: &Problem, out: &RunOutput) -> 
         );
     }
     if !lag.is_autonomous() {
-        return Err("--resume is not available yet for a time-dependent Lagrangian (its energy balance is not checkpointed)".into());
+        return Err(
+            "--resume is not available yet for a time-dependent Lagrangian (its energy balance is not checkpointed)"
+                .into(),
+        );
     }
     if lag.mass_matrix().is_none() {
         return Err("--resume is not available yet for a Lagrangian without a constant mass matrix (the energy observer's Legendre-transform state is not checkpointed)".into());

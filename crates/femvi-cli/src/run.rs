@@ -17,8 +17,8 @@ use femvi::{Integrator, Lagrangian};
 use std::path::Path;
 use std::time::Instant;
 
-pub use crate::summary::{is_autonomous, AutoStep, Summary};
 pub(crate) use crate::summary::{empty_summary, run_summary, RunEnd};
+pub use crate::summary::{is_autonomous, AutoStep, Summary};
 use crate::summary::{running_summary, write_summary};
 
 /// How a run ended.
@@ -182,7 +182,12 @@ fn run_with<L: Lagrangian>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<Outcome>
         tag: resume::problem_hash(problem),
         outputs: resume::outputs_label(&out),
     };
-    let mut recorders = if control.resume {
+    if let (true, Err(msg)) = (control.resume, &resumable) {
+        return Ok(Outcome::Rejected(msg.clone()));
+    }
+    // A run killed before its first checkpoint resumes by starting again.
+    let fresh = !control.resume || resume::killed_before_first_checkpoint(dir, problem);
+    let mut recorders = if !fresh {
         match resume_outputs(&mut it, a, resumable, checkpointing)? {
             Ok(r) => r,
             Err(msg) => return Ok(Outcome::Rejected(msg)),

@@ -83,12 +83,24 @@ impl<'a> Recorders<'a> {
         let shared = energy.current();
         let columns = columns(problem);
         let csv = if out.csv {
-            Some(CsvRows::create(dir, &columns, problem.every, shared.clone(), failure.clone())?)
+            Some(CsvRows::create(
+                dir,
+                &columns,
+                problem.every,
+                shared.clone(),
+                failure.clone(),
+            )?)
         } else {
             None
         };
         let npy = if out.npy {
-            Some(NpyRows::create(dir, &columns, problem.every, shared.clone(), failure.clone())?)
+            Some(NpyRows::create(
+                dir,
+                &columns,
+                problem.every,
+                shared.clone(),
+                failure.clone(),
+            )?)
         } else {
             None
         };
@@ -281,7 +293,11 @@ fn resumed_energy<L: Lagrangian>(problem: &Problem, fresh: &Integrator<'_, L>) -
 /// An error if the node `it` is at, or its energy `h`, is not finite.
 fn check_finite<L: Lagrangian>(it: &Integrator<'_, L>, h: f64) -> femvi::Result<()> {
     let node = it.node();
-    let discrete = it.energy_stats().map_or(0.0, |s| s.energy);
+    // The discrete energy of energy mode is fixed by the first step: NaN (undefined) before.
+    let discrete = match it.energy_stats() {
+        Some(s) if node.k > 0 => s.energy,
+        _ => 0.0,
+    };
     let finite = node.t.is_finite() && node.q.iter().chain(node.p).all(|x| x.is_finite());
     if finite && h.is_finite() && discrete.is_finite() {
         return Ok(());
