@@ -65,7 +65,8 @@ impl Signal {
 
 /// The stop signal received so far, if any (always none where [`install`] was not called).
 pub fn received() -> Option<Signal> {
-    match RECEIVED.load(Ordering::SeqCst) {
+    // Relaxed: read at every node; the flag carries no other data.
+    match RECEIVED.load(Ordering::Relaxed) {
         0 => None,
         s => i32::try_from(s).ok().map(Signal),
     }

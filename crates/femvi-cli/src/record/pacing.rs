@@ -44,6 +44,7 @@ impl Pacer {
     /// let reads = (0..100_000).filter(|_| pacer.tick().is_some()).count();
     /// assert!(reads >= 1 && reads < 100_000);
     /// ```
+    #[inline]
     pub fn tick(&mut self) -> Option<(Instant, Duration)> {
         self.count += 1;
         if self.count < self.stride {

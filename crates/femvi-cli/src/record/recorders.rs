@@ -6,14 +6,16 @@
 //! [`Policy`](crate::resume::Policy) and when a stop signal ends the run; and it resumes the
 //! outputs of a stopped run from a checkpoint.
 
-use super::{columns, CsvRows, EnergyError, NpyRows, Pacer, PlotData, Progress, WriteFailure};
+use super::{columns, CsvRows, EnergyError, NodeEnergy, NpyRows, Pacer, PlotData, Progress, WriteFailure};
 use crate::problem::Problem;
 use crate::resume::{self, EnergySaved, Policy, RunCheckpoint};
 use crate::run::RunOutput;
 use crate::signals::{self, Signal};
 use femvi::step::Observer;
 use femvi::{Integrator, Lagrangian};
+use std::cell::Cell;
 use std::path::Path;
+use std::rc::Rc;
 use std::time::Instant;
 
 /// Checkpoints of a run: when, and what they are tagged with.
@@ -39,6 +41,8 @@ struct Good {
 pub struct Recorders<'a> {
     progress: Progress,
     energy: EnergyError,
+    /// The energy of the node being recorded (`energy.current()`).
+    current: Rc<Cell<NodeEnergy>>,
     csv: Option<CsvRows>,
     npy: Option<NpyRows>,
     plots: Option<PlotData<'a>>,
@@ -109,6 +113,7 @@ impl<'a> Recorders<'a> {
             .then(|| PlotData::new(problem, dir, out.plot_format, shared, failure.clone()));
         Ok(Recorders {
             progress: Progress::new(out.progress, problem),
+            current: energy.current(),
             energy,
             csv,
             npy,
@@ -164,6 +169,7 @@ impl<'a> Recorders<'a> {
         .map_err(|e| format!("cannot resume trajectory.npy: {e}"))?;
         Ok(Recorders {
             progress: Progress::new(out.progress, problem),
+            current: energy.current(),
             energy,
             csv,
             npy,
@@ -218,6 +224,7 @@ impl<'a> Recorders<'a> {
     }
 
     /// Steps up to the node being recorded, counted from the start of the first run.
+    #[inline]
     fn steps(&self) -> usize {
         self.resumed.map_or(0, |(s, _)| s) + self.nodes.saturating_sub(1)
     }
@@ -291,6 +298,7 @@ fn resumed_energy<L: Lagrangian>(problem: &Problem, fresh: &Integrator<'_, L>) -
 }
 
 /// An error if the node `it` is at, or its energy `h`, is not finite.
+#[inline]
 fn check_finite<L: Lagrangian>(it: &Integrator<'_, L>, h: f64) -> femvi::Result<()> {
     let node = it.node();
     // The discrete energy of energy mode is fixed by the first step: NaN (undefined) before.
@@ -314,14 +322,17 @@ impl<L: Lagrangian> Observer<L> for Recorders<'_> {
         self.nodes += 1;
         self.progress.node(it, last)?;
         self.energy.node(it, last)?;
-        check_finite(it, self.energy.current().get().h)?;
+        check_finite(it, self.current.get().h)?;
         let node = it.node();
         self.good.steps = self.steps();
         self.good.t = node.t;
-        self.good.q.clear();
-        self.good.q.extend_from_slice(node.q);
-        self.good.p.clear();
-        self.good.p.extend_from_slice(node.p);
+        if self.good.q.len() == node.q.len() && self.good.p.len() == node.p.len() {
+            self.good.q.copy_from_slice(node.q);
+            self.good.p.copy_from_slice(node.p);
+        } else {
+            self.good.q = node.q.to_vec();
+            self.good.p = node.p.to_vec();
+        }
         if let Some(csv) = self.csv.as_mut() {
             csv.node(it, last)?;
         }
