@@ -190,19 +190,22 @@ fn sigkill_at_random_points_then_resume_gives_identical_outputs() {
     let clock = Instant::now();
     let mut mid_run_kills = 0;
     for (c, case) in CASES.iter().enumerate() {
-        let (problem, length) = calibrated(case, tmp.path());
+        let (problem, calibration) = calibrated(case, tmp.path());
         let reference = tmp.path().join(format!("{}-reference", case.name));
+        let started = Instant::now();
         success(
             &run_cmd(case, &problem, &out_args(&reference)).output().unwrap(),
             case.name,
         );
+        // The machine's load varies: the shorter of two runs.
+        let length = calibration.min(started.elapsed().as_secs_f64());
         let mut kills = 0;
-        for attempt in 0..12 {
+        for attempt in 0..20 {
             if kills >= 5 {
                 break;
             }
             let dir = tmp.path().join(format!("{}-{attempt}", case.name));
-            let delay = Duration::from_secs_f64(length * (0.02 + 0.93 * rng.uniform()));
+            let delay = Duration::from_secs_f64(length * (0.02 + 0.78 * rng.uniform()));
             if !kill_after(run_cmd(case, &problem, &out_args(&dir)), delay) {
                 continue;
             }
@@ -260,7 +263,9 @@ fn sigint_stops_on_a_complete_row_and_resumes() {
     let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
     assert_eq!(last.len(), csv.lines().next().unwrap().split(',').count());
     assert_eq!(last[0].parse::<u64>().unwrap(), steps);
-    assert_eq!(last[2].parse::<f64>().unwrap(), s["final_q"][0].as_f64().unwrap());
+    // serde_json parses floats to within an ulp (without its float_roundtrip feature).
+    let (x, q) = (last[2].parse::<f64>().unwrap(), s["final_q"][0].as_f64().unwrap());
+    assert!((x - q).abs() <= 2.0 * f64::EPSILON * x.abs(), "{x} vs {q}");
     // The NPY file is loadable and holds the same rows.
     let bytes = std::fs::read(dir.join("trajectory.npy")).unwrap();
     let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
