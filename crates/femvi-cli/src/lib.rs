@@ -1,7 +1,8 @@
 //! The `femvi` command's machinery as a library, so that other front ends (the Python
 //! package) load problem files and run them exactly as the command does: [`problem`]
 //! (problem files, table by table, into library types), [`run`] (a run with its outputs as
-//! observers, [`record`]), [`check`], [`convergence`], [`bvp`], [`models`] (the model
+//! observers, [`record`]; stopped runs and resume: [`signals`], [`resume`], [`summary`],
+//! [`estimate`]), [`check`], [`convergence`], [`bvp`], [`models`] (the model
 //! catalogue's text), [`plot`]. `main.rs` is only the argument parsing and exit codes.
 
 pub mod adaptive;
@@ -11,12 +12,16 @@ pub mod chaos_plot;
 pub mod check;
 pub mod convergence;
 pub mod ensemble;
+pub mod estimate;
 pub mod events;
 pub mod models;
 pub mod plot;
 pub mod problem;
 pub mod record;
+pub mod resume;
 pub mod run;
+pub mod signals;
+pub mod summary;
 
 /// Exit code of a numerical failure.
 pub const NUMERICAL: u8 = 1;

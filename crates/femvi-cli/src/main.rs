@@ -22,6 +22,16 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Integrate a problem file; writes trajectory.csv and summary.json.
+    ///
+    /// SIGINT, SIGTERM and SIGHUP stop the run at the next step boundary: the rows so far are
+    /// complete, summary.json says "interrupted by SIGINT at step k, t = ...", a checkpoint
+    /// (checkpoint.json) is written and the exit code is 130, 143 or 129. A stopped or killed
+    /// run continues with `femvi run PROBLEM --resume DIR` from its last checkpoint, with the
+    /// outputs an uninterrupted run writes, byte for byte (not for [[events]], plots, a
+    /// time-dependent Lagrangian or one without a constant mass matrix). Rows reach the disk
+    /// at least every second; a run that would write more than --max-output or the free space
+    /// is refused before it starts; a run stops (exit 1) at the first non-finite state.
+    #[command(verbatim_doc_comment)]
     Run {
         /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
@@ -44,6 +54,20 @@ enum Command {
         /// Image format of the plots: svg or png.
         #[arg(long, default_value = "svg")]
         plot_format: String,
+        /// Continue the stopped or killed run whose output directory is DIR from its last
+        /// checkpoint (the same problem file and --set overrides; writes into DIR).
+        #[arg(long, value_name = "DIR", conflicts_with = "out")]
+        resume: Option<PathBuf>,
+        /// Also write a checkpoint every N steps (default: only by time).
+        #[arg(long, value_name = "N")]
+        checkpoint_every_steps: Option<usize>,
+        /// Write a checkpoint every SECONDS of run time (0: only at the first node and at a
+        /// stop).
+        #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+        checkpoint_every_seconds: f64,
+        /// Refuse a run whose output would exceed this size (e.g. 500M, 10G, 2TiB).
+        #[arg(long, value_name = "SIZE", default_value = "10G", value_parser = femvi_cli::estimate::parse_size)]
+        max_output: u64,
     },
     /// Run a problem and measure symplecticity, energy error and drift, Noether momenta and
     /// time reversal.
@@ -214,10 +238,38 @@ fn dispatch(cli: Cli) -> ExitCode {
             format,
             plot,
             plot_format,
-        } => match plot_format_of(&plot_format) {
-            Ok(f) => cmd_run(&problem, &set, out, quiet, &format, plot.then_some(f)),
-            Err(code) => code,
-        },
+            resume,
+            checkpoint_every_steps,
+            checkpoint_every_seconds,
+            max_output,
+        } => {
+            if checkpoint_every_seconds.is_nan() || checkpoint_every_seconds < 0.0 || checkpoint_every_steps == Some(0)
+            {
+                eprintln!("error: --checkpoint-every-seconds must be >= 0 and --checkpoint-every-steps >= 1");
+                return ExitCode::from(BAD_INPUT);
+            }
+            let control = run::RunControl {
+                checkpoints: femvi_cli::resume::Policy {
+                    every_steps: checkpoint_every_steps,
+                    every_seconds: (checkpoint_every_seconds > 0.0).then_some(checkpoint_every_seconds),
+                },
+                resume: resume.is_some(),
+                max_output,
+            };
+            match plot_format_of(&plot_format) {
+                Ok(f) => {
+                    let args = RunArgs {
+                        out: resume.or(out),
+                        quiet,
+                        format: &format,
+                        plot: plot.then_some(f),
+                        control,
+                    };
+                    cmd_run(&problem, &set, args)
+                }
+                Err(code) => code,
+            }
+        }
         Command::Check {
             problem,
             set,
@@ -477,15 +529,24 @@ fn plot_format_of(name: &str) -> Result<plot::Format, ExitCode> {
     }
 }
 
-fn cmd_run(
-    path: &std::path::Path,
-    set: &[String],
+/// What `femvi run` was asked for.
+struct RunArgs<'a> {
     out: Option<PathBuf>,
     quiet: bool,
-    format: &[String],
+    format: &'a [String],
     plot: Option<plot::Format>,
-) -> ExitCode {
+    control: run::RunControl,
+}
+
+fn cmd_run(path: &std::path::Path, set: &[String], args: RunArgs) -> ExitCode {
     use std::io::IsTerminal;
+    let RunArgs {
+        out,
+        quiet,
+        format,
+        plot,
+        control,
+    } = args;
     if let Some(f) = format.iter().find(|f| !matches!(f.as_str(), "csv" | "npy")) {
         eprintln!(
             "error: unknown --format '{f}'{}; use csv, npy or csv,npy",
@@ -505,7 +566,10 @@ fn cmd_run(
         plots: plot.is_some(),
         plot_format: plot.unwrap_or(plot::Format::Svg),
     };
-    match run::run(&problem, &dir, output) {
+    if let Err(e) = femvi_cli::signals::install() {
+        eprintln!("warning: cannot handle stop signals ({e}); a signal will end the run at once");
+    }
+    match run::run_controlled(&problem, &dir, output, &control) {
         Err(e) => {
             eprintln!("error: cannot write the output in {}: {e}", dir.display());
             ExitCode::from(BAD_INPUT)
@@ -513,6 +577,16 @@ fn cmd_run(
         Ok(run::Outcome::Rejected(msg)) => {
             eprintln!("error: {}: {msg}", path.display());
             ExitCode::from(BAD_INPUT)
+        }
+        Ok(run::Outcome::Interrupted(s, sig)) => {
+            eprintln!("error: {}", s.error.as_deref().unwrap_or("interrupted"));
+            eprintln!(
+                "hint: the rows up to step {} are in {}; continue with --resume {}",
+                s.steps,
+                dir.display(),
+                dir.display()
+            );
+            ExitCode::from(sig.exit_code())
         }
         Ok(run::Outcome::Failed(s)) => {
             eprintln!("error: {}", s.error.as_deref().unwrap_or("unknown failure"));

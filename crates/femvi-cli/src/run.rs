@@ -1,105 +1,25 @@
-//! `femvi run` on a loaded problem: builds its integrator, attaches the outputs (src/record/:
-//! trajectory.csv streamed as the run goes, trajectory.npy, plots, the energy error, the
-//! progress bar), drives the run with [`femvi::step::drive`] and writes summary.json at the
-//! end (also after a failure, with the error). A problem with `[[events]]` is driven by the
+//! `femvi run` on a loaded problem: builds its integrator, checks the output estimate
+//! ([`crate::estimate`]), attaches the outputs ([`Recorders`]: trajectory.csv and .npy
+//! streamed as the run goes, plots, the energy error, the progress bar, checkpoints), drives
+//! the run with [`femvi::step::drive`] and writes summary.json ([`crate::summary`]): with
+//! `"status": "running"` at the start, and at the end (also after a failure or a stop by a
+//! signal, with the error). With [`RunControl::resume`] it continues a stopped run from its
+//! checkpoint ([`crate::resume`]), bit for bit. A problem with `[[events]]` is driven by the
 //! library's [`femvi::solution::solve_with`] instead, with the same outputs as observers and
 //! the located events written by [`crate::events`].
 
 use crate::problem::Problem;
-use crate::record::Recorders;
+use crate::record::{Checkpointing, Recorders};
+use crate::resume::{self, Policy};
+use crate::signals::{self, Signal};
 use femvi::step::drive;
 use femvi::{Integrator, Lagrangian};
-use serde::Serialize;
-use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-/// What summary.json holds.
-#[derive(Debug, Serialize)]
-pub struct Summary {
-    /// The problem's name.
-    pub name: String,
-    /// The element used.
-    pub scheme: String,
-    /// Steps completed.
-    pub steps: usize,
-    /// The requested end time.
-    pub t_end: f64,
-    /// Time of the last node.
-    pub final_t: f64,
-    /// Positions at the last node.
-    pub final_q: Vec<f64>,
-    /// Momenta at the last node.
-    pub final_p: Vec<f64>,
-    /// Max over nodes of |H − H0|/|H0| (absolute if H0 = 0), H by the Legendre transform.
-    pub max_rel_energy_error: f64,
-    /// Solver iterations per step (0 for explicit steps).
-    pub mean_solver_iterations: f64,
-    /// Run time.
-    pub wall_seconds: f64,
-    /// The message of the error that stopped the run, if any.
-    pub error: Option<String>,
-    /// Energy mode only: largest relative residual of the discrete energy equations (3.3).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_rel_discrete_energy_error: Option<f64>,
-    /// Energy mode only: smallest step taken.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub min_step: Option<f64>,
-    /// Energy mode only: largest step taken.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_step: Option<f64>,
-    /// Energy mode only: steps taken with time as a parameter (on_degenerate = "fixed").
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub degenerate_steps: Option<usize>,
-    /// `[time] accuracy` only: the step femvi chose.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub auto_step: Option<AutoStep>,
-    /// Whether H is a conserved quantity (false for a time-dependent Lagrangian, whose
-    /// `max_rel_energy_error` is then the change of H, not an error).
-    pub energy_conserved: bool,
-    /// Time-dependent L only: the largest |H − H0 − W| / |H0|, W = −∫∂L/∂t dt by the
-    /// trapezoid rule over the written nodes (so itself second order in the step).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_rel_energy_balance_error: Option<f64>,
-    /// `[[events]]` only: how many events were located (events.csv).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub events_located: Option<usize>,
-    /// `[[events]]` only: the event whose `stop = true` ended the run, or null.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stopped_by_event: Option<Option<String>>,
-    /// The femvi version that ran the problem.
-    pub femvi_version: String,
-    /// The command line (program and arguments).
-    pub command_line: Vec<String>,
-    /// The problem's TOML text as run, after `--set` overrides.
-    pub problem: String,
-}
-
-/// The step chosen for `[time] accuracy` (femvi::step::auto::StepChoice), for summary.json.
-#[derive(Debug, Serialize)]
-pub struct AutoStep {
-    /// The relative position error requested at the end.
-    pub accuracy: f64,
-    /// The step chosen.
-    pub step: f64,
-    /// The element degree used.
-    pub degree: usize,
-    /// The estimated relative position error at the end with this step.
-    pub estimated_error: f64,
-    /// Steps taken by the pilot runs.
-    pub pilot_steps: usize,
-}
-
-/// summary.json's `auto_step` for a problem with `[time] accuracy`.
-fn auto_step(problem: &Problem) -> Option<AutoStep> {
-    problem.auto_step.as_ref().map(|c| AutoStep {
-        accuracy: c.accuracy,
-        step: c.step,
-        degree: problem.element.degree(),
-        estimated_error: c.estimated_error,
-        pilot_steps: c.pilot_steps,
-    })
-}
+pub(crate) use crate::summary::{empty_summary, run_summary, RunEnd};
+pub use crate::summary::{is_autonomous, AutoStep, Summary};
+use crate::summary::{running_summary, write_summary};
 
 /// How a run ended.
 pub enum Outcome {
@@ -107,6 +27,9 @@ pub enum Outcome {
     Done(Summary),
     /// A numerical failure after some steps (written to disk); the summary has the error.
     Failed(Summary),
+    /// Stopped by a signal at a step boundary (outputs complete up to there, a checkpoint
+    /// written); the summary has the error "interrupted by …".
+    Interrupted(Summary, Signal),
     /// The problem could not be started (bad input the library detected).
     Rejected(String),
 }
@@ -126,14 +49,47 @@ pub struct RunOutput {
     pub plot_format: crate::plot::Format,
 }
 
-/// Runs a problem with output into `dir`; summary.json records this process's command line.
-pub fn run(problem: &Problem, dir: &Path, out: RunOutput) -> std::io::Result<Outcome> {
-    let command: Vec<String> = std::env::args().collect();
-    run_as(problem, dir, out, &command)
+/// How a run is controlled beyond its outputs: checkpoints, resume, the output limit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunControl {
+    /// When checkpoints are written (besides the first node and a stop by a signal).
+    pub checkpoints: Policy,
+    /// Continue the stopped run in the output directory from its checkpoint.
+    pub resume: bool,
+    /// Refuse a run whose output estimate exceeds this many bytes.
+    pub max_output: u64,
 }
 
-/// [`run`], recording `command` as the command line in summary.json.
-pub fn run_as(problem: &Problem, dir: &Path, out: RunOutput, command: &[String]) -> std::io::Result<Outcome> {
+impl Default for RunControl {
+    /// Checkpoints every 10 s, a fresh run, at most 10 GB of output.
+    fn default() -> Self {
+        RunControl {
+            checkpoints: Policy::default(),
+            resume: false,
+            max_output: crate::estimate::DEFAULT_MAX_OUTPUT,
+        }
+    }
+}
+
+/// Runs a problem with output into `dir`; summary.json records this process's command line.
+pub fn run(problem: &Problem, dir: &Path, out: RunOutput) -> std::io::Result<Outcome> {
+    run_controlled(problem, dir, out, &RunControl::default())
+}
+
+/// [`run`] with `control`.
+pub fn run_controlled(problem: &Problem, dir: &Path, out: RunOutput, control: &RunControl) -> std::io::Result<Outcome> {
+    let command: Vec<String> = std::env::args().collect();
+    run_as(problem, dir, out, control, &command)
+}
+
+/// [`run_controlled`], recording `command` as the command line in summary.json.
+pub fn run_as(
+    problem: &Problem,
+    dir: &Path,
+    out: RunOutput,
+    control: &RunControl,
+    command: &[String],
+) -> std::io::Result<Outcome> {
     let out = RunOutput {
         plots: out.plots || problem.plots,
         ..out
@@ -144,20 +100,69 @@ pub fn run_as(problem: &Problem, dir: &Path, out: RunOutput, command: &[String])
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     }
     if problem.events.is_empty() {
-        crate::with_system!(&problem.system, l => run_with(l, problem, dir, out, command))
-    } else {
-        crate::with_system!(&problem.system, l => crate::events::run(l, problem, dir, out, command))
+        let args = RunArgs {
+            problem,
+            dir,
+            out,
+            control,
+            command,
+        };
+        return crate::with_system!(&problem.system, l => run_with(l, &args));
+    }
+    if control.resume {
+        return Ok(Outcome::Rejected(
+            "--resume is not available for problems with [[events]]".into(),
+        ));
+    }
+    if let Err(msg) = crate::estimate::check(problem, &out, dir, control.max_output, 0) {
+        return Ok(Outcome::Rejected(msg));
+    }
+    std::fs::create_dir_all(dir)?;
+    remove_checkpoint(dir)?;
+    write_summary(dir, &running_summary(problem, Instant::now(), command))?;
+    let outcome = crate::with_system!(&problem.system, l => crate::events::run(l, problem, dir, out, command))?;
+    match outcome {
+        Outcome::Rejected(msg) => {
+            std::fs::remove_file(dir.join("summary.json"))?;
+            Ok(Outcome::Rejected(msg))
+        }
+        Outcome::Done(s) | Outcome::Failed(s) => match signals::received() {
+            Some(sig) if s.error.is_none() && s.final_t < s.t_end && s.stopped_by_event == Some(None) => {
+                interrupted(dir, s, sig)
+            }
+            _ => finish(dir, s),
+        },
+        other => Ok(other),
     }
 }
 
-/// Builds the integrator, attaches the outputs, drives the run and writes summary.json.
-fn run_with<L: Lagrangian>(
-    lag: &L,
-    problem: &Problem,
-    dir: &Path,
+/// What [`run_with`] is asked to do.
+struct RunArgs<'a> {
+    problem: &'a Problem,
+    dir: &'a Path,
     out: RunOutput,
-    command: &[String],
-) -> std::io::Result<Outcome> {
+    control: &'a RunControl,
+    command: &'a [String],
+}
+
+/// Removes a checkpoint left in `dir` by an earlier run.
+fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
+    match std::fs::remove_file(dir.join(resume::FILE)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    }
+}
+
+/// Builds the integrator, attaches the outputs (or resumes them), drives the run and writes
+/// summary.json.
+fn run_with<L: Lagrangian>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<Outcome> {
+    let RunArgs {
+        problem,
+        dir,
+        out,
+        control,
+        command,
+    } = *a;
     let clock = Instant::now();
     let (grid, start) = (problem.grid.clone(), problem.start.clone());
     let made = match problem.energy {
@@ -170,29 +175,107 @@ fn run_with<L: Lagrangian>(
             // Only the start from (q0, q1) solves anything here.
             let summary = empty_summary(problem, clock, format!("first element: {e}"), command);
             std::fs::create_dir_all(dir)?;
+            remove_checkpoint(dir)?;
             write_summary(dir, &summary)?;
             return Ok(Outcome::Failed(summary));
         }
         Err(e) => return Ok(Outcome::Rejected(e.to_string())),
     };
-    std::fs::create_dir_all(dir)?;
-    let mut recorders = Recorders::attach(problem, dir, out, lag.dim())?;
+    let resumable = resume::resumable(problem, &out);
+    let checkpointing = Checkpointing {
+        policy: control.checkpoints,
+        tag: resume::problem_hash(problem),
+        outputs: resume::outputs_label(&out),
+    };
+    if let (true, Err(msg)) = (control.resume, &resumable) {
+        return Ok(Outcome::Rejected(msg.clone()));
+    }
+    // A run killed before its first checkpoint resumes by starting again.
+    let fresh = !control.resume || resume::killed_before_first_checkpoint(dir, problem);
+    let mut recorders = if !fresh {
+        match resume_outputs(&mut it, a, resumable, checkpointing)? {
+            Ok(r) => r,
+            Err(msg) => return Ok(Outcome::Rejected(msg)),
+        }
+    } else {
+        if let Err(msg) = crate::estimate::check(problem, &out, dir, control.max_output, 0) {
+            return Ok(Outcome::Rejected(msg));
+        }
+        std::fs::create_dir_all(dir)?;
+        remove_checkpoint(dir)?;
+        write_summary(dir, &running_summary(problem, clock, command))?;
+        Recorders::start(problem, dir, out, lag.dim(), resumable.ok().map(|_| checkpointing))?
+    };
     let report = drive(&mut it, &mut recorders.observers());
     if let Some(e) = recorders.write_failure() {
         return Err(e);
     }
-    let node = it.node();
+    let (steps, t, q, p) = recorders.last_good();
     let end = RunEnd {
-        steps: report.steps,
-        t: node.t,
-        q: node.q.to_vec(),
-        p: node.p.to_vec(),
+        steps,
+        t,
+        q: q.to_vec(),
+        p: p.to_vec(),
         mean_iterations: it.mean_iterations(),
         stats: it.energy_stats(),
         error: report.error.as_ref().map(|e| e.to_string()),
     };
     let summary = run_summary(problem, end, &recorders, clock, command);
-    finish(dir, summary)
+    match recorders.stopped_by() {
+        Some(sig) => interrupted(dir, summary, sig),
+        None => {
+            if summary.error.is_none() {
+                remove_checkpoint(dir)?;
+            }
+            finish(dir, summary)
+        }
+    }
+}
+
+/// The outputs of the stopped run in the output directory, cut back to its checkpoint, and
+/// the integrator restored from it; a message for the user if the run cannot be resumed.
+fn resume_outputs<'a, L: Lagrangian>(
+    it: &mut Integrator<'_, L>,
+    a: &RunArgs<'a>,
+    resumable: Result<(), String>,
+    checkpointing: Checkpointing,
+) -> std::io::Result<Result<Recorders<'a>, String>> {
+    let (problem, dir, out) = (a.problem, a.dir, a.out);
+    let cp = match resumable.and_then(|_| resume::load(dir, problem, &out)) {
+        Ok(cp) => cp,
+        Err(msg) => return Ok(Err(msg)),
+    };
+    let already: u64 = ["trajectory.csv", "trajectory.npy"]
+        .iter()
+        .filter_map(|f| std::fs::metadata(dir.join(f)).ok())
+        .map(|m| m.len())
+        .sum();
+    if let Err(msg) = crate::estimate::check(problem, &out, dir, a.control.max_output, already) {
+        return Ok(Err(msg));
+    }
+    let tag = checkpointing.tag.clone();
+    let recorders = match Recorders::resume(problem, dir, out, it, &cp, checkpointing) {
+        Ok(r) => r,
+        Err(msg) => return Ok(Err(msg)),
+    };
+    if let Err(e) = it.restore(&cp.integrator, &tag) {
+        return Ok(Err(format!("cannot resume: {e}")));
+    }
+    write_summary(dir, &running_summary(problem, Instant::now(), a.command))?;
+    Ok(Ok(recorders))
+}
+
+/// Writes the summary of a run stopped by `sig`.
+fn interrupted(dir: &Path, mut summary: Summary, sig: Signal) -> std::io::Result<Outcome> {
+    summary.status = "interrupted".into();
+    summary.error = Some(format!(
+        "interrupted by {} at step {}, t = {}",
+        sig.name(),
+        summary.steps,
+        summary.final_t
+    ));
+    write_summary(dir, &summary)?;
+    Ok(Outcome::Interrupted(summary, sig))
 }
 
 /// Writes summary.json and classifies the outcome by its error.
@@ -203,92 +286,4 @@ pub(crate) fn finish(dir: &Path, summary: Summary) -> std::io::Result<Outcome> {
     } else {
         Outcome::Done(summary)
     })
-}
-
-/// Where a run ended: steps, the last node, the solver's statistics and the error.
-pub(crate) struct RunEnd {
-    pub(crate) steps: usize,
-    pub(crate) t: f64,
-    pub(crate) q: Vec<f64>,
-    pub(crate) p: Vec<f64>,
-    pub(crate) mean_iterations: f64,
-    pub(crate) stats: Option<femvi::EnergyStats>,
-    pub(crate) error: Option<String>,
-}
-
-/// The summary of a driven run, at the node it ended on.
-pub(crate) fn run_summary(
-    problem: &Problem,
-    end: RunEnd,
-    recorders: &Recorders<'_>,
-    clock: Instant,
-    command: &[String],
-) -> Summary {
-    let stats = end.stats;
-    Summary {
-        name: problem.name.clone(),
-        scheme: problem.scheme_label.clone(),
-        steps: end.steps,
-        t_end: problem.grid.end(),
-        final_t: end.t,
-        final_q: end.q,
-        final_p: end.p,
-        max_rel_energy_error: recorders.max_rel_energy_error(),
-        mean_solver_iterations: end.mean_iterations,
-        wall_seconds: clock.elapsed().as_secs_f64(),
-        error: end.error,
-        max_rel_discrete_energy_error: stats.map(|s| s.max_rel_residual),
-        min_step: stats.map(|s| s.min_step),
-        max_step: stats.map(|s| s.max_step),
-        degenerate_steps: stats.map(|s| s.degenerate_steps),
-        auto_step: auto_step(problem),
-        energy_conserved: is_autonomous(problem),
-        max_rel_energy_balance_error: recorders.max_rel_energy_balance_error(),
-        events_located: None,
-        stopped_by_event: None,
-        femvi_version: env!("CARGO_PKG_VERSION").to_string(),
-        command_line: command.to_vec(),
-        problem: problem.source.clone(),
-    }
-}
-
-/// Whether the problem's Lagrangian does not depend on time (H is then conserved).
-pub fn is_autonomous(problem: &Problem) -> bool {
-    crate::with_system!(&problem.system, l => l.is_autonomous())
-}
-
-/// The summary of a run that failed before its first node (the start from (q0, q1)).
-pub(crate) fn empty_summary(problem: &Problem, clock: Instant, error: String, command: &[String]) -> Summary {
-    Summary {
-        name: problem.name.clone(),
-        scheme: problem.scheme_label.clone(),
-        steps: 0,
-        t_end: problem.grid.end(),
-        final_t: problem.grid.t0(),
-        final_q: vec![],
-        final_p: vec![],
-        max_rel_energy_error: f64::NAN,
-        mean_solver_iterations: 0.0,
-        wall_seconds: clock.elapsed().as_secs_f64(),
-        error: Some(error),
-        max_rel_discrete_energy_error: None,
-        min_step: None,
-        max_step: None,
-        degenerate_steps: None,
-        auto_step: auto_step(problem),
-        energy_conserved: is_autonomous(problem),
-        max_rel_energy_balance_error: None,
-        events_located: None,
-        stopped_by_event: None,
-        femvi_version: env!("CARGO_PKG_VERSION").to_string(),
-        command_line: command.to_vec(),
-        problem: problem.source.clone(),
-    }
-}
-
-/// Writes `dir`/summary.json (pretty JSON and a newline).
-fn write_summary(dir: &Path, s: &Summary) -> std::io::Result<()> {
-    let mut f = std::fs::File::create(dir.join("summary.json"))?;
-    let text = serde_json::to_string_pretty(s).map_err(std::io::Error::other)?;
-    writeln!(f, "{text}")
 }

@@ -1,11 +1,16 @@
 //! trajectory.csv: one row per kept node (step, t, q, p, energy and, in energy mode, the
-//! discrete energy), each number written as the shortest text that reads back to it.
+//! discrete energy), each number written as the shortest text that reads back to it. Rows go
+//! through the `csv` crate's buffer; [`CsvRows::flush`] (called by the run at least every
+//! second) and [`CsvRows::sync`] (at a checkpoint, returning the length the checkpoint keeps)
+//! put them on disk, and [`CsvRows::resume`] truncates the file back to a checkpoint's length
+//! and appends from there, so that a resumed run writes the same bytes as an uninterrupted one.
 
 use super::{NodeEnergy, Thinning, WriteFailure};
 use femvi::step::Observer;
 use femvi::{Integrator, Lagrangian};
 use std::cell::Cell;
 use std::fs::File;
+use std::io::{Seek, SeekFrom};
 use std::path::Path;
 use std::rc::Rc;
 
@@ -36,6 +41,50 @@ impl CsvRows {
             failure,
             row: Vec::with_capacity(columns.len()),
         })
+    }
+
+    /// Reopens `dir`/trajectory.csv of a stopped run, cut back to its first `bytes` bytes (the
+    /// rows up to node `k` of the checkpoint the run resumes from), to append the rows after
+    /// node `k`.
+    ///
+    /// # Errors
+    /// The file is missing, cannot be written, or is shorter than `bytes` (it was changed
+    /// since the checkpoint).
+    pub fn resume(
+        dir: &Path,
+        bytes: u64,
+        k: usize,
+        every: usize,
+        energy: Rc<Cell<NodeEnergy>>,
+        failure: WriteFailure,
+    ) -> std::io::Result<Self> {
+        let mut file = super::reopen_at(&dir.join("trajectory.csv"), bytes)?;
+        file.seek(SeekFrom::End(0))?;
+        let writer = csv::WriterBuilder::new().from_writer(file);
+        Ok(CsvRows {
+            writer,
+            thinning: Thinning::after(every, k),
+            energy,
+            failure,
+            row: vec![],
+        })
+    }
+
+    /// Puts the buffered rows on disk (in the operating system's hands).
+    ///
+    /// # Errors
+    /// The write failed.
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.writer.flush()
+    }
+
+    /// Flushes and returns the file's length: what a checkpoint at this node keeps.
+    ///
+    /// # Errors
+    /// The write failed.
+    pub fn sync(&mut self) -> std::io::Result<u64> {
+        self.writer.flush()?;
+        Ok(self.writer.get_ref().metadata()?.len())
     }
 }
 
@@ -68,8 +117,8 @@ impl<L: Lagrangian> Observer<L> for CsvRows {
         if self.failure.happened() {
             return Ok(());
         }
-        // A run stopped early (an event with stop = true) ends on a node the thinning may
-        // have skipped: keep it, as the last node of a finished run always is.
+        // A run stopped early (an event with stop = true, a signal) ends on a node the
+        // thinning may have skipped: keep it, as the last node of a finished run always is.
         if error.is_none() {
             Observer::<L>::node(self, it, true)?;
         }

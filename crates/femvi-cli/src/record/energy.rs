@@ -44,10 +44,20 @@ impl EnergyError {
         self.tracker.report().max_rel_balance
     }
 
-    /// The tracker (for checkpoints: [`EnergyTracker::words`] and
-    /// [`EnergyTracker::restore_words`]).
-    pub fn tracker_mut(&mut self) -> &mut EnergyTracker {
-        &mut self.tracker
+    /// The tracker's state for a checkpoint ([`EnergyTracker::words`]).
+    pub fn words(&self) -> Vec<u64> {
+        self.tracker.words()
+    }
+
+    /// Restores a checkpoint's state ([`EnergyTracker::restore_words`]); the node's energy
+    /// becomes the current one.
+    ///
+    /// # Errors
+    /// The words do not fit this tracker.
+    pub fn restore(&mut self, words: &[u64]) -> femvi::Result<()> {
+        self.tracker.restore_words(words)?;
+        self.current.set(self.tracker.current());
+        Ok(())
     }
 }
 

@@ -1,25 +1,29 @@
-//! What `femvi run` records as it goes: one [`Observer`] per output, driven by
-//! [`femvi::step::drive`]. The relative energy error ([`EnergyError`]) is computed once per
-//! node and shared with the trajectory writers ([`CsvRows`], [`NpyRows`], [`PlotData`]), so
-//! [`Recorders`] attaches them in the order they must run; [`Progress`] draws the bar.
+//! What `femvi run` records as it goes: one [`Observer`](femvi::step::Observer) per output,
+//! driven by [`femvi::step::drive`]. The relative energy error ([`EnergyError`]) is computed
+//! once per node and shared with the trajectory writers ([`CsvRows`], [`NpyRows`],
+//! [`PlotData`]), so [`Recorders`] runs them in the order they must run, stops the run at the
+//! first non-finite node, flushes the rows at least every second ([`Pacer`]) and writes the
+//! checkpoints; [`Progress`] draws the bar.
 
 mod csv_rows;
 mod energy;
 mod npy_rows;
+mod pacing;
 mod plot_data;
 mod progress;
+mod recorders;
 
 pub use csv_rows::CsvRows;
 pub use energy::{EnergyError, NodeEnergy};
 pub use npy_rows::{write_table, NpyRows};
+pub use pacing::Pacer;
 pub use plot_data::PlotData;
 pub use progress::Progress;
+pub use recorders::{Checkpointing, Recorders};
 
 use crate::problem::Problem;
-use crate::run::RunOutput;
-use femvi::step::Observer;
-use femvi::Lagrangian;
 use std::cell::RefCell;
+use std::fs::File;
 use std::path::Path;
 use std::rc::Rc;
 
@@ -51,6 +55,18 @@ impl Thinning {
             every,
             last_kept: usize::MAX,
         }
+    }
+
+    /// Keeps every `every`-th node after node `k`, which was kept already (a resumed run).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// let mut t = femvi_cli::record::Thinning::after(2, 4);
+    /// assert!(!t.keep(4, false) && !t.keep(5, false) && t.keep(6, false) && t.keep(7, true));
+    /// ```
+    pub fn after(every: usize, k: usize) -> Self {
+        Thinning { every, last_kept: k }
     }
 
     /// Whether to keep node `k` (`last`: the final node of the grid).
@@ -89,80 +105,20 @@ impl WriteFailure {
     }
 }
 
-/// The observers of one run.
-pub struct Recorders<'a> {
-    progress: Progress,
-    energy: EnergyError,
-    csv: Option<CsvRows>,
-    npy: Option<NpyRows<'a>>,
-    plots: Option<PlotData<'a>>,
-    failure: WriteFailure,
-}
-
-impl<'a> Recorders<'a> {
-    /// The outputs `out` asks for, into `dir` (which exists): trajectory.csv is created and
-    /// its header written here. `dim` is the system's number of coordinates.
-    pub fn attach(problem: &'a Problem, dir: &'a Path, out: RunOutput, dim: usize) -> std::io::Result<Self> {
-        let failure = WriteFailure::default();
-        let autonomous = crate::with_system!(&problem.system, l => femvi::Lagrangian::is_autonomous(l));
-        let energy = EnergyError::new(dim, &problem.start, autonomous);
-        let shared = energy.current();
-        let columns = columns(problem);
-        let csv = if out.csv {
-            Some(CsvRows::create(
-                dir,
-                &columns,
-                problem.every,
-                shared.clone(),
-                failure.clone(),
-            )?)
-        } else {
-            None
-        };
-        let npy = out
-            .npy
-            .then(|| NpyRows::new(dir, columns, problem.every, shared.clone(), failure.clone()));
-        let plots = out
-            .plots
-            .then(|| PlotData::new(problem, dir, out.plot_format, shared, failure.clone()));
-        Ok(Recorders {
-            progress: Progress::new(out.progress, problem),
-            energy,
-            csv,
-            npy,
-            plots,
-            failure,
-        })
+/// Opens an output file of a stopped run for writing, cut back to its first `len` bytes.
+///
+/// # Errors
+/// The file is missing, cannot be written, or is shorter than `len` (changed since the
+/// checkpoint that gave `len`).
+pub(crate) fn reopen_at(path: &Path, len: u64) -> std::io::Result<File> {
+    let file = std::fs::OpenOptions::new().write(true).open(path)?;
+    let have = file.metadata()?.len();
+    if have < len {
+        return Err(std::io::Error::other(format!(
+            "{} has {have} bytes, fewer than the {len} its checkpoint recorded: it was changed; run again without --resume",
+            path.display()
+        )));
     }
-
-    /// The observers in the order [`femvi::step::drive`] must call them: the progress bar,
-    /// the energy error, then the outputs that read it.
-    pub fn observers<L: Lagrangian>(&mut self) -> Vec<&mut dyn Observer<L>> {
-        let mut list: Vec<&mut dyn Observer<L>> = vec![&mut self.progress, &mut self.energy];
-        if let Some(csv) = self.csv.as_mut() {
-            list.push(csv);
-        }
-        if let Some(npy) = self.npy.as_mut() {
-            list.push(npy);
-        }
-        if let Some(plots) = self.plots.as_mut() {
-            list.push(plots);
-        }
-        list
-    }
-
-    /// The largest relative energy error over the nodes recorded.
-    pub fn max_rel_energy_error(&self) -> f64 {
-        self.energy.max_rel()
-    }
-
-    /// Time-dependent L: the largest relative error of the energy balance H − H0 = −∫∂L/∂t.
-    pub fn max_rel_energy_balance_error(&self) -> Option<f64> {
-        self.energy.max_rel_balance()
-    }
-
-    /// An output file that could not be completed at the end of the run.
-    pub fn write_failure(&self) -> Option<std::io::Error> {
-        self.failure.take()
-    }
+    file.set_len(len)?;
+    Ok(file)
 }

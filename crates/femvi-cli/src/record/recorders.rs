@@ -1,0 +1,395 @@
+//! [`Recorders`]: the observers of one `femvi run` as one observer. At each node it runs the
+//! progress bar, the energy error and then the outputs that read it, in that order; it stops
+//! the run at the first node whose state or energy is not finite, before any output writes it
+//! (issue 16: no non-finite value is ever written); it flushes the rows to disk at least every
+//! second ([`Pacer`]); it writes checkpoints ([`crate::resume`]) at the first node, on the
+//! [`Policy`](crate::resume::Policy) and when a stop signal ends the run; and it resumes the
+//! outputs of a stopped run from a checkpoint.
+
+use super::{columns, CsvRows, EnergyError, NodeEnergy, NpyRows, Pacer, PlotData, Progress, WriteFailure};
+use crate::problem::Problem;
+use crate::resume::{self, EnergySaved, Policy, RunCheckpoint};
+use crate::run::RunOutput;
+use crate::signals::{self, Signal};
+use femvi::step::Observer;
+use femvi::{Integrator, Lagrangian};
+use std::cell::Cell;
+use std::path::Path;
+use std::rc::Rc;
+use std::time::Instant;
+
+/// Checkpoints of a run: when, and what they are tagged with.
+#[derive(Debug, Clone)]
+pub struct Checkpointing {
+    /// When (besides the first node and a stop).
+    pub policy: Policy,
+    /// The problem's hash ([`resume::problem_hash`]).
+    pub tag: String,
+    /// The output formats ([`resume::outputs_label`]).
+    pub outputs: String,
+}
+
+/// The last node with a finite state and energy: where a run that met a non-finite one ends.
+struct Good {
+    steps: usize,
+    t: f64,
+    q: Vec<f64>,
+    p: Vec<f64>,
+}
+
+/// The observers of one run.
+pub struct Recorders<'a> {
+    progress: Progress,
+    energy: EnergyError,
+    /// The energy of the node being recorded (`energy.current()`).
+    current: Rc<Cell<NodeEnergy>>,
+    csv: Option<CsvRows>,
+    npy: Option<NpyRows>,
+    plots: Option<PlotData<'a>>,
+    failure: WriteFailure,
+    dir: &'a Path,
+    pacer: Pacer,
+    checkpoints: Option<Checkpointing>,
+    last_checkpoint: Instant,
+    /// Resumed runs: the steps and the largest energy error up to the checkpoint.
+    resumed: Option<(usize, f64)>,
+    /// The energy tracker was restored from a checkpoint: the first node shown (the
+    /// checkpoint's) is already in it.
+    restored: bool,
+    /// Nodes seen by this process (on resume, the checkpoint's node first).
+    nodes: usize,
+    good: Good,
+    signal: Option<Signal>,
+}
+
+impl<'a> Recorders<'a> {
+    /// The outputs `out` asks for, into `dir` (which exists), without checkpoints:
+    /// trajectory.csv is created and its header written here. `dim` is the system's number of
+    /// coordinates.
+    ///
+    /// # Errors
+    /// An output file could not be created.
+    pub fn attach(problem: &'a Problem, dir: &'a Path, out: RunOutput, dim: usize) -> std::io::Result<Self> {
+        Self::start(problem, dir, out, dim, None)
+    }
+
+    /// As [`Recorders::attach`], with checkpoints.
+    ///
+    /// # Errors
+    /// An output file could not be created.
+    pub fn start(
+        problem: &'a Problem,
+        dir: &'a Path,
+        out: RunOutput,
+        dim: usize,
+        checkpoints: Option<Checkpointing>,
+    ) -> std::io::Result<Self> {
+        let failure = WriteFailure::default();
+        let autonomous = crate::with_system!(&problem.system, l => femvi::Lagrangian::is_autonomous(l));
+        let energy = EnergyError::new(dim, &problem.start, autonomous);
+        let shared = energy.current();
+        let columns = columns(problem);
+        let csv = if out.csv {
+            Some(CsvRows::create(
+                dir,
+                &columns,
+                problem.every,
+                shared.clone(),
+                failure.clone(),
+            )?)
+        } else {
+            None
+        };
+        let npy = if out.npy {
+            Some(NpyRows::create(
+                dir,
+                &columns,
+                problem.every,
+                shared.clone(),
+                failure.clone(),
+            )?)
+        } else {
+            None
+        };
+        let plots = out
+            .plots
+            .then(|| PlotData::new(problem, dir, out.plot_format, shared, failure.clone()));
+        Ok(Recorders {
+            progress: Progress::new(out.progress, problem),
+            current: energy.current(),
+            energy,
+            csv,
+            npy,
+            plots,
+            failure,
+            dir,
+            pacer: Pacer::default(),
+            checkpoints,
+            last_checkpoint: Instant::now(),
+            resumed: None,
+            restored: false,
+            nodes: 0,
+            good: Good {
+                steps: 0,
+                t: f64::NAN,
+                q: vec![],
+                p: vec![],
+            },
+            signal: None,
+        })
+    }
+
+    /// The outputs of the stopped run in `dir`, cut back to checkpoint `cp` (checked by
+    /// [`resume::load`]) to continue it. `fresh` is the run's integrator at its start node,
+    /// before it is restored from `cp` (the energy observer takes its reference energy there).
+    ///
+    /// # Errors
+    /// An output file is missing or was changed since the checkpoint (a message for the user),
+    /// or the energy of the start node could not be computed.
+    pub fn resume<L: Lagrangian>(
+        problem: &'a Problem,
+        dir: &'a Path,
+        out: RunOutput,
+        fresh: &Integrator<'_, L>,
+        cp: &RunCheckpoint,
+        checkpoints: Checkpointing,
+    ) -> Result<Self, String> {
+        let failure = WriteFailure::default();
+        let mut energy = resumed_energy(problem, fresh)?;
+        // The tracker as it was after the checkpoint's node, which the resumed run shows
+        // again first: that node's energy is not recomputed (`restored`).
+        if !cp.energy.tracker.is_empty() {
+            energy
+                .restore(&cp.energy.tracker)
+                .map_err(|e| format!("checkpoint's energy state: {e}"))?;
+        }
+        let shared = energy.current();
+        let columns = columns(problem);
+        let (k, every) = (cp.integrator.step, problem.every);
+        let csv = match (out.csv, cp.csv_bytes) {
+            (true, Some(b)) => Some(CsvRows::resume(dir, b, k, every, shared.clone(), failure.clone())),
+            _ => None,
+        }
+        .transpose()
+        .map_err(|e| format!("cannot resume trajectory.csv: {e}"))?;
+        let npy = match (out.npy, cp.npy_rows) {
+            (true, Some(r)) => Some(NpyRows::resume(dir, &columns, r, k, every, shared, failure.clone())),
+            _ => None,
+        }
+        .transpose()
+        .map_err(|e| format!("cannot resume trajectory.npy: {e}"))?;
+        Ok(Recorders {
+            progress: Progress::new(out.progress, problem),
+            current: energy.current(),
+            energy,
+            csv,
+            npy,
+            plots: None,
+            failure,
+            dir,
+            pacer: Pacer::default(),
+            checkpoints: Some(checkpoints),
+            last_checkpoint: Instant::now(),
+            resumed: Some((cp.steps, f64::from_bits(cp.energy.max_rel_bits))),
+            restored: !cp.energy.tracker.is_empty(),
+            nodes: 0,
+            good: Good {
+                steps: cp.steps,
+                t: cp.integrator.t,
+                q: vec![],
+                p: vec![],
+            },
+            signal: None,
+        })
+    }
+
+    /// The observers for [`femvi::step::drive`] or [`femvi::solution::solve_with`]: this one.
+    pub fn observers<L: Lagrangian>(&mut self) -> Vec<&mut dyn Observer<L>> {
+        vec![self]
+    }
+
+    /// The largest relative energy error over the nodes recorded.
+    pub fn max_rel_energy_error(&self) -> f64 {
+        let now = self.energy.max_rel();
+        self.resumed.map_or(now, |(_, before)| before.max(now))
+    }
+
+    /// Time-dependent L: the largest relative error of the energy balance H − H0 = −∫∂L/∂t.
+    pub fn max_rel_energy_balance_error(&self) -> Option<f64> {
+        self.energy.max_rel_balance()
+    }
+
+    /// An output file that could not be completed at the end of the run.
+    pub fn write_failure(&self) -> Option<std::io::Error> {
+        self.failure.take()
+    }
+
+    /// The signal that stopped the run, if one did.
+    pub fn stopped_by(&self) -> Option<Signal> {
+        self.signal
+    }
+
+    /// The last node with a finite state and energy, and the steps up to it (resumed runs:
+    /// counted from the start of the first run).
+    pub fn last_good(&self) -> (usize, f64, &[f64], &[f64]) {
+        (self.good.steps, self.good.t, &self.good.q, &self.good.p)
+    }
+
+    /// Steps up to the node being recorded, counted from the start of the first run.
+    #[inline]
+    fn steps(&self) -> usize {
+        self.resumed.map_or(0, |(s, _)| s) + self.nodes.saturating_sub(1)
+    }
+
+    /// Puts the buffered rows on disk.
+    fn flush(&mut self) -> femvi::Result<()> {
+        let csv = self.csv.as_mut().map_or(Ok(()), CsvRows::flush);
+        let npy = self.npy.as_mut().map_or(Ok(()), NpyRows::flush);
+        csv.and(npy).map_err(|e| self.failure.record(e))
+    }
+
+    /// Flushes the outputs and writes checkpoint.json for the node `it` is at.
+    fn checkpoint<L: Lagrangian>(&mut self, it: &Integrator<'_, L>) -> femvi::Result<()> {
+        let Some(c) = &self.checkpoints else {
+            return Ok(());
+        };
+        let csv = self.csv.as_mut().map(CsvRows::sync).transpose();
+        let npy = self.npy.as_mut().map(NpyRows::sync).transpose();
+        let cp = csv.and_then(|csv_bytes| {
+            Ok(RunCheckpoint {
+                format: resume::FORMAT,
+                femvi_version: env!("CARGO_PKG_VERSION").to_string(),
+                problem_sha256: c.tag.clone(),
+                outputs: c.outputs.clone(),
+                steps: self.steps(),
+                csv_bytes,
+                npy_rows: npy?,
+                energy: EnergySaved {
+                    max_rel_bits: self.max_rel_energy_error().to_bits(),
+                    tracker: self.energy.words(),
+                },
+                integrator: it.checkpoint(&c.tag),
+            })
+        });
+        let saved = cp.and_then(|cp| resume::save(self.dir, &cp));
+        self.last_checkpoint = Instant::now();
+        saved.map_err(|e| self.failure.record(e))
+    }
+
+    /// Flushes and checkpoints when due, after node `it` (`last`: the grid's final node).
+    fn pace<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        let steps = self.steps();
+        let mut checkpoint = match (&self.checkpoints, self.nodes) {
+            (None, _) => false,
+            (Some(_), 1) => self.resumed.is_none(),
+            (Some(c), _) => c.policy.every_steps.is_some_and(|n| n > 0 && steps.is_multiple_of(n)),
+        };
+        if let Some((now, gap)) = self.pacer.tick() {
+            if self.pacer.flush_due(now, gap) {
+                self.flush()?;
+            }
+            let every = self.checkpoints.as_ref().and_then(|c| c.policy.every_seconds);
+            checkpoint |= every.is_some_and(|s| now.duration_since(self.last_checkpoint).as_secs_f64() >= s);
+        }
+        if checkpoint && !last {
+            self.checkpoint(it)?;
+        }
+        Ok(())
+    }
+}
+
+/// The energy observer of a resumed run, in the state of the checkpoint's node as far as
+/// [`EnergyError`] lets it be set: its reference energy from the start node of `fresh`, and
+/// a warm-start velocity that does not matter for the Lagrangians [`resume::resumable`]
+/// accepts. The largest error before the checkpoint is kept by [`Recorders`]. With a
+/// `state()/restore()` pair on the energy observer this becomes a restore of a saved state.
+fn resumed_energy<L: Lagrangian>(problem: &Problem, fresh: &Integrator<'_, L>) -> Result<EnergyError, String> {
+    let lag = fresh.lagrangian();
+    let mut energy = EnergyError::new(lag.dim(), &problem.start, lag.is_autonomous());
+    Observer::<L>::node(&mut energy, fresh, false).map_err(|e| format!("energy at the start node: {e}"))?;
+    Ok(energy)
+}
+
+/// An error if the node `it` is at, or its energy `h`, is not finite.
+#[inline]
+fn check_finite<L: Lagrangian>(it: &Integrator<'_, L>, h: f64) -> femvi::Result<()> {
+    let node = it.node();
+    // The discrete energy of energy mode is fixed by the first step: NaN (undefined) before.
+    let discrete = match it.energy_stats() {
+        Some(s) if node.k > 0 => s.energy,
+        _ => 0.0,
+    };
+    let finite = node.t.is_finite() && node.q.iter().chain(node.p).all(|x| x.is_finite());
+    if finite && h.is_finite() && discrete.is_finite() {
+        return Ok(());
+    }
+    let what = if finite { "energy" } else { "state" };
+    Err(femvi::Error::Observer(format!(
+        "non-finite {what} at step {}, t = {}: the run is unstable (a smaller step may help); the rows before it are written",
+        node.k, node.t
+    )))
+}
+
+impl<L: Lagrangian> Observer<L> for Recorders<'_> {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        self.nodes += 1;
+        self.progress.node(it, last)?;
+        if self.restored {
+            self.restored = false;
+        } else {
+            self.energy.node(it, last)?;
+        }
+        check_finite(it, self.current.get().h)?;
+        let node = it.node();
+        self.good.steps = self.steps();
+        self.good.t = node.t;
+        if self.good.q.len() == node.q.len() && self.good.p.len() == node.p.len() {
+            self.good.q.copy_from_slice(node.q);
+            self.good.p.copy_from_slice(node.p);
+        } else {
+            self.good.q = node.q.to_vec();
+            self.good.p = node.p.to_vec();
+        }
+        if let Some(csv) = self.csv.as_mut() {
+            csv.node(it, last)?;
+        }
+        if let Some(npy) = self.npy.as_mut() {
+            npy.node(it, last)?;
+        }
+        if let Some(plots) = self.plots.as_mut() {
+            plots.node(it, last)?;
+        }
+        self.pace(it, last)
+    }
+
+    fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&femvi::Error>) -> femvi::Result<()> {
+        let mut first = Ok(());
+        if error.is_none() && !it.finished() {
+            self.signal = signals::received();
+            if self.signal.is_some() {
+                first = self.checkpoint(it);
+            }
+        }
+        let mut note = |r: femvi::Result<()>| {
+            if first.is_ok() {
+                first = r;
+            }
+        };
+        note(self.progress.finish(it, error));
+        note(self.energy.finish(it, error));
+        if let Some(csv) = self.csv.as_mut() {
+            note(csv.finish(it, error));
+        }
+        if let Some(npy) = self.npy.as_mut() {
+            note(npy.finish(it, error));
+        }
+        if let Some(plots) = self.plots.as_mut() {
+            note(plots.finish(it, error));
+        }
+        first
+    }
+
+    fn stop(&self) -> bool {
+        signals::received().is_some()
+    }
+}

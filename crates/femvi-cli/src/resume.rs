@@ -1,0 +1,212 @@
+//! Checkpoints of `femvi run` and `--resume` (issue 16): checkpoint.json in the output
+//! directory holds the library's [`Checkpoint`] of the integrator (everything the next step
+//! depends on, bit for bit) and the state of the outputs at that node: the length of
+//! trajectory.csv, the rows of trajectory.npy, the steps driven and the energy observer's
+//! state. It is written atomically (a temporary file renamed over the old one) at the first
+//! node, every N steps and/or seconds ([`Policy`]) and when a signal stops the run.
+//!
+//! `femvi run PROBLEM --resume DIR` rebuilds the run from PROBLEM, checks that the checkpoint
+//! belongs to it (same femvi version, same problem text by SHA-256, same output formats: else
+//! a clear refusal, exit 2), restores the integrator, cuts the output files back to the
+//! checkpoint and continues, so that the outputs are those of an uninterrupted run, byte for
+//! byte. Refused: runs with `[[events]]` or plots (their observers keep whole-run state that is
+//! not checkpointed), and Lagrangians whose energy observer state is not yet checkpointable
+//! (see [`resumable`]).
+
+use crate::problem::Problem;
+use crate::run::RunOutput;
+use femvi::step::Checkpoint;
+use serde::{Deserialize, Serialize};
+use sha2::Digest;
+use std::path::Path;
+
+/// The checkpoint file's name in the output directory.
+pub const FILE: &str = "checkpoint.json";
+
+/// The format of [`RunCheckpoint`]; changed whenever its meaning changes.
+pub(crate) const FORMAT: u32 = 1;
+
+/// When checkpoints are written (besides the first node and a stop by a signal).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Policy {
+    /// Every this many steps.
+    pub every_steps: Option<usize>,
+    /// Every this many seconds of run time.
+    pub every_seconds: Option<f64>,
+}
+
+impl Default for Policy {
+    /// Every 10 seconds.
+    fn default() -> Self {
+        Policy {
+            every_steps: None,
+            every_seconds: Some(10.0),
+        }
+    }
+}
+
+/// The energy observer's state in a checkpoint: its largest relative error so far (as bits).
+/// The rest of its state is recomputed on resume ([`crate::record::Recorders`]); see
+/// [`resumable`].
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct EnergySaved {
+    /// Bits of the largest relative energy error over the nodes up to the checkpoint.
+    pub max_rel_bits: u64,
+    /// The energy tracker's whole state after the checkpoint's node
+    /// ([`femvi::solution::EnergyTracker::words`]: reference energy, warm-start velocity,
+    /// energy balance), so that a resumed run's energies are the uninterrupted run's bit for
+    /// bit for any Lagrangian.
+    #[serde(default)]
+    pub tracker: Vec<u64>,
+}
+
+/// What checkpoint.json holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunCheckpoint {
+    /// Format of this file.
+    pub format: u32,
+    /// The femvi version that wrote it.
+    pub femvi_version: String,
+    /// SHA-256 (hex) of the problem's text as run (after `--set` overrides).
+    pub problem_sha256: String,
+    /// The output formats of the run, e.g. "csv,npy".
+    pub outputs: String,
+    /// Steps driven up to the checkpoint's node.
+    pub steps: usize,
+    /// Length of trajectory.csv with the rows up to the node (csv output only).
+    pub csv_bytes: Option<u64>,
+    /// Rows of trajectory.npy up to the node (npy output only).
+    pub npy_rows: Option<u64>,
+    /// The energy observer's state.
+    pub energy: EnergySaved,
+    /// The integrator's state.
+    pub integrator: Checkpoint,
+}
+
+/// The SHA-256 (hex) of a problem's text: the tag of its checkpoints.
+///
+/// # Example
+///
+/// ```
+/// let text = "[system]\nmodel = \"harmonic\"\n[initial]\nq = [1.0]\np = [0.0]\n[time]\nstep = 0.1\nend = 1.0\n";
+/// let p = femvi_cli::problem::load_text("x.toml".as_ref(), text, &[]).unwrap();
+/// assert_eq!(femvi_cli::resume::problem_hash(&p).len(), 64);
+/// ```
+pub fn problem_hash(problem: &Problem) -> String {
+    let digest = sha2::Sha256::digest(problem.source.as_bytes());
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The output formats of a run as checkpoints name them.
+pub fn outputs_label(out: &RunOutput) -> String {
+    let mut v = vec![];
+    if out.csv {
+        v.push("csv");
+    }
+    if out.npy {
+        v.push("npy");
+    }
+    v.join(",")
+}
+
+/// Writes `bytes` to `path` atomically: into a temporary file in the same directory, then
+/// renamed over `path` (so a reader, or a run killed meanwhile, sees the old or the new file,
+/// never a part).
+///
+/// # Errors
+/// The write or the rename failed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("file");
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
+}
+
+/// Writes `dir`/checkpoint.json atomically.
+///
+/// # Errors
+/// The write failed.
+pub fn save(dir: &Path, checkpoint: &RunCheckpoint) -> std::io::Result<()> {
+    let text = serde_json::to_vec(checkpoint).map_err(std::io::Error::other)?;
+    write_atomic(&dir.join(FILE), &text)
+}
+
+/// Reads `dir`/checkpoint.json and checks that it belongs to `problem` run with outputs `out`.
+///
+/// # Errors
+/// A message for the user: no checkpoint, a damaged one, or one of another run.
+pub fn load(dir: &Path, problem: &Problem, out: &RunOutput) -> Result<RunCheckpoint, String> {
+    let path = dir.join(FILE);
+    let text = std::fs::read(&path).map_err(|e| {
+        let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap_or_default();
+        if summary.contains("\"status\": \"done\"") {
+            format!("nothing to resume: the run in {} has finished", dir.display())
+        } else {
+            format!(
+                "cannot resume from {}: {e} (is it the output directory of a stopped femvi run?)",
+                path.display()
+            )
+        }
+    })?;
+    let cp: RunCheckpoint =
+        serde_json::from_slice(&text).map_err(|e| format!("cannot resume: {} is damaged: {e}", path.display()))?;
+    let version = env!("CARGO_PKG_VERSION");
+    if cp.format != FORMAT || cp.femvi_version != version {
+        return Err(format!(
+            "cannot resume: {} was written by femvi {} (format {}), this is femvi {version} (format {FORMAT}); run the problem again without --resume",
+            path.display(),
+            cp.femvi_version,
+            cp.format
+        ));
+    }
+    if cp.problem_sha256 != problem_hash(problem) {
+        return Err(format!(
+            "cannot resume: {} belongs to another problem (its text, after --set overrides, differs from the one it was written for)",
+            path.display()
+        ));
+    }
+    let label = outputs_label(out);
+    if cp.outputs != label {
+        return Err(format!(
+            "cannot resume: the stopped run wrote --format {}, this one asks for --format {label}",
+            cp.outputs
+        ));
+    }
+    Ok(cp)
+}
+
+/// Whether `dir` holds a run of `problem` that was killed before its first checkpoint: no
+/// checkpoint, and a summary.json of the same problem text with `"status": "running"`. Such a
+/// run is resumed by starting it again.
+pub fn killed_before_first_checkpoint(dir: &Path, problem: &Problem) -> bool {
+    if dir.join(FILE).exists() {
+        return false;
+    }
+    let Ok(text) = std::fs::read_to_string(dir.join("summary.json")) else {
+        return false;
+    };
+    let Ok(summary) = serde_json::from_str::<serde_json::Value>(&text) else {
+        return false;
+    };
+    summary["status"] == "running" && summary["problem"] == problem.source.as_str()
+}
+
+/// Whether a run can be resumed: not with `[[events]]` or plots. Any Lagrangian: the
+/// checkpoint holds the integrator's state and the energy tracker's (reference energy,
+/// warm-start velocity, energy balance).
+///
+/// # Errors
+/// The reason, for the user.
+pub fn resumable(problem: &Problem, out: &RunOutput) -> Result<(), String> {
+    if !problem.events.is_empty() {
+        return Err("--resume is not available for problems with [[events]]".into());
+    }
+    if out.plots {
+        return Err(
+            "--resume is not available with plots (--plot or [output] plots = true): resume without them and draw the plots from trajectory.csv".into(),
+        );
+    }
+    Ok(())
+}
