@@ -28,6 +28,11 @@ pub struct Member {
     pub steps: usize,
     /// The error that stopped it, if any.
     pub error: Option<String>,
+    /// q at the requested times ([`run_member_saving`]), row after row; NaN for the times
+    /// the member did not reach.
+    pub saved_q: Vec<f64>,
+    /// p at the requested times.
+    pub saved_p: Vec<f64>,
 }
 
 impl Member {
@@ -40,6 +45,8 @@ impl Member {
             energy_error: f64::NAN,
             steps: 0,
             error: Some(error),
+            saved_q: vec![],
+            saved_p: vec![],
         }
     }
 }
@@ -71,6 +78,50 @@ fn drive_member<L: Lagrangian>(lag: &L, problem: &Problem, start: Start) -> Memb
         energy_error: energy.max_rel(),
         steps: report.steps,
         error: report.error.map(|e| e.to_string()),
+        saved_q: vec![],
+        saved_p: vec![],
+    }
+}
+
+/// [`run_member`] that also reports q and p at the times `saveat` (increasing, inside the
+/// span), through the library's `solve` (the same integrator and energy tracker, so the
+/// final state and energy error are [`run_member`]'s bit for bit).
+pub fn run_member_saving(problem: &Problem, start: Start, saveat: &[f64]) -> Member {
+    crate::with_system!(&problem.system, l => solve_member(l, problem, start, saveat))
+}
+
+fn solve_member<L: Lagrangian + Clone>(lag: &L, problem: &Problem, start: Start, saveat: &[f64]) -> Member {
+    let n = lag.dim();
+    let (t0, end) = (problem.grid.t0(), problem.grid.end());
+    let p = femvi::Problem::new(lag.clone(), start, t0, end);
+    let options = femvi::SolveOptions {
+        steps: problem.steps.clone(),
+        solver: problem.options,
+        every: 0,
+        saveat: saveat.to_vec(),
+        track_energy: true,
+        ..femvi::SolveOptions::step(1.0)
+    };
+    let sol = match femvi::solve(&p, &problem.element, &options) {
+        Ok(sol) => sol,
+        Err(femvi::Error::Step(e)) => return Member::failed(n, t0, format!("first element: {e}")),
+        Err(e) => return Member::failed(n, t0, e.to_string()),
+    };
+    let last = sol.len().saturating_sub(1);
+    let (mut saved_q, mut saved_p) = (vec![f64::NAN; saveat.len() * n], vec![f64::NAN; saveat.len() * n]);
+    // The saved times are a prefix of `saveat` (those the run reached).
+    let reached = sol.saved.t.len().min(saveat.len()) * n;
+    saved_q[..reached].copy_from_slice(&sol.saved.q[..reached]);
+    saved_p[..reached].copy_from_slice(&sol.saved.p[..reached]);
+    Member {
+        final_t: sol.t.get(last).copied().unwrap_or(t0),
+        q: sol.q_row(last).map_or_else(|| vec![f64::NAN; n], <[f64]>::to_vec),
+        p: sol.p_row(last).map_or_else(|| vec![f64::NAN; n], <[f64]>::to_vec),
+        energy_error: sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error),
+        steps: sol.steps,
+        error: sol.error.map(|e| e.to_string()),
+        saved_q,
+        saved_p,
     }
 }
 

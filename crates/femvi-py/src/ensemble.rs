@@ -8,8 +8,8 @@
 use crate::arrays::{rows, vec1};
 use crate::input_error;
 use crate::solve::load;
-use femvi_cli::ensemble::{run_all, run_member, start_of, Member};
-use numpy::PyReadonlyArray2;
+use femvi_cli::ensemble::{run_all, run_member, run_member_saving, start_of, Member};
+use numpy::{PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -21,7 +21,7 @@ use std::time::Duration;
 /// (q0, v0) with `velocity`); `count`: N when neither is given per member.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (path, member_files=None, states=None, velocity=false, count=1, workers=None, progress=None))]
+#[pyo3(signature = (path, member_files=None, states=None, velocity=false, count=1, workers=None, progress=None, saveat=None))]
 pub fn ensemble_file<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -31,7 +31,12 @@ pub fn ensemble_file<'py>(
     count: usize,
     workers: Option<usize>,
     progress: Option<Py<PyAny>>,
+    saveat: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let saveat = saveat.unwrap_or_default();
+    if saveat.iter().any(|t| !t.is_finite()) || saveat.windows(2).any(|w| w[0] >= w[1]) {
+        return Err(input_error("saveat: times must be finite and strictly increasing"));
+    }
     let (problem, _) = load(&path).map_err(input_error)?;
     let n = problem.coordinates.len();
     let states: Option<Vec<f64>> = match &states {
@@ -78,7 +83,8 @@ pub fn ensemble_file<'py>(
             },
         };
         match start_of(p, states.as_deref(), i, velocity) {
-            Ok(start) => run_member(p, start),
+            Ok(start) if saveat.is_empty() => run_member(p, start),
+            Ok(start) => run_member_saving(p, start, &saveat),
             Err(e) => {
                 bad_input.fetch_min(i, Ordering::Relaxed);
                 Member::failed(n, f64::NAN, e)
@@ -110,10 +116,10 @@ pub fn ensemble_file<'py>(
         let msg = members[first_bad].error.clone().unwrap_or_default();
         return Err(input_error(format!("member {first_bad}: {msg}")));
     }
-    gather(py, members, n)
+    gather(py, members, n, &saveat)
 }
 
-fn gather(py: Python<'_>, members: Vec<Member>, n: usize) -> PyResult<Bound<'_, PyDict>> {
+fn gather<'py>(py: Python<'py>, members: Vec<Member>, n: usize, saveat: &[f64]) -> PyResult<Bound<'py, PyDict>> {
     let m = members.len();
     let (mut t, mut q, mut p, mut e, mut steps) = (
         Vec::with_capacity(m),
@@ -123,7 +129,21 @@ fn gather(py: Python<'_>, members: Vec<Member>, n: usize) -> PyResult<Bound<'_, 
         Vec::with_capacity(m),
     );
     let mut errors: Vec<Option<String>> = Vec::with_capacity(m);
+    let (mut sq, mut sp) = (
+        Vec::with_capacity(m * saveat.len() * n),
+        Vec::with_capacity(m * saveat.len() * n),
+    );
     for mb in members {
+        // A member that never started has no saved rows: NaN.
+        let rows = |v: Vec<f64>| {
+            if v.is_empty() {
+                vec![f64::NAN; saveat.len() * n]
+            } else {
+                v
+            }
+        };
+        sq.extend(rows(mb.saved_q));
+        sp.extend(rows(mb.saved_p));
         t.push(mb.final_t);
         q.extend(mb.q);
         p.extend(mb.p);
@@ -138,5 +158,11 @@ fn gather(py: Python<'_>, members: Vec<Member>, n: usize) -> PyResult<Bound<'_, 
     d.set_item("energy_error", vec1(py, e))?;
     d.set_item("steps", crate::arrays::index1(py, steps))?;
     d.set_item("errors", errors)?;
+    if !saveat.is_empty() {
+        let shape = [m, saveat.len(), n];
+        d.set_item("saved_t", vec1(py, saveat.to_vec()))?;
+        d.set_item("saved_q", numpy::PyArray1::from_vec(py, sq).reshape(shape)?)?;
+        d.set_item("saved_p", numpy::PyArray1::from_vec(py, sp).reshape(shape)?)?;
+    }
     Ok(d)
 }

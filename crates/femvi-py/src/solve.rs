@@ -39,8 +39,7 @@ pub struct Run {
 /// Loads `path` as `femvi run` does (the message of a bad file is the command's).
 pub fn load(path: &Path) -> Result<(Problem, String), String> {
     let problem = problem::load(path).map_err(|e| e.to_string())?;
-    femvi_cli::adaptive::refuse(&problem, "the Python package")
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+    femvi_cli::adaptive::refuse(&problem, "the Python package").map_err(|e| format!("{}: {e}", path.display()))?;
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok((problem, text))
 }

@@ -68,11 +68,12 @@ def test_dask_ensemble_equals_local():
     import femvi.dask
 
     s = states(10)
-    local = femvi.ensemble(KEPLER, initial_states=s, **SHORT)
+    local = femvi.ensemble(KEPLER, initial_states=s, saveat=[0.5, 1.5], **SHORT)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-        remote = femvi.dask.ensemble(client, KEPLER, initial_states=s, chunks=3, workers=1, **SHORT)
-    for key in ("final_t", "final_q", "final_p", "energy_error", "steps"):
+        remote = femvi.dask.ensemble(client, KEPLER, initial_states=s, chunks=3, workers=1,
+                                     saveat=[0.5, 1.5], **SHORT)
+    for key in ("final_t", "final_q", "final_p", "energy_error", "steps", "saved_q", "saved_p"):
         assert np.array_equal(local[key], remote[key]), key
     assert remote.errors == local.errors
 
@@ -116,3 +117,18 @@ def test_progress_reaches_the_total(capsys):
     femvi.ensemble(EXAMPLES / "kepler.toml", initial_states=states[:3], progress=True, **{"time.end": 1.0})
     out = capsys.readouterr()
     assert "3/3" in out.err or "femvi ensemble" in out.err
+
+
+def test_saveat_rows_equal_single_solves():
+    s = states(4)
+    times = [0.25, 1.0, 2.5, 50.0]  # the last one is past the end: NaN
+    ens = femvi.ensemble(KEPLER, initial_states=s, saveat=times, **SHORT)
+    plain = femvi.ensemble(KEPLER, initial_states=s, **SHORT)
+    assert ens.saved_q.shape == (4, 4, 2) and list(ens.saved_t) == times
+    for key in ("final_t", "final_q", "final_p", "energy_error", "steps"):
+        assert np.array_equal(ens[key], plain[key]), key
+    for i in range(4):
+        start = {"initial.q": [float(x) for x in s[i, :2]], "initial.p": [float(x) for x in s[i, 2:]]}
+        one = femvi.solve(KEPLER, saveat=times[:3], **start, **SHORT)
+        assert np.array_equal(ens.saved_q[i, :3], one.saved.q) and np.array_equal(ens.saved_p[i, :3], one.saved.p)
+        assert np.isnan(ens.saved_q[i, 3]).all()

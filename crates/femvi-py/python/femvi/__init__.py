@@ -122,7 +122,8 @@ def _states(initial_states: Any, n_hint: Optional[int] = None):
 
 def ensemble(problem: Any, initial_states: Any = None, parameters: Optional[Mapping[str, Any]] = None,
              workers: Optional[int] = None, overrides: Optional[Mapping[str, Any]] = None,
-             count: Optional[int] = None, progress: Optional[bool] = None, **kw: Any) -> EnsembleResult:
+             count: Optional[int] = None, progress: Optional[bool] = None,
+             saveat: Optional[Sequence[float]] = None, **kw: Any) -> EnsembleResult:
     """N runs of one problem on a pool of ``workers`` Rust threads (default: all cores).
 
     ``initial_states``: an (N, 2n) array of rows (q0, p0), or a dict with "q" (N, n) and "p" or
@@ -130,10 +131,13 @@ def ensemble(problem: Any, initial_states: Any = None, parameters: Optional[Mapp
     member equals the single :func:`solve` of its problem bit for bit; a member's failure is
     recorded in ``errors`` and does not stop the others. Returns an :class:`EnsembleResult`.
 
+    ``saveat``: times at which every member reports its state: ``saved_q`` and ``saved_p``
+    (N, len(saveat), n), NaN where a member did not get there (``saved_t`` the times).
     ``progress``: show a progress bar (tqdm's, in notebooks and terminals, if tqdm is
     installed; else a line on stderr); default: when stderr is a terminal or in a notebook.
     """
     bar = _progress_bar(progress)
+    times = None if saveat is None else [float(t) for t in saveat]
     states, velocity = _states(initial_states)
     merged = _merge(overrides, kw)
     params = {k: np.asarray(v, dtype=np.float64).reshape(-1) for k, v in (parameters or {}).items()}
@@ -143,9 +147,9 @@ def ensemble(problem: Any, initial_states: Any = None, parameters: Optional[Mapp
     with problem_file(problem, merged) as (path, shown):
         try:
             if not params:
-                raw = _core.ensemble_file(str(path), None, states, velocity, count or 1, workers, bar)
+                raw = _core.ensemble_file(str(path), None, states, velocity, count or 1, workers, bar, times)
             else:
-                raw = _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar)
+                raw = _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar, times)
         except InputError as e:
             raise _input_error(e, path, shown) from None
         finally:
@@ -198,7 +202,7 @@ def _progress_bar(progress: Optional[bool]) -> Optional[_Progress]:
     return _Progress() if progress else None
 
 
-def _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar):
+def _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar, times):
     d, _ = to_dict(problem)
     apply_overrides(d, merged)
     size = len(next(iter(params.values())))
@@ -212,7 +216,7 @@ def _parameter_ensemble(problem, merged, params, states, velocity, workers, path
             f = Path(tmp) / f"{path.stem}-{i}.toml"
             f.write_text(dumps(di), encoding="utf-8")
             files.append(str(f))
-        return _core.ensemble_file(str(path), files, states, velocity, size, workers, bar)
+        return _core.ensemble_file(str(path), files, states, velocity, size, workers, bar, times)
 
 
 def models() -> List[Dict[str, Any]]:

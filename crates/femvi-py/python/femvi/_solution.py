@@ -119,7 +119,8 @@ class NumericalError(RuntimeError):
 class EnsembleResult(dict):
     """The stacked results of an ensemble, as a dict with attribute access: ``final_t`` (N,),
     ``final_q``, ``final_p`` (N, n), ``energy_error`` (N,), ``steps`` (N,) and ``errors``
-    (a list of None or the member's error message)."""
+    (a list of None or the member's error message); with ``saveat``, ``saved_t`` and
+    ``saved_q``, ``saved_p`` (N, len(saveat), n)."""
 
     def __getattr__(self, name: str) -> Any:
         try:

@@ -6,7 +6,7 @@ dask is imported only when a task graph is built.
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Optional
+from typing import Sequence, Any, Mapping, Optional
 
 import numpy as np
 
@@ -15,20 +15,21 @@ from ._solution import EnsembleResult
 
 
 def _chunk(text: str, states: Optional[np.ndarray], velocity: bool, parameters: Optional[dict],
-           workers: Optional[int]) -> dict:
+           workers: Optional[int], saveat: Optional[list] = None) -> dict:
     import femvi
 
     init = None
     if states is not None:
         n = states.shape[1] // 2
         init = {"q": states[:, :n], ("v" if velocity else "p"): states[:, n:]}
-    return dict(femvi.ensemble(text, initial_states=init, parameters=parameters, workers=workers))
+    return dict(femvi.ensemble(text, initial_states=init, parameters=parameters, workers=workers,
+                               saveat=saveat, progress=False))
 
 
 def ensemble(client: Any, problem: Any, initial_states: Any = None,
              parameters: Optional[Mapping[str, Any]] = None, chunks: int = 1000,
              workers: Optional[int] = None, overrides: Optional[Mapping[str, Any]] = None,
-             **kw: Any) -> EnsembleResult:
+             saveat: Optional[Sequence[float]] = None, **kw: Any) -> EnsembleResult:
     """:func:`femvi.ensemble` mapped over a ``dask.distributed`` client in chunks of ``chunks``
     members (``workers``: Rust threads per task, default all cores of the worker)."""
     from femvi import _states
@@ -47,11 +48,16 @@ def ensemble(client: Any, problem: Any, initial_states: Any = None,
         b = min(size, a + max(1, int(chunks)))
         s = None if states is None else states[a:b]
         p = {k: v[a:b] for k, v in params.items()} or None
-        futures.append(client.submit(_chunk, text, s, velocity, p, workers, pure=False))
+        times = None if saveat is None else [float(t) for t in saveat]
+        futures.append(client.submit(_chunk, text, s, velocity, p, workers, times, pure=False))
     parts = client.gather(futures)
     out = {
         key: np.concatenate([part[key] for part in parts])
         for key in ("final_t", "final_q", "final_p", "energy_error", "steps")
     }
     out["errors"] = [e for part in parts for e in part["errors"]]
+    if saveat is not None:
+        out["saved_t"] = parts[0]["saved_t"]
+        out["saved_q"] = np.concatenate([part["saved_q"] for part in parts])
+        out["saved_p"] = np.concatenate([part["saved_p"] for part in parts])
     return EnsembleResult(out)
