@@ -14,19 +14,26 @@
 //! and errors that point at the offending character.
 
 mod compile;
+mod dag;
+mod fast;
 mod parse;
 mod program;
+mod structure;
+mod tape;
 
 pub use parse::{ExprError, MAX_NESTING};
 pub use program::Program;
 
-use crate::lagrangian::{Lagrangian, Scalar};
+use crate::lagrangian::{Lagrangian, MassMatrix, PointDerivatives, Scalar};
+use fast::Fast;
 
 /// A Lagrangian given by a math expression in t, the coordinates and their `_dot` velocities.
 #[derive(Debug, Clone)]
 pub struct ExprLagrangian {
     coordinates: Vec<String>,
     program: Program,
+    fast: Fast,
+    autonomous: bool,
 }
 
 impl ExprLagrangian {
@@ -66,9 +73,12 @@ impl ExprLagrangian {
             ));
         }
         let program = Program::compile(source, &vars, parameters)?;
+        let fast = Fast::new(&program, coordinates.len());
         Ok(Self {
             coordinates: coordinates.to_vec(),
+            autonomous: !program.uses_variable(0),
             program,
+            fast,
         })
     }
 
@@ -79,7 +89,37 @@ impl ExprLagrangian {
 
     /// Whether the expression mentions `t`.
     pub fn depends_on_time(&self) -> bool {
-        self.program.uses_variable(0)
+        !self.autonomous
+    }
+
+    /// Whether the expression was recognised as mechanical, L = ½vᵀMv − V(t, q) with a
+    /// constant positive definite M (then [`Lagrangian::mass_matrix`] returns M and the
+    /// fixed-point and explicit solvers apply).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::expr::ExprLagrangian;
+    /// use femvi::Lagrangian;
+    ///
+    /// let xy = ["x".to_string(), "y".to_string()];
+    /// let kepler = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[])?;
+    /// assert!(kepler.is_mechanical());
+    /// assert_eq!(kepler.mass_matrix().and_then(|m| m.get(1, 1)), Some(1.0));
+    /// // A magnetic field adds a term linear in the velocities: not mechanical.
+    /// let magnetic = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + x*y_dot", &xy, &[])?;
+    /// assert!(!magnetic.is_mechanical());
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
+    pub fn is_mechanical(&self) -> bool {
+        self.fast.mass.is_some()
+    }
+
+    /// Whether first (and second) derivatives come from compiled symbolic tapes rather than
+    /// automatic differentiation (false only for expressions too large to differentiate
+    /// symbolically within the budgets).
+    pub fn has_compiled_derivatives(&self) -> (bool, bool) {
+        (self.fast.first.is_some(), self.fast.second.is_some())
     }
 }
 
@@ -89,7 +129,82 @@ impl Lagrangian for ExprLagrangian {
     }
 
     fn is_autonomous(&self) -> bool {
-        !self.depends_on_time()
+        self.autonomous
+    }
+
+    fn mass_matrix(&self) -> Option<&MassMatrix> {
+        self.fast.mass.as_ref()
+    }
+
+    fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        if let Some(tape) = &self.fast.force {
+            return tape.eval(t, q, &[], |i, x| {
+                if let Some(o) = out.get_mut(i) {
+                    *o = x;
+                }
+            });
+        }
+        let n = self.dim();
+        let mut d = PointDerivatives::new(n);
+        self.first_derivatives(t, q, &vec![0.0; n], false, &mut d);
+        out.iter_mut().zip(d.l_q()).for_each(|(o, f)| *o = *f);
+    }
+
+    fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
+        let Some(tape) = &self.fast.first else {
+            return out.first_by_ad(self, t, q, v, with_t);
+        };
+        if !fits(out, self.dim(), q, v) {
+            return;
+        }
+        tape.eval(t, q, v, |j, x| match j {
+            0 => out.value = x,
+            _ => {
+                if let Some(g) = out.grad.get_mut(j - 1) {
+                    *g = x;
+                }
+            }
+        });
+        if !with_t || self.autonomous {
+            out.grad[0] = 0.0;
+        }
+    }
+
+    fn second_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
+        let Some(tape) = &self.fast.second else {
+            return out.second_by_ad(self, t, q, v, with_t);
+        };
+        let m = out.hessian_mut().len();
+        if !fits(out, self.dim(), q, v) {
+            out.hess.iter_mut().for_each(|h| *h = f64::NAN);
+            return;
+        }
+        let width = out.width();
+        debug_assert_eq!(m, width * width);
+        // Outputs: L, the gradient, then the upper triangle row by row.
+        let (mut a, mut b) = (0, 0);
+        tape.eval(t, q, v, |j, x| {
+            if j == 0 {
+                out.value = x;
+            } else if j <= width {
+                out.grad[j - 1] = x;
+            } else {
+                out.hess[a * width + b] = x;
+                out.hess[b * width + a] = x;
+                b += 1;
+                if b == width {
+                    a += 1;
+                    b = a;
+                }
+            }
+        });
+        if !with_t || self.autonomous {
+            out.grad[0] = 0.0;
+            for k in 0..width {
+                out.hess[k] = 0.0;
+                out.hess[k * width] = 0.0;
+            }
+        }
     }
 
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
@@ -106,6 +221,17 @@ impl Lagrangian for ExprLagrangian {
             }
         })
     }
+}
+
+/// Whether `out` holds buffers for dimension n and q, v have n entries; if not, its value and
+/// gradient are set to NaN (as the automatic-differentiation path does).
+fn fits(out: &mut PointDerivatives, n: usize, q: &[f64], v: &[f64]) -> bool {
+    let ok = out.dim() == n && q.len() == n && v.len() == n && out.grad.len() == out.width();
+    if !ok {
+        out.value = f64::NAN;
+        out.grad.iter_mut().for_each(|g| *g = f64::NAN);
+    }
+    ok
 }
 
 #[cfg(test)]
