@@ -48,19 +48,39 @@ fn compare(src: &str, coords: &[&str], lo: f64, hi: f64, seed: u64) -> f64 {
             lag.first_derivatives(t, &q, &v, with_t, &mut tape);
             ad.first_by_ad(&lag, t, &q, &v, with_t);
             let scale = ad.grad.iter().fold(ad.value.abs(), |m, g| m.max(g.abs()));
-            assert!(close(tape.value, ad.value, scale), "{src}: value {} vs {}", tape.value, ad.value);
+            assert!(
+                close(tape.value, ad.value, scale),
+                "{src}: value {} vs {}",
+                tape.value,
+                ad.value
+            );
             for (a, b) in tape.grad.iter().zip(&ad.grad) {
-                assert!(close(*a, *b, scale), "{src} at {q:?} {v:?}: grad {:?} vs {:?}", tape.grad, ad.grad);
+                assert!(
+                    close(*a, *b, scale),
+                    "{src} at {q:?} {v:?}: grad {:?} vs {:?}",
+                    tape.grad,
+                    ad.grad
+                );
                 worst = worst.max((a - b).abs() / scale.max(1e-300));
             }
             lag.second_derivatives(t, &q, &v, with_t, &mut tape);
             ad.second_by_ad(&lag, t, &q, &v, with_t);
             let scale = ad.hess.iter().fold(scale, |m, g| m.max(g.abs()));
             for (a, b) in tape.grad.iter().zip(&ad.grad) {
-                assert!(close(*a, *b, scale), "{src}: second-pass grad {:?} vs {:?}", tape.grad, ad.grad);
+                assert!(
+                    close(*a, *b, scale),
+                    "{src}: second-pass grad {:?} vs {:?}",
+                    tape.grad,
+                    ad.grad
+                );
             }
             for (a, b) in tape.hess.iter().zip(&ad.hess) {
-                assert!(close(*a, *b, scale), "{src} at {q:?} {v:?}: hess {:?} vs {:?}", tape.hess, ad.hess);
+                assert!(
+                    close(*a, *b, scale),
+                    "{src} at {q:?} {v:?}: hess {:?} vs {:?}",
+                    tape.hess,
+                    ad.hess
+                );
                 worst = worst.max((a - b).abs() / scale.max(1e-300));
             }
         }
@@ -136,7 +156,10 @@ fn check_against_ad(lag: &ExprLagrangian, n: usize, seed: u64) {
         for i in 0..n {
             for j in 0..n {
                 let h = ad.h(1 + n + i, 1 + n + j);
-                assert!((m.get(i, j).unwrap() - h).abs() <= 1e-14 * h.abs().max(1.0), "M[{i}][{j}]");
+                assert!(
+                    (m.get(i, j).unwrap() - h).abs() <= 1e-14 * h.abs().max(1.0),
+                    "M[{i}][{j}]"
+                );
                 // No q·v terms.
                 assert!(ad.h(1 + i, 1 + n + j).abs() <= 1e-14, "q v coupling");
             }
@@ -211,7 +234,11 @@ fn singular_kinetic_terms_are_still_rejected_with_the_same_error() {
     let el = Element::with_order(4).unwrap();
     let grid = TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
     let xy = names(&["x", "y"]);
-    for src in ["0.5*(x_dot + y_dot)^2 - x - y", "0.5*x_dot^2 + y*y_dot - x", "0*x_dot^2 + 0*y_dot^2 - x"] {
+    for src in [
+        "0.5*(x_dot + y_dot)^2 - x - y",
+        "0.5*x_dot^2 + y*y_dot - x",
+        "0*x_dot^2 + 0*y_dot^2 - x",
+    ] {
         let lag = ExprLagrangian::new(src, &xy, &[]).unwrap();
         let e = check_regular(&lag, 0.0, &[1.0, 1.0], &[0.1, 0.2]).unwrap_err();
         assert!(matches!(e, Error::DegenerateLagrangian { .. }), "{src}: {e:?}");
@@ -294,7 +321,12 @@ fn a_gyroscopic_newton_run_with_tapes_agrees_with_the_run_by_automatic_different
     )
     .unwrap();
     assert!(!magnetic.is_mechanical());
-    let el = Element::galerkin(3, femvi::NodeFamily::Equispaced, femvi::QuadratureKind::GaussLegendre(3)).unwrap();
+    let el = Element::galerkin(
+        3,
+        femvi::NodeFamily::Equispaced,
+        femvi::QuadratureKind::GaussLegendre(3),
+    )
+    .unwrap();
     let go = |lag: &dyn Fn(TimeGrid, Start) -> Vec<f64>| {
         let grid = TimeGrid::steps(0.0, vec![0.05, 0.04], 8.0).unwrap();
         let start = Start::Velocity {
@@ -315,4 +347,31 @@ fn a_gyroscopic_newton_run_with_tapes_agrees_with_the_run_by_automatic_different
     let diff = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
     eprintln!("magnetic, tapes vs AD after 180 steps: {diff:.1e}");
     assert!(diff <= 1e-11, "{a:?} vs {b:?}");
+}
+
+#[test]
+fn forces_at_many_points_are_the_forces_at_each() {
+    // `forces` evaluates points four at a time; every count of points, including partial
+    // groups, must give each point's `force` bit for bit.
+    let xyz = names(&["x", "y", "z"]);
+    let lag = ExprLagrangian::new(
+        "0.5*(x_dot^2 + y_dot^2 + z_dot^2) + 1/sqrt(x^2 + y^2 + z^2) - t*x*y + min(x, z)^3 - abs(y)*exp(-z^2)",
+        &xyz,
+        &[],
+    )
+    .unwrap();
+    assert!(lag.is_mechanical());
+    let mut rng = Rng(99);
+    for points in 0..11 {
+        let t: Vec<f64> = (0..points).map(|_| rng.uniform(0.0, 1.0)).collect();
+        let q: Vec<f64> = (0..3 * points).map(|_| rng.uniform(-2.0, 2.0)).collect();
+        let mut all = vec![f64::NAN; 3 * points];
+        lag.forces(&t, &q, &mut all);
+        for j in 0..points {
+            let mut one = [0.0; 3];
+            lag.force(t[j], &q[3 * j..3 * j + 3], &mut one);
+            let got: Vec<u64> = all[3 * j..3 * j + 3].iter().map(|x| x.to_bits()).collect();
+            assert_eq!(got, one.map(f64::to_bits), "{points} points, point {j}");
+        }
+    }
 }

@@ -474,14 +474,30 @@ impl Dag {
     }
 }
 
-/// A one-operand operation in f64, as the program evaluates it.
+/// A one-operand operation in f64, as the program evaluates it, except sine and cosine, taken
+/// from the `libm` crate as the built-in models take them (correctly rounded in most cases,
+/// and about twice as fast as glibc's on the hosts measured; see README).
+#[inline]
 pub(super) fn eval_un(op: Un, x: f64) -> f64 {
-    use super::program::unary;
     match op {
         Un::Neg => -x,
-        Un::PowI(e) => unary(Op::PowI(e), x),
-        Un::PowF(bits) => unary(Op::PowF(f64::from_bits(bits)), x),
-        Un::F(f) => unary(Op::Call1(f), x),
+        Un::PowI(e) => x.powi(e),
+        Un::PowF(bits) => x.powf(f64::from_bits(bits)),
+        Un::F(f) => match f {
+            F1::Sin => libm::sin(x),
+            F1::Cos => libm::cos(x),
+            F1::Tan => x.tan(),
+            F1::Exp => x.exp(),
+            F1::Ln => x.ln(),
+            F1::Sqrt => x.sqrt(),
+            F1::Abs => x.abs(),
+            F1::Sinh => x.sinh(),
+            F1::Cosh => x.cosh(),
+            F1::Tanh => x.tanh(),
+            F1::Asin => x.asin(),
+            F1::Acos => x.acos(),
+            F1::Atan => x.atan(),
+        },
         Un::Sign => {
             if x > 0.0 {
                 1.0
@@ -493,6 +509,7 @@ pub(super) fn eval_un(op: Un, x: f64) -> f64 {
 }
 
 /// A two-operand operation in f64, as the program evaluates it.
+#[inline]
 pub(super) fn eval_bin(op: Bin, x: f64, y: f64) -> f64 {
     match op {
         Bin::Add => x + y,

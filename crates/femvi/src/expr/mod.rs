@@ -150,6 +150,21 @@ impl Lagrangian for ExprLagrangian {
         out.iter_mut().zip(d.l_q()).for_each(|(o, f)| *o = *f);
     }
 
+    fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
+        match &self.fast.force {
+            Some(tape) => tape.eval_points(t, q, out),
+            None => {
+                let n = self.dim();
+                if n == 0 {
+                    return;
+                }
+                for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
+                    self.force(ti, qi, oi);
+                }
+            }
+        }
+    }
+
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         let Some(tape) = &self.fast.first else {
             return out.first_by_ad(self, t, q, v, with_t);

@@ -76,7 +76,11 @@ pub(super) fn expand(dag: &mut Dag, root: Id, n: usize) -> Option<Expansion> {
             *u = u.saturating_sub(1);
             *u
         });
-        let p = if left == 0 { polys.remove(&x) } else { polys.get(&x).cloned() };
+        let p = if left == 0 {
+            polys.remove(&x)
+        } else {
+            polys.get(&x).cloned()
+        };
         p.unwrap_or(Poly {
             c0: Some(x),
             ..Poly::default()
@@ -123,16 +127,11 @@ pub(super) fn expand(dag: &mut Dag, root: Id, n: usize) -> Option<Expansion> {
         c0: Some(root),
         ..Poly::default()
     });
-    let c2 = p
-        .c2
-        .iter()
-        .map(|(&k, &c)| dag.konst(c).map(|v| (k, v)))
-        .collect::<Option<BTreeMap<_, _>>>();
-    Some(Expansion {
-        c0: p.c0,
-        c1: p.c1,
-        c2,
-    })
+    let c2 =
+        p.c2.iter()
+            .map(|(&k, &c)| dag.konst(c).map(|v| (k, v)))
+            .collect::<Option<BTreeMap<_, _>>>();
+    Some(Expansion { c0: p.c0, c1: p.c1, c2 })
 }
 
 /// The sum of two optional coefficients (None is 0), or their difference.
