@@ -10,7 +10,7 @@
 //! `+` and `*` are put in the order of their ids: IEEE addition and multiplication commute, so
 //! this changes no value and lets `a*b` and `b*a` share one node.
 //!
-//! The graph is grown by [`Dag::from_program`] and [`Dag::derivative`] up to a node budget;
+//! The graph is grown by [`Dag::add_program`] and [`Dag::derivative`] up to a node budget;
 //! beyond it they return `None` and the caller keeps automatic differentiation.
 
 use super::program::{Op, F1, F2};
@@ -176,7 +176,7 @@ impl Dag {
 
     /// The graph of a compiled program (postfix operations), and the id of its result; None
     /// if it exceeds the node budget or is malformed.
-    pub(super) fn from_program(&mut self, ops: &[Op]) -> Option<Id> {
+    pub(super) fn add_program(&mut self, ops: &[Op]) -> Option<Id> {
         let mut stack: Vec<Id> = Vec::new();
         for op in ops {
             let id = match *op {

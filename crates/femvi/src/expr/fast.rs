@@ -37,7 +37,7 @@ impl Fast {
     pub(super) fn new(program: &Program, n: usize) -> Self {
         let mut fast = Self::default();
         let mut dag = Dag::default();
-        let Some(root) = dag.from_program(program.ops()) else {
+        let Some(root) = dag.add_program(program.ops()) else {
             return fast;
         };
         let m = 2 * n + 1;

@@ -32,7 +32,7 @@ use fast::Fast;
 pub struct ExprLagrangian {
     coordinates: Vec<String>,
     program: Program,
-    fast: Fast,
+    fast: Box<Fast>,
     autonomous: bool,
 }
 
@@ -73,7 +73,7 @@ impl ExprLagrangian {
             ));
         }
         let program = Program::compile(source, &vars, parameters)?;
-        let fast = Fast::new(&program, coordinates.len());
+        let fast = Box::new(Fast::new(&program, coordinates.len()));
         Ok(Self {
             coordinates: coordinates.to_vec(),
             autonomous: !program.uses_variable(0),

@@ -20,6 +20,9 @@ struct Poly {
     c2: BTreeMap<(usize, usize), Id>,
 }
 
+/// A mass matrix by its diagonal and its upper off-diagonal entries (i, j, value), i < j.
+pub(super) type MassEntries = (Vec<f64>, Vec<(usize, usize, f64)>);
+
 /// The expansion of a Lagrangian: L = Σ_{i≤j} c2[i,j] v_i v_j + Σ c1[i] v_i + c0.
 #[derive(Debug, Clone)]
 pub(super) struct Expansion {
@@ -34,7 +37,7 @@ pub(super) struct Expansion {
 impl Expansion {
     /// The mass matrix's entries as (diagonal, off-diagonal (i, j, value) with i < j):
     /// M_ii = 2 c2[i,i], M_ij = M_ji = c2[i,j]. None if a quadratic coefficient is not constant.
-    pub(super) fn mass(&self, n: usize) -> Option<(Vec<f64>, Vec<(usize, usize, f64)>)> {
+    pub(super) fn mass(&self, n: usize) -> Option<MassEntries> {
         let c2 = self.c2.as_ref()?;
         let mut diag = vec![0.0; n];
         let mut off = Vec::new();
