@@ -83,6 +83,25 @@ impl Dag {
         }
     }
 
+    /// x if node `a` is −x (a negation, or a negative constant: then x is its magnitude).
+    fn negated(&self, a: Id) -> Option<Id> {
+        match self.nodes.get(a as usize) {
+            Some(Node::Un(Un::Neg, x)) => Some(*x),
+            _ => None,
+        }
+    }
+
+    /// (x, true) if `a` is −x, else (a, false); a negative constant −c gives (c, true).
+    fn unsigned(&mut self, a: Id) -> (Id, bool) {
+        if let Some(x) = self.negated(a) {
+            return (x, true);
+        }
+        match self.konst(a) {
+            Some(c) if c.is_sign_negative() && !c.is_nan() => (self.constant(-c), true),
+            _ => (a, false),
+        }
+    }
+
     fn is(&self, a: Id, c: f64) -> bool {
         self.konst(a) == Some(c)
     }
@@ -138,6 +157,37 @@ impl Dag {
             Bin::Mul if self.is(b, -1.0) => self.un(Un::Neg, a),
             Bin::Div if self.is(b, 1.0) => a,
             Bin::Div if self.is(a, 0.0) => self.constant(0.0),
+            // Signs move outwards, into constants, or cancel: negation is exact, so
+            // (−x)·y = −(x·y), (−x)/y = −(x/y), x + (−y) = x − y and x − (−y) = x + y bit for bit.
+            Bin::Mul | Bin::Div if self.negated(a).is_some() || self.negated(b).is_some() => {
+                let (mut x, sx) = self.unsigned(a);
+                let (mut y, sy) = self.unsigned(b);
+                if sx == sy {
+                    return self.bin(op, x, y);
+                }
+                // One sign left: into a constant operand if there is one, else outside.
+                if let Some(c) = self.konst(x) {
+                    x = self.constant(-c);
+                } else if let Some(c) = self.konst(y) {
+                    y = self.constant(-c);
+                } else {
+                    let r = self.bin(op, x, y);
+                    return self.neg(r);
+                }
+                self.bin(op, x, y)
+            }
+            Bin::Add if self.negated(b).is_some() => {
+                let y = self.negated(b).unwrap_or(b);
+                self.sub(a, y)
+            }
+            Bin::Add if self.negated(a).is_some() => {
+                let x = self.negated(a).unwrap_or(a);
+                self.sub(b, x)
+            }
+            Bin::Sub if self.negated(b).is_some() => {
+                let y = self.negated(b).unwrap_or(b);
+                self.add(a, y)
+            }
             Bin::Add | Bin::Mul if b < a => self.intern(Node::Bin(op, b, a)),
             _ => self.intern(Node::Bin(op, a, b)),
         }
