@@ -2,8 +2,14 @@
 //! `x` is `x_dot`, time `t`, named parameters, the constant `pi`; `+ - * / ^`, unary minus,
 //! parentheses and the functions sin cos tan exp ln (log) sqrt abs sinh cosh tanh asin acos
 //! atan atan2 pow min max. The expression is compiled once into a
-//! postfix program with constants folded, then evaluated generically over num-dual scalars, so
-//! its derivatives come from the same automatic differentiation as Rust Lagrangians.
+//! postfix program with constants folded, evaluated generically over num-dual scalars for its
+//! value. At load it is also differentiated symbolically (`dag.rs`: a graph with shared
+//! subexpressions and light simplification; `fast.rs`): gradient and Hessian are evaluated from
+//! flat f64 tapes (`tape.rs`), equal to automatic differentiation up to rounding, and an
+//! expression of the form L = ½vᵀMv − V(t, q) with constant positive definite M
+//! (`structure.rs`) reports M and a compiled force −∂V/∂q, so the fixed-point and explicit
+//! solvers apply to it as to the built-in models. Expressions too large for the budgets keep
+//! automatic differentiation.
 //!
 //! Hostile input is safe: sums and products of any length compile and evaluate without
 //! recursion (`parse.rs` emits postfix items, `compile.rs` folds them in one loop), and
@@ -115,9 +121,20 @@ impl ExprLagrangian {
         self.fast.mass.is_some()
     }
 
-    /// Whether first (and second) derivatives come from compiled symbolic tapes rather than
+    /// Whether first and second derivatives come from compiled symbolic tapes rather than
     /// automatic differentiation (false only for expressions too large to differentiate
     /// symbolically within the budgets).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::expr::ExprLagrangian;
+    ///
+    /// let lag = ExprLagrangian::new("-sqrt(1 - x_dot^2) - 1/x", &["x".to_string()], &[])?;
+    /// assert_eq!(lag.has_compiled_derivatives(), (true, true));
+    /// assert!(!lag.is_mechanical());
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
     pub fn has_compiled_derivatives(&self) -> (bool, bool) {
         (self.fast.first.is_some(), self.fast.second.is_some())
     }
