@@ -21,6 +21,7 @@
 
 mod compile;
 mod dag;
+mod diff;
 mod fast;
 mod parse;
 mod program;
