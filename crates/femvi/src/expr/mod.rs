@@ -2,8 +2,14 @@
 //! `x` is `x_dot`, time `t`, named parameters, the constant `pi`; `+ - * / ^`, unary minus,
 //! parentheses and the functions sin cos tan exp ln (log) sqrt abs sinh cosh tanh asin acos
 //! atan atan2 pow min max. The expression is compiled once into a
-//! postfix program with constants folded, then evaluated generically over num-dual scalars, so
-//! its derivatives come from the same automatic differentiation as Rust Lagrangians.
+//! postfix program with constants folded, evaluated generically over num-dual scalars for its
+//! value. At load it is also differentiated symbolically (`dag.rs`: a graph with shared
+//! subexpressions and light simplification; `fast.rs`): gradient and Hessian are evaluated from
+//! flat f64 tapes (`tape.rs`), equal to automatic differentiation up to rounding, and an
+//! expression of the form L = ½vᵀMv − V(t, q) with constant positive definite M
+//! (`structure.rs`) reports M and a compiled force −∂V/∂q, so the fixed-point and explicit
+//! solvers apply to it as to the built-in models. Expressions too large for the budgets keep
+//! automatic differentiation.
 //!
 //! Hostile input is safe: sums and products of any length compile and evaluate without
 //! recursion (`parse.rs` emits postfix items, `compile.rs` folds them in one loop), and
@@ -14,19 +20,27 @@
 //! and errors that point at the offending character.
 
 mod compile;
+mod dag;
+mod diff;
+mod fast;
 mod parse;
 mod program;
+mod structure;
+mod tape;
 
 pub use parse::{ExprError, MAX_NESTING};
 pub use program::Program;
 
-use crate::lagrangian::{Lagrangian, Scalar};
+use crate::lagrangian::{Lagrangian, MassMatrix, PointDerivatives, Scalar};
+use fast::Fast;
 
 /// A Lagrangian given by a math expression in t, the coordinates and their `_dot` velocities.
 #[derive(Debug, Clone)]
 pub struct ExprLagrangian {
     coordinates: Vec<String>,
     program: Program,
+    fast: Box<Fast>,
+    autonomous: bool,
 }
 
 impl ExprLagrangian {
@@ -66,9 +80,12 @@ impl ExprLagrangian {
             ));
         }
         let program = Program::compile(source, &vars, parameters)?;
+        let fast = Box::new(Fast::new(&program, coordinates.len()));
         Ok(Self {
             coordinates: coordinates.to_vec(),
+            autonomous: !program.uses_variable(0),
             program,
+            fast,
         })
     }
 
@@ -79,7 +96,48 @@ impl ExprLagrangian {
 
     /// Whether the expression mentions `t`.
     pub fn depends_on_time(&self) -> bool {
-        self.program.uses_variable(0)
+        !self.autonomous
+    }
+
+    /// Whether the expression was recognised as mechanical, L = ½vᵀMv − V(t, q) with a
+    /// constant positive definite M (then [`Lagrangian::mass_matrix`] returns M and the
+    /// fixed-point and explicit solvers apply).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::expr::ExprLagrangian;
+    /// use femvi::Lagrangian;
+    ///
+    /// let xy = ["x".to_string(), "y".to_string()];
+    /// let kepler = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[])?;
+    /// assert!(kepler.is_mechanical());
+    /// assert_eq!(kepler.mass_matrix().and_then(|m| m.get(1, 1)), Some(1.0));
+    /// // A magnetic field adds a term linear in the velocities: not mechanical.
+    /// let magnetic = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + x*y_dot", &xy, &[])?;
+    /// assert!(!magnetic.is_mechanical());
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
+    pub fn is_mechanical(&self) -> bool {
+        self.fast.mass.is_some()
+    }
+
+    /// Whether first and second derivatives come from compiled symbolic tapes rather than
+    /// automatic differentiation (false only for expressions too large to differentiate
+    /// symbolically within the budgets).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::expr::ExprLagrangian;
+    ///
+    /// let lag = ExprLagrangian::new("-sqrt(1 - x_dot^2) - 1/x", &["x".to_string()], &[])?;
+    /// assert_eq!(lag.has_compiled_derivatives(), (true, true));
+    /// assert!(!lag.is_mechanical());
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
+    pub fn has_compiled_derivatives(&self) -> (bool, bool) {
+        (self.fast.first.is_some(), self.fast.second.is_some())
     }
 }
 
@@ -89,7 +147,97 @@ impl Lagrangian for ExprLagrangian {
     }
 
     fn is_autonomous(&self) -> bool {
-        !self.depends_on_time()
+        self.autonomous
+    }
+
+    fn mass_matrix(&self) -> Option<&MassMatrix> {
+        self.fast.mass.as_ref()
+    }
+
+    fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        if let Some(tape) = &self.fast.force {
+            return tape.eval(t, q, &[], |i, x| {
+                if let Some(o) = out.get_mut(i) {
+                    *o = x;
+                }
+            });
+        }
+        let n = self.dim();
+        let mut d = PointDerivatives::new(n);
+        self.first_derivatives(t, q, &vec![0.0; n], false, &mut d);
+        out.iter_mut().zip(d.l_q()).for_each(|(o, f)| *o = *f);
+    }
+
+    fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
+        match &self.fast.force {
+            Some(tape) => tape.eval_points(t, q, out),
+            None => {
+                let n = self.dim();
+                if n == 0 {
+                    return;
+                }
+                for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
+                    self.force(ti, qi, oi);
+                }
+            }
+        }
+    }
+
+    fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
+        let Some(tape) = &self.fast.first else {
+            return out.first_by_ad(self, t, q, v, with_t);
+        };
+        if !fits(out, self.dim(), q, v) {
+            return;
+        }
+        tape.eval(t, q, v, |j, x| match j {
+            0 => out.value = x,
+            _ => {
+                if let Some(g) = out.grad.get_mut(j - 1) {
+                    *g = x;
+                }
+            }
+        });
+        if !with_t || self.autonomous {
+            out.grad[0] = 0.0;
+        }
+    }
+
+    fn second_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
+        let Some(tape) = &self.fast.second else {
+            return out.second_by_ad(self, t, q, v, with_t);
+        };
+        let m = out.hessian_mut().len();
+        if !fits(out, self.dim(), q, v) {
+            out.hess.iter_mut().for_each(|h| *h = f64::NAN);
+            return;
+        }
+        let width = out.width();
+        debug_assert_eq!(m, width * width);
+        // Outputs: L, the gradient, then the upper triangle row by row.
+        let (mut a, mut b) = (0, 0);
+        tape.eval(t, q, v, |j, x| {
+            if j == 0 {
+                out.value = x;
+            } else if j <= width {
+                out.grad[j - 1] = x;
+            } else {
+                out.hess[a * width + b] = x;
+                out.hess[b * width + a] = x;
+                b += 1;
+                if b == width {
+                    a += 1;
+                    b = a;
+                }
+            }
+        });
+        if !with_t || self.autonomous {
+            out.grad[0] = 0.0;
+            for k in 0..width {
+                out.hess[k] = 0.0;
+                out.hess[k * width] = 0.0;
+            }
+        }
     }
 
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
@@ -106,6 +254,17 @@ impl Lagrangian for ExprLagrangian {
             }
         })
     }
+}
+
+/// Whether `out` holds buffers for dimension n and q, v have n entries; if not, its value and
+/// gradient are set to NaN (as the automatic-differentiation path does).
+fn fits(out: &mut PointDerivatives, n: usize, q: &[f64], v: &[f64]) -> bool {
+    let ok = out.dim() == n && q.len() == n && v.len() == n && out.grad.len() == out.width();
+    if !ok {
+        out.value = f64::NAN;
+        out.grad.iter_mut().for_each(|g| *g = f64::NAN);
+    }
+    ok
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@ use super::compile::{Compiler, Names};
 use super::parse::{ExprError, Parser};
 use crate::lagrangian::Scalar;
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(super) enum F1 {
     Sin,
     Cos,
@@ -97,6 +97,11 @@ impl Program {
         }
         let (ops, depth) = compiler.finish()?;
         Ok(Self { ops, depth })
+    }
+
+    /// The postfix operations.
+    pub(super) fn ops(&self) -> &[Op] {
+        &self.ops
     }
 
     /// Whether variable `i` occurs.

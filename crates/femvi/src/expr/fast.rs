@@ -1,0 +1,108 @@
+//! The compiled derivatives of an expression Lagrangian, built once at load: the symbolic
+//! gradient (reverse mode over the expression graph) and Hessian (forward mode over the
+//! gradient graph) as flat f64 tapes, and, when the expression is mechanical
+//! (L = ½vᵀMv − V(t, q) with constant M, found by [`structure::expand`]), the mass matrix and a
+//! tape of the force −∂V/∂q, so that the fixed-point and explicit solvers apply.
+//!
+//! Every part is optional: an expression whose graph outgrows the node budget, or whose
+//! Hessian would cost more than [`HESSIAN_WORK`] node visits to build, keeps automatic
+//! differentiation for that part. A quadratic form that is not positive definite gives no
+//! mass matrix, so the general path and its regularity check (singular Hessians rejected as
+//! today) handle it exactly as before.
+
+use super::dag::{Dag, Id};
+use super::program::Program;
+use super::structure;
+use super::tape::Tape;
+use crate::lagrangian::MassMatrix;
+
+/// The most node visits (variables × graph size) spent building a Hessian tape.
+pub(super) const HESSIAN_WORK: usize = 20_000_000;
+
+/// Compiled tapes of one expression Lagrangian.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Fast {
+    /// M, when L = ½vᵀMv − V(t, q) with M constant and positive definite.
+    pub(super) mass: Option<MassMatrix>,
+    /// ∂L/∂q at v = 0 (the force −∂V/∂q), n outputs; only with `mass`.
+    pub(super) force: Option<Tape>,
+    /// L and ∂L/∂z for z = (t, q, v): 1 + (2n + 1) outputs.
+    pub(super) first: Option<Tape>,
+    /// L, ∂L/∂z and ∂²L/∂z_a∂z_b for a ≤ b (row by row): 1 + m + m(m + 1)/2 outputs.
+    pub(super) second: Option<Tape>,
+}
+
+impl Fast {
+    /// Compiles what fits the budgets for `program` over t, q and v of dimension n.
+    pub(super) fn new(program: &Program, n: usize) -> Self {
+        let mut fast = Self::default();
+        let mut dag = Dag::default();
+        let Some(root) = dag.add_program(program.ops()) else {
+            return fast;
+        };
+        let m = 2 * n + 1;
+        if let Some(exp) = structure::expand(&mut dag, root, n) {
+            if exp.c1.is_empty() {
+                fast.mass = exp.mass(n).and_then(|(diag, off)| mass_matrix(n, diag, &off));
+            }
+            if fast.mass.is_some() {
+                fast.force = force_tape(&mut dag, exp.c0, n);
+                if fast.force.is_none() {
+                    fast.mass = None;
+                }
+            }
+        }
+        let Some(grad) = dag.gradient(root, m) else {
+            return fast;
+        };
+        let mut outs = vec![root];
+        outs.extend(&grad);
+        fast.first = Some(Tape::new(&dag, &outs, n));
+        if m.saturating_mul(dag.reachable(&grad).len()) > HESSIAN_WORK {
+            return fast;
+        }
+        let mut upper = Vec::with_capacity(m * (m + 1) / 2);
+        let mut columns = Vec::with_capacity(m);
+        for b in 0..m {
+            let Some(col) = dag.derivative(&grad, b) else {
+                return fast;
+            };
+            columns.push(col);
+        }
+        for a in 0..m {
+            for col in &columns[a..] {
+                upper.push(col[a]);
+            }
+        }
+        outs.extend(upper);
+        fast.second = Some(Tape::new(&dag, &outs, n));
+        fast
+    }
+}
+
+/// The mass matrix with diagonal `diag` and upper off-diagonal entries `off`, if positive
+/// definite (stored as diagonal when `off` is empty: O(n) for large systems).
+fn mass_matrix(n: usize, diag: Vec<f64>, off: &[(usize, usize, f64)]) -> Option<MassMatrix> {
+    if off.is_empty() {
+        return MassMatrix::diagonal(diag).ok();
+    }
+    let len = n.checked_mul(n)?;
+    let mut m = vec![0.0; len];
+    for (i, d) in diag.iter().enumerate() {
+        m[i * n + i] = *d;
+    }
+    for &(i, j, c) in off {
+        m[i * n + j] = c;
+        m[j * n + i] = c;
+    }
+    MassMatrix::dense(n, m).ok()
+}
+
+/// The tape of ∂c0/∂q (c0 None means 0).
+fn force_tape(dag: &mut Dag, c0: Option<Id>, n: usize) -> Option<Tape> {
+    let grad = match c0 {
+        Some(c0) => dag.gradient(c0, 1 + n)?,
+        None => vec![dag.constant(0.0); 1 + n],
+    };
+    Some(Tape::new(dag, grad.get(1..)?, n))
+}
