@@ -62,7 +62,7 @@ fn bench(c: &mut Criterion) {
     let xy = ["x".to_string(), "y".to_string()];
     let kep_expr = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[]).unwrap();
     let kep_ad = ByAd(kep_expr.clone());
-    let kep = models::kepler(1.0);
+    let kep = models::kepler(1.0).unwrap();
     let h = 2.0 * std::f64::consts::PI / 1000.0;
     let (q, p) = ([0.4, 0.0], [0.0, 2.0]);
     for s in [2, 4] {

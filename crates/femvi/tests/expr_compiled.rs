@@ -271,7 +271,7 @@ fn mechanical_expressions_run_like_the_models_they_spell_out() {
     // differ by rounding only (the force formulas associate differently).
     let xy = names(&["x", "y"]);
     let kepler_expr = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[]).unwrap();
-    let kepler = models::kepler(1.0);
+    let kepler = models::kepler(1.0).unwrap();
     for degree in [1, 2, 4] {
         let el = Element::with_order(2 * degree).unwrap();
         let a = final_state(&kepler_expr, &el, 0.01, 20.0, vec![0.4, 0.0], vec![0.0, 2.0]);
