@@ -153,8 +153,11 @@ pub fn compute<L: Lagrangian + Sync>(
     problem: &Problem,
     axes: &[Axis],
     wanted: &[Indicator],
-    threads: usize,
+    (threads, transient): (usize, f64),
 ) -> Result<Vec<Indicators>, String> {
+    if !(transient.is_finite() && transient >= 0.0) {
+        return Err(format!("--transient must be a time >= 0, not {transient}"));
+    }
     if problem.energy.is_some() {
         return Err("femvi chaos needs steps as parameters ([time] mode = \"fixed\")".into());
     }
@@ -164,6 +167,7 @@ pub fn compute<L: Lagrangian + Sync>(
         .collect::<Result<Vec<_>, _>>()?;
     let chaos = ChaosOptions {
         spectrum: wanted.contains(&Indicator::Spectrum),
+        spectrum_transient: transient,
         ..ChaosOptions::default()
     };
     let one = |start: &Start| -> Indicators {
@@ -257,6 +261,8 @@ pub struct ChaosArgs {
     pub threads: usize,
     /// Draw the map in this format.
     pub plot: Option<crate::plot::Format>,
+    /// The spectrum's transient ([`ChaosOptions::spectrum_transient`]).
+    pub transient: f64,
 }
 
 /// `femvi chaos`: exit code 0, 1 (a run failed) or 2 (bad input).
@@ -283,7 +289,8 @@ pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u
         return Err(bad(format!("{points} grid points: at most 4 000 000")));
     }
     let rows =
-        crate::with_system!(&problem.system, l => compute(l, problem, &axes, &wanted, args.threads)).map_err(bad)?;
+        crate::with_system!(&problem.system, l => compute(l, problem, &axes, &wanted, (args.threads, args.transient)))
+            .map_err(bad)?;
     let failed = rows.iter().filter(|r| r.error.is_some()).count();
     let io = |e: std::io::Error| (format!("cannot write output: {e}"), crate::BAD_INPUT);
     if axes.is_empty() {

@@ -114,6 +114,10 @@ enum Command {
         /// axis over one.
         #[arg(long)]
         plot: bool,
+        /// Spectrum: time from the start whose growth is not counted (the frame's transient;
+        /// with it a Hamiltonian spectrum's ± pairs sum to round-off).
+        #[arg(long, default_value_t = 0.0)]
+        transient: f64,
         /// Image format of the plot: svg or png.
         #[arg(long, default_value = "svg")]
         plot_format: String,
@@ -297,6 +301,7 @@ fn dispatch(cli: Cli) -> ExitCode {
             threads,
             plot,
             plot_format,
+            transient,
         } => {
             let plot = match plot_format_of(&plot_format) {
                 Ok(f) => plot.then_some(f),
@@ -309,6 +314,7 @@ fn dispatch(cli: Cli) -> ExitCode {
                 out,
                 threads,
                 plot,
+                transient,
             };
             match load(&problem, &set).map(|p| femvi_cli::chaos::cmd_chaos(&p, &args)) {
                 Ok(Ok(true)) => ExitCode::SUCCESS,

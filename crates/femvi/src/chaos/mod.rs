@@ -27,6 +27,11 @@ pub struct ChaosOptions {
     pub spectrum: bool,
     /// Steps between re-orthonormalisations of the spectrum's vectors (≥ 1).
     pub renormalize_every: usize,
+    /// Time from the start during which the spectrum's vectors are carried and
+    /// re-orthonormalised but their growth is not counted (default 0): the frame first turns
+    /// towards the Lyapunov directions, whose transient otherwise biases each exponent by
+    /// O(1/T) (and spoils the ± pairing of a Hamiltonian spectrum at finite T).
+    pub spectrum_transient: f64,
     /// The initial tangent vector of MEGNO, FLI and the largest exponent, in (q, p) (it is
     /// normalised); default (1, 1, …)/√(2n).
     pub initial_vector: Option<Vec<f64>>,
@@ -39,6 +44,7 @@ impl Default for ChaosOptions {
         Self {
             spectrum: false,
             renormalize_every: 1,
+            spectrum_transient: 0.0,
             initial_vector: None,
             record_every: 0,
         }
@@ -119,6 +125,8 @@ pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOpt
     let mut w: Vec<f64> = (0..k * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
     let (mut logs, mut sums, mut tmp) = (vec![0.0; k], vec![0.0; k], vec![0.0; d]);
     let (t0, mut growth) = (it.node().t, Growth::new());
+    // The spectrum counts growth from here (after the transient).
+    let mut counted_from = t0;
     let (mut steps, mut series, mut error) = (0, vec![], None);
     let sample = |g: &Growth, t: f64| ChaosSample {
         t,
@@ -153,7 +161,11 @@ pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOpt
             apply(&m, d, &mut w, &mut tmp);
             if steps % chaos.renormalize_every.max(1) == 0 {
                 orthonormalise(&mut w, d, &mut logs);
-                sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
+                if t - t0 > chaos.spectrum_transient {
+                    sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
+                } else {
+                    counted_from = t;
+                }
             }
         }
         if chaos.record_every > 0 && steps % chaos.record_every == 0 {
@@ -168,7 +180,7 @@ pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOpt
     Ok(ChaosReport {
         steps,
         last: sample(&growth, t),
-        spectrum: (k > 0).then(|| sums.iter().map(|s| s / (t - t0)).collect()),
+        spectrum: (k > 0).then(|| sums.iter().map(|s| s / (t - counted_from)).collect()),
         series,
         error,
     })
