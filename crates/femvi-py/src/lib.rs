@@ -4,6 +4,7 @@
 //! GIL released. The Python half (python/femvi/) turns paths, TOML text, dicts and overrides
 //! into a problem file, and wraps the results in `Solution` and typed exceptions.
 
+mod adaptive;
 mod arrays;
 mod callable;
 mod ensemble;

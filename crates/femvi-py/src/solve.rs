@@ -38,8 +38,14 @@ pub struct Run {
 
 /// Loads `path` as `femvi run` does (the message of a bad file is the command's).
 pub fn load(path: &Path) -> Result<(Problem, String), String> {
+    let (problem, text) = load_any(path)?;
+    femvi_cli::adaptive::refuse(&problem, "femvi.ensemble").map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok((problem, text))
+}
+
+/// [`load`] that also accepts adaptive-mode problems (for `solve`).
+pub fn load_any(path: &Path) -> Result<(Problem, String), String> {
     let problem = problem::load(path).map_err(|e| e.to_string())?;
-    femvi_cli::adaptive::refuse(&problem, "the Python package").map_err(|e| format!("{}: {e}", path.display()))?;
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok((problem, text))
 }
@@ -188,14 +194,27 @@ pub fn solve_file(
         max_steps,
         events: crate::events::events(events.unwrap_or_default(), &raised)?,
     };
-    let done = py.allow_threads(|| -> Result<(Run, Vec<String>, String, String), String> {
-        let (problem, text) = load(&path)?;
-        let r = match potential {
-            None => run(&problem, &text, &path, &extras)?,
-            Some(system) => crate::callable::run(&problem, &path, &extras, system, &raised)?,
+    type Done = (Run, Option<Vec<f64>>, Vec<String>, String, String);
+    let done = py.allow_threads(|| -> Result<Done, String> {
+        let (problem, text) = load_any(&path)?;
+        let adaptive = femvi_cli::adaptive::settings(&problem).map_err(|e| format!("{}: {e}", path.display()))?;
+        let (r, s) = match (potential, adaptive) {
+            (None, None) => (run(&problem, &text, &path, &extras)?, None),
+            (None, Some(a)) => {
+                let (r, s) = crate::adaptive::run(&problem, &path, &extras, &a)?;
+                (r, Some(s))
+            }
+            (Some(_), Some(_)) => {
+                return Err(format!(
+                    "{}: a Python potential in [time] mode = \"adaptive\" is not available",
+                    path.display()
+                ))
+            }
+            (Some(system), None) => (crate::callable::run(&problem, &path, &extras, system, &raised)?, None),
         };
         Ok((
             r,
+            s,
             problem.coordinates.clone(),
             problem.name.clone(),
             problem.scheme_label.clone(),
@@ -204,8 +223,12 @@ pub fn solve_file(
     if let Some(e) = raised.take() {
         return Err(e);
     }
-    let (r, coordinates, name, scheme) = done.map_err(input_error)?;
-    to_dict(py, r, coordinates, name, scheme)
+    let (r, s, coordinates, name, scheme) = done.map_err(input_error)?;
+    let d = to_dict(py, r, coordinates, name, scheme)?;
+    if let Some(s) = s {
+        d.set_item("s", vec1(py, s))?;
+    }
+    Ok(d)
 }
 
 fn to_dict(

@@ -136,8 +136,26 @@ def test_unreadable_problems_are_input_errors(tmp_path):
         femvi.solve(42)
 
 
-def test_adaptive_problems_are_refused_not_run_with_fixed_steps():
-    with pytest.raises(femvi.InputError, match="adaptive"):
-        femvi.solve(EXAMPLES / "kepler-eccentric.toml")
+def test_adaptive_runs_equal_the_command(run_cli, tmp_path):
+    f = tmp_path / "ecc.toml"
+    f.write_text(femvi.problem_text(EXAMPLES / "kepler-eccentric.toml", {"time.end": 20.0}))
+    sol = femvi.solve(f)
+    code, summary, rows, err = run_cli(f)
+    assert code == 0, err
+    assert list(sol.q[-1]) == summary["final_q"] and list(sol.p[-1]) == summary["final_p"]
+    assert sol.max_rel_energy_error == summary["max_rel_energy_error"]
+    assert sol.s is not None and np.all(np.diff(sol.s) > 0) and np.all(np.diff(sol.t) > 0)
+    # The physical steps shrink near pericentre (e = 0.99): adaptive, not fixed.
+    dt = np.diff(sol.t)
+    assert dt.max() / dt.min() > 100
+    # Uniform physical times as the command's output_step rows.
+    times = [float(r[1]) for r in rows[1:]]
+    again = femvi.solve(f, saveat=times)
+    assert np.array_equal(again.saved.t, times)
+    assert np.array_equal(again.saved.q, np.array([[float(x) for x in r[2:4]] for r in rows[1:]]))
+    assert np.array_equal(again.saved.p, np.array([[float(x) for x in r[4:6]] for r in rows[1:]]))
+
+
+def test_adaptive_problems_are_refused_where_fixed_steps_would_run():
     with pytest.raises(femvi.InputError, match="adaptive"):
         femvi.ensemble(EXAMPLES / "kepler-eccentric.toml", initial_states=np.array([[0.01, 0, 0, 14.1]]))

@@ -135,10 +135,6 @@ fn run_with<L: Lagrangian>(
             "[[events]] are not located in [time] mode = \"adaptive\" (yet); use fixed steps".to_string(),
         ));
     }
-    let g = match monitor(problem, settings.monitor.as_deref()) {
-        Ok(g) => g,
-        Err(msg) => return Ok(Outcome::Rejected(msg)),
-    };
     let (t0, end) = (problem.grid.t0(), problem.grid.end());
     let saveat: Vec<f64> = match settings.output_step {
         Some(h) => {
@@ -147,16 +143,10 @@ fn run_with<L: Lagrangian>(
         }
         None => vec![],
     };
-    let options = AdaptiveOptions {
-        solver: problem.options,
-        every: problem.every,
-        saveat,
-        ..AdaptiveOptions::step(settings.ds)
-    };
     let p = femvi::Problem::new(lag, problem.start.clone(), t0, end);
-    let sol = match solve_adaptive(&p, g, &problem.element, &options) {
+    let sol = match solve_problem(&p, problem, settings, problem.every, saveat) {
         Ok(sol) => sol,
-        Err(e) => return Ok(Outcome::Rejected(e.to_string())),
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
     };
     std::fs::create_dir_all(dir)?;
     write_csv(dir, problem, &p.lagrangian, &sol, settings)?;
@@ -167,8 +157,7 @@ fn run_with<L: Lagrangian>(
     summary.final_t = sol.t.get(last).copied().unwrap_or(t0);
     summary.final_q = sol.q.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
     summary.final_p = sol.p.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
-    let scale = if sol.e0 == 0.0 { 1.0 } else { sol.e0.abs() };
-    summary.max_rel_energy_error = sol.energy.iter().fold(0.0, |m, h| m.max((h - sol.e0).abs() / scale));
+    summary.max_rel_energy_error = max_rel_energy_error(&sol);
     summary.mean_solver_iterations = sol.mean_iterations;
     summary.error = sol.error.as_ref().map(|e| e.to_string());
     if out.plots {
@@ -178,6 +167,36 @@ fn run_with<L: Lagrangian>(
     }
     summary.wall_seconds = clock.elapsed().as_secs_f64();
     finish(dir, summary)
+}
+
+/// Integrates the loaded `problem` (its system as `p`) in adaptive mode with its monitor,
+/// keeping every `every`-th node and the states at the physical times `saveat`: what
+/// `femvi run` writes and the Python package returns.
+///
+/// # Errors
+/// The message of a bad monitor or of the library's refusal.
+pub fn solve_problem<L: Lagrangian>(
+    p: &femvi::Problem<L>,
+    problem: &Problem,
+    settings: &AdaptiveTime,
+    every: usize,
+    saveat: Vec<f64>,
+) -> Result<AdaptiveSolution, String> {
+    let g = monitor(problem, settings.monitor.as_deref())?;
+    let options = AdaptiveOptions {
+        solver: problem.options,
+        every,
+        saveat,
+        ..AdaptiveOptions::step(settings.ds)
+    };
+    solve_adaptive(p, g, &problem.element, &options).map_err(|e| e.to_string())
+}
+
+/// The largest |H − E₀| / |E₀| over the kept nodes (|H − E₀| where E₀ = 0), as summary.json
+/// has it.
+pub fn max_rel_energy_error(sol: &AdaptiveSolution) -> f64 {
+    let scale = if sol.e0 == 0.0 { 1.0 } else { sol.e0.abs() };
+    sol.energy.iter().fold(0.0, |m, h| m.max((h - sol.e0).abs() / scale))
 }
 
 /// trajectory.csv: the kept nodes with their physical t and fictitious s, or (`uniform`) the

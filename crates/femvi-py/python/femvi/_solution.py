@@ -37,6 +37,8 @@ class Solution:
         self.energy_stats: Optional[Dict[str, Any]] = raw.get("energy_stats")
         self.saved = SimpleNamespace(t=raw["saved_t"], q=raw["saved_q"], v=raw["saved_v"], p=raw["saved_p"])
         self._dense = raw.get("dense")
+        #: Adaptive mode only: the fictitious time s of each kept node (t is physical).
+        self.s: Optional[np.ndarray] = raw.get("s")
 
     def __len__(self) -> int:
         return len(self.t)
