@@ -93,7 +93,18 @@ impl EnergyTracker {
     /// As [`hamiltonian`]: the Legendre transform cannot be inverted there, or the lengths
     /// are not the tracker's dimension.
     pub fn node<L: Lagrangian>(&mut self, lag: &L, t: f64, q: &[f64], p: &[f64]) -> Result<NodeEnergy> {
-        let h = hamiltonian(lag, t, q, p, &mut self.v, &mut self.work)?;
+        let n = self.v.len();
+        let h = match lag.mass_matrix() {
+            // The mechanical case of `hamiltonian` (v = M⁻¹p, H = p·v − L, the same operations
+            // in the same order, so the same bits) without its argument checks at every node:
+            // the lengths are compared here, and anything else takes the checked route.
+            Some(mass) if q.len() == n && p.len() == n && lag.dim() == n && mass.dim() == n && n > 0 => {
+                mass.solve(p, &mut self.v);
+                let pv: f64 = p.iter().zip(self.v.iter()).map(|(a, b)| a * b).sum();
+                pv - lag.value(t, q, &self.v)
+            }
+            _ => hamiltonian(lag, t, q, p, &mut self.v, &mut self.work)?,
+        };
         if self.e0.is_nan() {
             self.e0 = h;
         }
