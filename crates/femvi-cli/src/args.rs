@@ -151,29 +151,8 @@ pub enum Command {
     Ensemble {
         /// The problem file (TOML; - reads standard input).
         problem: PathBuf,
-        /// Override a value of the problem file for every member (repeatable), e.g.
-        /// --set time.end=100.
-        #[arg(long = "set", value_name = "KEY=VALUE")]
-        set: Vec<String>,
-        /// Initial states: a CSV of rows q0 then p0 (2n numbers; a header row is allowed) or
-        /// an (N, 2n) float64 .npy file.
-        #[arg(long)]
-        states: Option<PathBuf>,
-        /// The second half of each state row is v0 instead of p0.
-        #[arg(long)]
-        velocity: bool,
-        /// A parameter of [system] parameters over the members: NAME=LO:HI:N.
-        #[arg(long)]
-        param: Option<String>,
-        /// Threads (default: all cores).
-        #[arg(long, default_value_t = 0)]
-        workers: usize,
-        /// Output directory (default: the problem's).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// No progress bar or report.
-        #[arg(long)]
-        quiet: bool,
+        #[command(flatten)]
+        args: femvi_cli::ensemble::EnsembleArgs,
     },
     /// Measure convergence orders over several step sizes.
     Convergence {

@@ -213,22 +213,31 @@ pub fn write(dir: &Path, coordinates: &[String], members: &[Member]) -> std::io:
     )
 }
 
-/// What `femvi ensemble` was asked for.
-#[derive(Debug, Clone, Default)]
+/// What `femvi ensemble` was asked for (its options; the doc comments are the `--help` text).
+#[derive(Debug, Clone, Default, clap::Args)]
 pub struct EnsembleArgs {
-    /// `--set` overrides of every member's problem.
+    /// Override a value of the problem file for every member (repeatable), e.g.
+    /// --set time.end=100.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
-    /// A file of initial states (CSV rows or an (N, 2n) NPY array of q0 then p0 or v0).
+    /// Initial states: a CSV of rows q0 then p0 (2n numbers; a header row is allowed) or
+    /// an (N, 2n) float64 .npy file.
+    #[arg(long)]
     pub states: Option<std::path::PathBuf>,
-    /// The states' second half is v0.
+    /// The second half of each state row is v0 instead of p0.
+    #[arg(long)]
     pub velocity: bool,
-    /// `NAME=LO:HI:N`: a parameter of `[system] parameters` over the members.
+    /// A parameter of [system] parameters over the members: NAME=LO:HI:N.
+    #[arg(long)]
     pub param: Option<String>,
-    /// Threads (0: all cores).
+    /// Threads (default: all cores).
+    #[arg(long, default_value_t = 0)]
     pub workers: usize,
     /// Output directory (default: the problem's).
+    #[arg(long)]
     pub out: Option<std::path::PathBuf>,
     /// No progress bar or report.
+    #[arg(long)]
     pub quiet: bool,
 }
 

@@ -127,34 +127,14 @@ fn dispatch(cli: Cli) -> ExitCode {
             }
         }
         Command::Models { name } => models::cmd_models(name.as_deref()),
-        Command::Ensemble {
-            problem,
-            set,
-            states,
-            velocity,
-            param,
-            workers,
-            out,
-            quiet,
-        } => {
-            let args = femvi_cli::ensemble::EnsembleArgs {
-                set,
-                states,
-                velocity,
-                param,
-                workers,
-                out,
-                quiet,
-            };
-            match femvi_cli::ensemble::command(&problem, &args) {
-                Ok(true) => ExitCode::SUCCESS,
-                Ok(false) => ExitCode::from(NUMERICAL),
-                Err((msg, code)) => {
-                    eprintln!("error: {msg}");
-                    ExitCode::from(code)
-                }
+        Command::Ensemble { problem, args } => match femvi_cli::ensemble::command(&problem, &args) {
+            Ok(true) => ExitCode::SUCCESS,
+            Ok(false) => ExitCode::from(NUMERICAL),
+            Err((msg, code)) => {
+                eprintln!("error: {msg}");
+                ExitCode::from(code)
             }
-        }
+        },
         Command::Convergence {
             problem,
             set,
