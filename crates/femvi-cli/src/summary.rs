@@ -182,8 +182,8 @@ pub(crate) fn empty_summary(problem: &Problem, clock: Instant, error: String, co
     }
 }
 
-/// The status of a run that ended with `error`.
-fn status_of(error: Option<&str>) -> &'static str {
+/// The status of a run that ended with `error`: "failed" or "done".
+pub fn status_of(error: Option<&str>) -> &'static str {
     if error.is_some() {
         "failed"
     } else {

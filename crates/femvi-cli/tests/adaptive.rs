@@ -50,6 +50,11 @@ fn uniform_physical_times_land_on_the_closed_form() {
     }
     println!("adaptive CLI, Kepler e = 0.99, 10 periods: max distance from pericentre at whole periods {worst:.2e}");
     assert!(worst < 1e-8, "{worst:e}");
+    // A successful run's summary says so.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "done");
+    assert!(summary["error"].is_null());
 }
 
 #[test]

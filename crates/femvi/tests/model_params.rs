@@ -94,3 +94,28 @@ fn newton_refuses_dense_matrices_past_the_limit() {
     assert!(setup(MAX_DENSE_NEWTON / 2).is_ok());
     assert!(setup(MAX_DENSE_NEWTON / 2 + 1).is_err());
 }
+
+/// The other users of the dense element Hessian refuse past the same limit: a start from
+/// (q0, q1) and the tangent map of an explicit run (which itself needs no Hessian).
+#[test]
+fn the_start_from_two_positions_and_the_tangent_map_refuse_past_the_limit() {
+    let el = Element::with_order(2).unwrap();
+    let n = MAX_DENSE_NEWTON / 2 + 1;
+    let lag = models::fpu(n, 0.25, 0.0).unwrap();
+    let grid = || TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
+    let two = Start::Positions {
+        q0: vec![0.0; n],
+        q1: vec![0.0; n],
+    };
+    match Integrator::new(&lag, &el, grid(), two, SolverOptions::default()) {
+        Err(Error::Invalid { what, .. }) => assert!(what.contains("Newton"), "{what}"),
+        other => panic!("not refused: {:?}", other.map(|_| ())),
+    }
+    let start = Start::Velocity {
+        q: vec![0.0; n],
+        v: vec![0.0; n],
+    };
+    let mut it = Integrator::new(&lag, &el, grid(), start, SolverOptions::default()).unwrap();
+    it.step().unwrap();
+    assert!(matches!(it.tangent_map(), Err(Error::Invalid { .. })));
+}

@@ -165,6 +165,7 @@ fn run_with<L: Lagrangian>(
             summary.error.get_or_insert(e);
         }
     }
+    summary.status = crate::summary::status_of(summary.error.as_deref()).into();
     summary.wall_seconds = clock.elapsed().as_secs_f64();
     finish(dir, summary)
 }

@@ -3,7 +3,7 @@
 //! Legendre transform; from the paper's (q0, q1) the first element's internal equations are
 //! solved with both ends fixed, which gives p0 = −∂L_d/∂Q^0 and p1 = ∂L_d/∂Q^s ((2.8)).
 
-use super::element_work::buffers;
+use super::element_work::{buffers, check_dense_newton};
 use super::integrator::Integrator;
 use super::newton_step::step_error;
 use super::options::Start;
@@ -71,6 +71,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
     /// Solves element 0's internal equations with both ends fixed; returns (p0, p1).
     fn solve_first_element(&mut self, h: f64, q0: &[f64], q1: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
         let n = self.state.n;
+        check_dense_newton(&self.element, n)?;
         let s = self.element.degree();
         let t0 = self.state.t;
         let incr = &mut self.inc.incr;

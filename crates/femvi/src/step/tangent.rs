@@ -4,7 +4,7 @@
 //! dq∧dp − dt∧dE is the paper's (3.6). Both need the element Hessian ∂²L_d/∂Q∂Q (the second
 //! also the derivatives in t_k and t_{k+1}).
 
-use super::element_work::buffers;
+use super::element_work::{buffers, check_dense_newton};
 use super::integrator::Integrator;
 use crate::error::{invalid, Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
@@ -37,6 +37,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
             return Err(invalid("tangent map", "no step has been taken"));
         }
         let n = self.state.n;
+        check_dense_newton(&self.element, n)?;
         let s = self.element.degree();
         let w = (s + 1) * n;
         let (t, h) = (self.last.t, self.last.h);
@@ -105,6 +106,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
             return Err(invalid("extended tangent map", "needs a step taken in energy mode"));
         }
         let n = self.state.n;
+        check_dense_newton(&self.element, n)?;
         let s = self.element.degree();
         let (t0, h) = (self.last.t, self.last.h);
         let (_, _, f) = self
