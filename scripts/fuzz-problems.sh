@@ -6,6 +6,9 @@
 #
 #   bash scripts/fuzz-problems.sh                 # 5000 cases
 #   FEMVI_FUZZ_CASES=300 bash scripts/fuzz-problems.sh
+#   FEMVI_FUZZ_CASES=20000 FEMVI_FUZZ_SEED=3 bash scripts/fuzz-problems.sh --in-process
+#                                                 # the same mutator, loaded and stepped in
+#                                                 # process (the test CI runs with 300 cases)
 #
 # Each case writes into its own temporary directory, removed afterwards; files are limited to
 # 64 MB (SIGXFSZ ignored, so a run that writes more gets an I/O error instead of a signal).
@@ -15,6 +18,9 @@
 # prefixes the cargo commands (e.g. CARGO_WRAP="flock /tmp/some.lock").
 set -u
 cd "$(dirname "$0")/.."
+if [ "${1:-}" = "--in-process" ]; then
+  exec ${CARGO_WRAP:-} cargo test --release -p femvi-cli --test fuzz_problems
+fi
 CASES=${FEMVI_FUZZ_CASES:-5000}
 TIMEOUT=${FEMVI_FUZZ_TIMEOUT:-20}
 WORK=${FEMVI_FUZZ_WORK:-$(mktemp -d)}
