@@ -37,7 +37,7 @@ pub fn ensemble_file<'py>(
     if saveat.iter().any(|t| !t.is_finite()) || saveat.windows(2).any(|w| w[0] >= w[1]) {
         return Err(input_error("saveat: times must be finite and strictly increasing"));
     }
-    let (problem, _) = load(&path).map_err(input_error)?;
+    let problem = load(&path).map_err(input_error)?;
     let n = problem.coordinates.len();
     let states: Option<Vec<f64>> = match &states {
         None => None,
@@ -72,7 +72,7 @@ pub fn ensemble_file<'py>(
         let p = match &member_files {
             None => &problem,
             Some(files) => match load(&files[i]) {
-                Ok((p, _)) => {
+                Ok(p) => {
                     loaded = p;
                     &loaded
                 }

@@ -37,24 +37,21 @@ pub struct Run {
 }
 
 /// Loads `path` as `femvi run` does (the message of a bad file is the command's).
-pub fn load(path: &Path) -> Result<(Problem, String), String> {
-    let (problem, text) = load_any(path)?;
+pub fn load(path: &Path) -> Result<Problem, String> {
+    let problem = load_any(path)?;
     femvi_cli::adaptive::refuse(&problem, "femvi.ensemble").map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok((problem, text))
+    Ok(problem)
 }
 
 /// [`load`] that also accepts adaptive-mode problems (for `solve`).
-pub fn load_any(path: &Path) -> Result<(Problem, String), String> {
-    let problem = problem::load(path).map_err(|e| e.to_string())?;
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok((problem, text))
+pub fn load_any(path: &Path) -> Result<Problem, String> {
+    problem::load(path).map_err(|e| e.to_string())
 }
 
 /// Runs a loaded problem. Err: the library rejected it (message as the command prints it).
 // The macro's systems are all Clone, one of them also Copy.
 #[allow(clippy::clone_on_copy)]
-pub fn run(problem: &Problem, text: &str, path: &Path, extras: &Extras) -> Result<Run, String> {
-    let _ = text;
+pub fn run(problem: &Problem, path: &Path, extras: &Extras) -> Result<Run, String> {
     run_on(
         problem,
         path,
@@ -196,10 +193,10 @@ pub fn solve_file(
     };
     type Done = (Run, Option<Vec<f64>>, Vec<String>, String, String);
     let done = py.allow_threads(|| -> Result<Done, String> {
-        let (problem, text) = load_any(&path)?;
+        let problem = load_any(&path)?;
         let adaptive = femvi_cli::adaptive::settings(&problem).map_err(|e| format!("{}: {e}", path.display()))?;
         let (r, s) = match (potential, adaptive) {
-            (None, None) => (run(&problem, &text, &path, &extras)?, None),
+            (None, None) => (run(&problem, &path, &extras)?, None),
             (None, Some(a)) => {
                 let (r, s) = crate::adaptive::run(&problem, &path, &extras, &a)?;
                 (r, Some(s))
