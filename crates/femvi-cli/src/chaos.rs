@@ -158,8 +158,8 @@ pub fn compute<L: Lagrangian + Sync>(
     if !(transient.is_finite() && transient >= 0.0) {
         return Err(format!("--transient must be a time >= 0, not {transient}"));
     }
-    if problem.energy.is_some() {
-        return Err("femvi chaos needs steps as parameters ([time] mode = \"fixed\")".into());
+    if problem.energy.is_some() && !lag.is_autonomous() {
+        return Err("femvi chaos in energy mode needs an autonomous Lagrangian (use [time] mode = \"fixed\")".into());
     }
     let points: usize = axes.iter().map(|a| a.n).product();
     let starts = (0..points)
@@ -171,13 +171,11 @@ pub fn compute<L: Lagrangian + Sync>(
         ..ChaosOptions::default()
     };
     let one = |start: &Start| -> Indicators {
-        let made = Integrator::new(
-            lag,
-            &problem.element,
-            problem.grid.clone(),
-            start.clone(),
-            problem.options,
-        );
+        let (grid, start) = (problem.grid.clone(), start.clone());
+        let made = match problem.energy {
+            Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
+            None => Integrator::new(lag, &problem.element, grid, start, problem.options),
+        };
         match made.and_then(|mut it| indicators_on(&mut it, &chaos)) {
             Ok(r) => pick(&r, wanted),
             Err(e) => Indicators {

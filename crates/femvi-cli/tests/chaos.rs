@@ -159,3 +159,43 @@ fn bad_axes_and_indicators_are_input_errors() {
         assert!(String::from_utf8_lossy(&out.stderr).starts_with("error: "), "{args:?}");
     }
 }
+
+/// Energy mode (time steps as variables): the command gives the library's indicators.
+#[test]
+fn energy_mode_orbit_equals_the_library() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hh.toml");
+    let file = FILE.replace("order = 4", "order = 2").replace(
+        "step = 0.1\n",
+        "mode = \"energy\"\nstep = 0.1\nmin_step = 0.0001\nmax_step = 1.0\n",
+    );
+    std::fs::write(&path, file).unwrap();
+    let out = femvi()
+        .args(["chaos", path.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let at = text.find("\"megno\": ").unwrap() + 9;
+    let end = text[at..].find([',', '\n']).unwrap();
+    let megno: f64 = text[at..at + end].trim().parse().unwrap();
+    let start = Start::Momentum {
+        q: vec![0.0, -0.1],
+        p: vec![0.5, 0.1],
+    };
+    let problem = Problem::new(models::henon_heiles(), start, 0.0, 300.0);
+    let options = SolveOptions {
+        steps: femvi::Steps::Energy {
+            step: 0.1,
+            options: femvi::EnergyOptions {
+                min_step: 1e-4,
+                max_step: 1.0,
+                on_degenerate: femvi::Degenerate::Error,
+            },
+        },
+        ..SolveOptions::step(0.1)
+    };
+    let r = indicators(&problem, &Element::with_order(2).unwrap(), &options, &ChaosOptions::default()).unwrap();
+    assert!(r.error.is_none() && r.steps > 1000);
+    assert_eq!(megno, r.last.mean_megno);
+}

@@ -6,12 +6,12 @@
 
 use femvi::chaos::{indicators, sensitivity, ChaosOptions};
 use femvi::expr::ExprLagrangian;
-use femvi::{models, solve, Element, Lagrangian, Problem, SolveOptions, Start};
+use femvi::{models, solve, Element, EnergyOptions, Lagrangian, Problem, SolveOptions, Start, Steps};
 
 fn final_state<L: Lagrangian + Clone>(
     problem: &Problem<L>,
     el: &Element,
-    h: f64,
+    options: &SolveOptions,
     q: Vec<f64>,
     p: Vec<f64>,
 ) -> Vec<f64> {
@@ -23,7 +23,7 @@ fn final_state<L: Lagrangian + Clone>(
     );
     let options = SolveOptions {
         every: 0,
-        ..SolveOptions::step(h)
+        ..options.clone()
     };
     let sol = solve(&perturbed, el, &options).unwrap();
     assert!(sol.error.is_none());
@@ -32,13 +32,12 @@ fn final_state<L: Lagrangian + Clone>(
 }
 
 /// max |M − M_fd| / max |M| with M_fd by central differences (step eps) of whole runs.
-fn fd_difference<L: Lagrangian + Clone>(problem: &Problem<L>, el: &Element, h: f64, eps: f64) -> f64 {
+fn fd_difference<L: Lagrangian + Clone>(problem: &Problem<L>, el: &Element, options: &SolveOptions, eps: f64) -> f64 {
     let Start::Momentum { q, p } = problem.start.clone() else {
         panic!("momentum start")
     };
     let n = q.len();
-    let options = SolveOptions::step(h);
-    let (m, _) = sensitivity(problem, el, &options).unwrap();
+    let (m, _) = sensitivity(problem, el, options).unwrap();
     let d = 2 * n;
     let (mut worst, mut size) = (0.0f64, 0.0f64);
     for j in 0..d {
@@ -49,7 +48,7 @@ fn fd_difference<L: Lagrangian + Clone>(problem: &Problem<L>, el: &Element, h: f
             } else {
                 p[j - n] += sign * eps;
             }
-            final_state(problem, el, h, q, p)
+            final_state(problem, el, options, q, p)
         };
         let (plus, minus) = (shifted(1.0), shifted(-1.0));
         for i in 0..d {
@@ -73,7 +72,7 @@ fn tangent_maps_agree_with_finite_differences_of_whole_runs() {
         0.0,
         50.0,
     );
-    let rel = fd_difference(&hh, &Element::with_order(6).unwrap(), 0.05, 1e-6);
+    let rel = fd_difference(&hh, &Element::with_order(6).unwrap(), &SolveOptions::step(0.05), 1e-6);
     eprintln!("Hénon–Heiles: relative difference {rel:.2e}");
     assert!(rel <= 1e-7, "{rel:e}");
     // A charge in a magnetic field in a Kepler well (velocity-dependent: Newton), 1000 steps.
@@ -93,9 +92,65 @@ fn tangent_maps_agree_with_finite_differences_of_whole_runs() {
         0.0,
         20.0,
     );
-    let rel = fd_difference(&mg, &Element::with_order(4).unwrap(), 0.02, 1e-6);
+    let rel = fd_difference(&mg, &Element::with_order(4).unwrap(), &SolveOptions::step(0.02), 1e-6);
     eprintln!("magnetic: relative difference {rel:.2e}");
     assert!(rel <= 1e-7, "{rel:e}");
+}
+
+/// Energy mode: exactly 1000 steps (max_steps; the span is longer), so that the perturbed runs
+/// take as many steps as the tangent product; the carried energy follows the start.
+fn energy_options(h: f64) -> SolveOptions {
+    SolveOptions {
+        steps: Steps::Energy {
+            step: h,
+            options: EnergyOptions::from_step(h),
+        },
+        max_steps: Some(1000),
+        ..SolveOptions::step(h)
+    }
+}
+
+#[test]
+fn energy_mode_tangent_maps_agree_with_finite_differences_of_whole_runs() {
+    let hh = Problem::new(
+        models::henon_heiles(),
+        Start::Momentum {
+            q: vec![0.1, -0.05],
+            p: vec![0.2, 0.3],
+        },
+        0.0,
+        1e3,
+    );
+    // Degree 1 (Gauss): the energy equation's slope in h is O(h), so dh/dE stays moderate.
+    // For degree 2 it is O(h³) and dh/dE ~ 1e4 at h = 0.1: perturbed runs then change their
+    // steps by ~1 % and central differences are dominated by the map's curvature (measured
+    // 1.8e-2 at h = 0.1 for eps 1e-6 and 1e-4 alike, 1.2e-5 at h = 0.3), not by the map.
+    let options = energy_options(0.3);
+    let el = Element::with_order(2).unwrap();
+    let rel = fd_difference(&hh, &el, &options, 1e-6);
+    eprintln!("Hénon–Heiles, energy mode: relative difference {rel:.2e}");
+    assert!(rel <= 1e-7, "{rel:e}");
+    let (_, (t, _, _)) = sensitivity(&hh, &el, &options).unwrap();
+    assert!(t > 200.0 && t < 400.0, "1000 steps near h = 0.3: t = {t}");
+}
+
+#[test]
+fn energy_mode_megno_tends_to_two_on_a_regular_orbit() {
+    // A circular Kepler orbit, degree 1, steps near 0.05: regular, ⟨Y⟩ → 2 and λ → 0.
+    let start = Start::Momentum {
+        q: vec![1.0, 0.0],
+        p: vec![0.0, 1.0],
+    };
+    let problem = Problem::new(models::kepler(1.0).unwrap(), start, 0.0, 2000.0);
+    let options = SolveOptions {
+        max_steps: None,
+        ..energy_options(0.05)
+    };
+    let report = indicators(&problem, &Element::with_order(2).unwrap(), &options, &ChaosOptions::default()).unwrap();
+    eprintln!("energy mode Kepler: ⟨Y⟩ = {}, λ = {}", report.last.mean_megno, report.last.lyapunov);
+    assert!(report.error.is_none());
+    assert!((report.last.mean_megno - 2.0).abs() < 0.05, "{:?}", report.last);
+    assert!(report.last.lyapunov.abs() < 0.01);
 }
 
 #[test]

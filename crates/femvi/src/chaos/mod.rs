@@ -9,6 +9,7 @@
 
 mod accumulate;
 mod map;
+mod step_map;
 
 pub use map::map;
 
@@ -18,6 +19,7 @@ use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, SolveOptions, Steps};
 use crate::step::Integrator;
 use accumulate::{apply, norm, orthonormalise, Growth};
+use step_map::{step_map, ExtendedProduct};
 
 /// What to compute besides MEGNO, FLI and the largest exponent.
 #[derive(Debug, Clone, PartialEq)]
@@ -85,8 +87,11 @@ pub struct ChaosReport {
 /// and computes MEGNO, FLI, the largest Lyapunov exponent and, if asked, the spectrum.
 ///
 /// # Errors
-/// Bad input as for [`crate::solve()`]; energy mode (not supported yet); an initial vector of
-/// the wrong length or zero.
+/// Bad input as for [`crate::solve()`]; energy mode with a time-dependent Lagrangian; an
+/// initial vector of the wrong length or zero.
+///
+/// In energy mode (time steps as variables, paper §3) the tangent vectors are carried by the
+/// (q, p) block of each step's extended map at the run's energy, a symplectic map.
 ///
 /// # Example
 ///
@@ -144,7 +149,7 @@ pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOpt
                 break;
             }
         }
-        let m = match it.tangent_map() {
+        let m = match step_map(it) {
             Ok(m) => m,
             Err(e) => {
                 error = Some(e);
@@ -195,6 +200,10 @@ pub type FinalNode = (f64, Vec<f64>, Vec<f64>);
 /// # Errors
 /// As [`indicators`]; a step that fails is an error here (there is no final state).
 ///
+/// `options.max_steps` stops the run after that many steps. In energy mode the derivative
+/// follows the discrete energy's dependence on the start (it is fixed by the first element),
+/// so it is what central differences of whole runs with the same number of steps measure.
+///
 /// # Example
 ///
 /// ```
@@ -214,18 +223,15 @@ pub fn sensitivity<L: Lagrangian>(
     options: &SolveOptions,
 ) -> Result<(Vec<f64>, FinalNode)> {
     let mut it = integrator(problem, element, options)?;
-    let d = 2 * problem.lagrangian.dim();
-    // Column-major columns of the identity: W ← M W per step gives the product of the maps.
-    let mut w: Vec<f64> = (0..d * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
-    let mut tmp = vec![0.0; d];
-    while it.step()? {
-        let m = it.tangent_map()?;
-        apply(&m, d, &mut w, &mut tmp);
+    let energy = it.energy_stats().is_some();
+    let mut product = ExtendedProduct::new(problem.lagrangian.dim(), energy);
+    let mut steps = 0;
+    while options.max_steps.map_or(true, |m| steps < m) && it.step()? {
+        product.step(&mut it)?;
+        steps += 1;
     }
     let node = it.node();
-    // Row-major output: entry (i, j) is component i of column j.
-    let out = (0..d * d).map(|x| w[(x % d) * d + x / d]).collect();
-    Ok((out, (node.t, node.q.to_vec(), node.p.to_vec())))
+    Ok((product.sensitivity(), (node.t, node.q.to_vec(), node.p.to_vec())))
 }
 
 fn integrator<'a, L: Lagrangian>(
@@ -233,20 +239,21 @@ fn integrator<'a, L: Lagrangian>(
     element: &'a Element,
     options: &SolveOptions,
 ) -> Result<Integrator<'a, L>> {
-    if let Steps::Energy { .. } = options.steps {
-        return Err(invalid(
-            "chaos indicators",
-            "energy mode is not supported yet (use steps as parameters)",
-        ));
-    }
     let grid = crate::solution::grid(problem, &options.steps)?;
-    Integrator::new(
-        &problem.lagrangian,
-        element,
-        grid,
-        problem.start.clone(),
-        options.solver,
-    )
+    let (lag, start) = (&problem.lagrangian, problem.start.clone());
+    match &options.steps {
+        Steps::Energy { options: e, .. } => {
+            if !lag.is_autonomous() {
+                return Err(invalid(
+                    "chaos indicators",
+                    "energy mode needs an autonomous Lagrangian (its energy then stays fixed); \
+                     use steps as parameters",
+                ));
+            }
+            Integrator::with_energy(lag, element, grid, start, options.solver, *e)
+        }
+        _ => Integrator::new(lag, element, grid, start, options.solver),
+    }
 }
 
 fn initial_vector(chaos: &ChaosOptions, d: usize) -> Result<Vec<f64>> {

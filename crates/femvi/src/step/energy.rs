@@ -69,6 +69,9 @@ pub struct EnergyStats {
 pub(super) struct EnergyState {
     opts: EnergyOptions,
     started: bool,
+    /// The last step was taken with h as a parameter (tangent maps; not checkpointed: a
+    /// restored run's last step counts as one that kept the energy).
+    pub(super) last_fresh: bool,
     h_prev: f64,
     /// Compensation of the carried energy's sum of increments.
     comp: f64,
@@ -151,6 +154,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let mut state = EnergyState {
             opts: energy,
             started: false,
+            last_fresh: false,
             h_prev: h0,
             comp: 0.0,
             scratch: Vec::new(),
@@ -263,6 +267,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         };
         state.started = true;
         state.h_prev = h;
+        state.last_fresh = fresh;
         if fresh {
             state.stats.energy = change;
             state.comp = 0.0;

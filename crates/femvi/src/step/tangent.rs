@@ -97,7 +97,10 @@ impl<L: Lagrangian> Integrator<'_, L> {
     /// The step equations R_j = δ_j0 p_k + ∂L_d/∂Q^j (j < s) and R_E = ∂L_d/∂t_k − E_k are
     /// differentiated implicitly for (dX, dt_{k+1}), with the full Hessian F of L_d in
     /// (t_k, t_{k+1}, Q); then q' = q_k + X^s, t' = t_{k+1}, p' = ∂L_d/∂Q^s, E' = −∂L_d/∂t_{k+1}.
-    /// The paper's (3.6) says this map preserves dq∧dp − dt∧dE.
+    /// The paper's (3.6) says this map preserves dq∧dp − dt∧dE. A step taken with h as a
+    /// parameter (the first one, which fixes the discrete energy, or one counted as
+    /// degenerate) has dt_{k+1} = dt_k in place of the energy equation, and its E' does not
+    /// depend on the incoming E.
     ///
     /// # Errors
     /// Not in energy mode, no variable step taken yet, or a singular system.
@@ -126,6 +129,15 @@ impl<L: Lagrangian> Integrator<'_, L> {
                 fz(rz, 1)
             }
         });
+        let fresh = self.state.k == 1 || self.energy.as_ref().is_some_and(|e| e.last_fresh);
+        let mut jac = jac;
+        if fresh {
+            // The step was taken with h as a parameter (the first one, or a degenerate one):
+            // its row is dt_{k+1} − dt_k = 0 instead of the energy equation, and E' is the
+            // element's own, independent of the incoming E.
+            jac.row_mut(s * n).fill(0.0);
+            jac[(s * n, s * n)] = 1.0;
+        }
         let lu = jac.lu();
         let d = 2 * (n + 1);
         let mut out = vec![0.0; d * d];
@@ -157,7 +169,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
                 if row == s * n {
                     r -= de;
                 }
-                rhs[row] = -r;
+                rhs[row] = if fresh && row == s * n { dt0 } else { -r };
             }
             let sol = lu.solve(&rhs).ok_or_else(|| {
                 Error::Step(StepError {
