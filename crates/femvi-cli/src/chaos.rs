@@ -1,7 +1,9 @@
 //! `femvi chaos`: the chaos indicators of a problem (the library's `femvi::chaos`: MEGNO,
 //! FLI, the largest Lyapunov exponent, the spectrum), for its initial condition or over a
-//! grid of initial conditions (`--grid x=-0.5:0.5:200`), run in parallel on all cores and
-//! written as a map (`chaos_map.csv`, `chaos_map.npy` with `chaos_columns.txt`).
+//! grid of initial conditions and/or parameters (`--grid x=-0.5:0.5:200 --grid
+//! mu=0.1:0.3:50`), run in parallel on all cores and written as a map (`chaos_map.csv`,
+//! `chaos_map.npy` with `chaos_columns.txt`). An axis that is not a coordinate, `p_<q>` or
+//! `<q>_dot` is a parameter of `[system] parameters`, set at each point as `--set` would.
 
 use crate::problem::Problem;
 use femvi::chaos::{indicators_on, ChaosOptions, ChaosReport};
@@ -37,7 +39,7 @@ impl Indicator {
 }
 
 /// One axis of a map: a coordinate (`x`), a momentum (`p_x`) or a velocity (`x_dot`) of the
-/// initial condition, from `lo` to `hi` in `n` points.
+/// initial condition, or a parameter of `[system] parameters`, from `lo` to `hi` in `n` points.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Axis {
     /// The name as given.
@@ -121,13 +123,41 @@ fn pick(report: &ChaosReport, wanted: &[Indicator]) -> Indicators {
     }
 }
 
-/// The start of `problem` with the axes' values of grid point `idx` set.
+/// Whether `name` names part of the initial condition (a coordinate, `p_<coordinate>` or
+/// `<coordinate>_dot`); other axes are parameters of `[system] parameters`.
+fn is_start_axis(problem: &Problem, name: &str) -> bool {
+    let coord = |n: &str| problem.coordinates.iter().any(|c| c == n);
+    coord(name) || name.strip_prefix("p_").is_some_and(coord) || name.strip_suffix("_dot").is_some_and(coord)
+}
+
+/// The values of the axes at grid point `idx` (the first axis varies fastest).
+fn values_at(axes: &[Axis], idx: usize) -> Vec<f64> {
+    let mut rest = idx;
+    axes.iter()
+        .map(|a| {
+            let v = a.value(rest % a.n);
+            rest /= a.n;
+            v
+        })
+        .collect()
+}
+
+/// The `--set` overrides of the parameter axes at grid point `idx`.
+fn parameter_overrides(problem: &Problem, axes: &[Axis], idx: usize) -> Vec<String> {
+    axes.iter()
+        .zip(values_at(axes, idx))
+        .filter(|(a, _)| !is_start_axis(problem, &a.name))
+        .map(|(a, v)| format!("system.parameters.{}={v:?}", a.name))
+        .collect()
+}
+
+/// The start of `problem` with the start axes' values of grid point `idx` set.
 fn start_at(problem: &Problem, axes: &[Axis], idx: usize) -> Result<Start, String> {
     let mut start = problem.start.clone();
-    let mut rest = idx;
-    for axis in axes {
-        let value = axis.value(rest % axis.n);
-        rest /= axis.n;
+    for (axis, value) in axes.iter().zip(values_at(axes, idx)) {
+        if !is_start_axis(problem, &axis.name) {
+            continue;
+        }
         let coord = |name: &str| problem.coordinates.iter().position(|c| c == name);
         let slot = match (&mut start, axis.name.as_str()) {
             (Start::Velocity { q, .. } | Start::Momentum { q, .. }, name) if coord(name).is_some() => {
@@ -139,7 +169,7 @@ fn start_at(problem: &Problem, axes: &[Axis], idx: usize) -> Result<Start, Strin
         };
         *slot.ok_or_else(|| {
             format!(
-                "grid axis '{}' is not a coordinate, a p_<coordinate> (with initial p) or a <coordinate>_dot (with initial v) of this problem",
+                "grid axis '{}': a p_<coordinate> axis needs initial p and a <coordinate>_dot axis initial v",
                 axis.name
             )
         })? = value;
@@ -170,30 +200,60 @@ pub fn compute<L: Lagrangian + Sync>(
         spectrum_transient: transient,
         ..ChaosOptions::default()
     };
-    let one = |start: &Start| -> Indicators {
-        let (grid, start) = (problem.grid.clone(), start.clone());
-        let made = match problem.energy {
-            Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
-            None => Integrator::new(lag, &problem.element, grid, start, problem.options),
-        };
-        match made.and_then(|mut it| indicators_on(&mut it, &chaos)) {
-            Ok(r) => pick(&r, wanted),
-            Err(e) => Indicators {
-                megno: None,
-                lyapunov: None,
-                fli: None,
-                spectrum: None,
-                steps: 0,
-                t: problem.grid.t0(),
-                error: Some(e.to_string()),
-            },
-        }
-    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| e.to_string())?;
-    Ok(pool.install(|| starts.par_iter().map(one).collect()))
+    let parametric = axes.iter().any(|a| !is_start_axis(problem, &a.name));
+    if !parametric {
+        let one = |start: &Start| one_point(lag, problem, start.clone(), &chaos, wanted);
+        return Ok(pool.install(|| starts.par_iter().map(one).collect()));
+    }
+    // Parameter axes: each point's problem is the file again with its parameter values set
+    // (an unknown parameter is an input error, found at the first point).
+    // The text as run; a path named after the problem keeps its default name.
+    let label = std::path::PathBuf::from(format!("{}.toml", problem.name));
+    let reload = |i: usize| crate::problem::load_text(&label, &problem.source, &parameter_overrides(problem, axes, i));
+    reload(0).map_err(|e| e.to_string())?;
+    let one = |i: usize| match reload(i) {
+        Ok(p) => match start_at(&p, axes, i) {
+            Ok(start) => crate::with_system!(&p.system, l => one_point(l, &p, start, &chaos, wanted)),
+            Err(e) => failed(&p, e),
+        },
+        Err(e) => failed(problem, e.to_string()),
+    };
+    Ok(pool.install(|| (0..points).into_par_iter().map(one).collect()))
+}
+
+/// The indicators of one start of `problem` with the Lagrangian `lag`.
+fn one_point<L: Lagrangian>(
+    lag: &L,
+    problem: &Problem,
+    start: Start,
+    chaos: &ChaosOptions,
+    wanted: &[Indicator],
+) -> Indicators {
+    let grid = problem.grid.clone();
+    let made = match problem.energy {
+        Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
+        None => Integrator::new(lag, &problem.element, grid, start, problem.options),
+    };
+    match made.and_then(|mut it| indicators_on(&mut it, chaos)) {
+        Ok(r) => pick(&r, wanted),
+        Err(e) => failed(problem, e.to_string()),
+    }
+}
+
+fn failed(problem: &Problem, error: String) -> Indicators {
+    Indicators {
+        megno: None,
+        lyapunov: None,
+        fli: None,
+        spectrum: None,
+        steps: 0,
+        t: problem.grid.t0(),
+        error: Some(error),
+    }
 }
 
 /// Writes the map as `chaos_map.csv` (axis values, then the indicators) and

@@ -195,7 +195,71 @@ fn energy_mode_orbit_equals_the_library() {
         },
         ..SolveOptions::step(0.1)
     };
-    let r = indicators(&problem, &Element::with_order(2).unwrap(), &options, &ChaosOptions::default()).unwrap();
+    let r = indicators(
+        &problem,
+        &Element::with_order(2).unwrap(),
+        &options,
+        &ChaosOptions::default(),
+    )
+    .unwrap();
     assert!(r.error.is_none() && r.steps > 1000);
     assert_eq!(megno, r.last.mean_megno);
+}
+
+/// A map over a parameter and a coordinate: each point equals a one-point run of the file
+/// with that parameter set by `--set` (bit for bit), and an unknown name is an input error.
+#[test]
+fn a_map_over_a_parameter_equals_one_point_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hhl.toml");
+    let file = "[system]\ncoordinates = [\"x\", \"y\"]\nparameters = { lam = 1.0 }\n\
+        lagrangian = \"0.5*(x_dot^2 + y_dot^2) - 0.5*(x^2 + y^2) - lam*(x^2*y - y^3/3)\"\n\
+        [initial]\nq = [0.0, -0.1]\np = [0.5, 0.1]\n[scheme]\norder = 4\n[time]\nstep = 0.1\nend = 100.0\n";
+    std::fs::write(&path, file).unwrap();
+    let out_dir = dir.path().join("map");
+    let out = femvi()
+        .args([
+            "chaos",
+            path.to_str().unwrap(),
+            "--grid",
+            "lam=0.6:1.0:3",
+            "--grid",
+            "y=-0.1:0.1:2",
+        ])
+        .args(["--indicator", "megno", "--out", out_dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(out_dir.join("chaos_map.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 6);
+    let distinct: std::collections::HashSet<u64> = rows.iter().map(|r| r[2].to_bits()).collect();
+    assert_eq!(distinct.len(), 6, "every point differs: {rows:?}");
+    for r in &rows {
+        let one = femvi()
+            .args(["chaos", path.to_str().unwrap(), "--json", "--indicator", "megno"])
+            .args(["--set", &format!("system.parameters.lam={:?}", r[0])])
+            .args(["--set", &format!("initial.q=[0.0, {:?}]", r[1])])
+            .output()
+            .unwrap();
+        assert!(one.status.success(), "{}", String::from_utf8_lossy(&one.stderr));
+        let t = String::from_utf8(one.stdout).unwrap();
+        let at = t.find("\"megno\": ").unwrap() + 9;
+        let end = t[at..].find([',', '\n']).unwrap();
+        assert_eq!(t[at..at + end].trim().parse::<f64>().unwrap(), r[2], "{r:?}");
+    }
+    let bad = femvi()
+        .args(["chaos", path.to_str().unwrap(), "--grid", "mu=0:1:3"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("mu"),
+        "{}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
 }

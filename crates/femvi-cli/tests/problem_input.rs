@@ -125,6 +125,12 @@ fn set_errors_name_the_key() {
         (&["--set", "initial.q.5=1"], "initial.q"),
         (&["--set", "time..end=1"], "empty part"),
         (&["--set", "time.step=fast"], "step"),
+        // An expression's parameter that the file does not declare (a typo would otherwise
+        // leave g unchanged in silence).
+        (
+            &["--set", "system.parameters.gg=3.7"],
+            "no parameter 'gg' (it has: g, l)",
+        ),
     ];
     for (args, want) in cases {
         for cmd in ["run", "check"] {

@@ -146,8 +146,17 @@ fn energy_mode_megno_tends_to_two_on_a_regular_orbit() {
         max_steps: None,
         ..energy_options(0.05)
     };
-    let report = indicators(&problem, &Element::with_order(2).unwrap(), &options, &ChaosOptions::default()).unwrap();
-    eprintln!("energy mode Kepler: ⟨Y⟩ = {}, λ = {}", report.last.mean_megno, report.last.lyapunov);
+    let report = indicators(
+        &problem,
+        &Element::with_order(2).unwrap(),
+        &options,
+        &ChaosOptions::default(),
+    )
+    .unwrap();
+    eprintln!(
+        "energy mode Kepler: ⟨Y⟩ = {}, λ = {}",
+        report.last.mean_megno, report.last.lyapunov
+    );
     assert!(report.error.is_none());
     assert!((report.last.mean_megno - 2.0).abs() < 0.05, "{:?}", report.last);
     assert!(report.last.lyapunov.abs() < 0.01);

@@ -61,9 +61,40 @@ pub fn apply_overrides(text: &str, overrides: &[String]) -> Result<String, Input
         .parse()
         .map_err(|e: toml::de::Error| bad(format!("cannot apply --set: the problem is not TOML: {}", e.message())))?;
     for o in &parsed {
+        check_parameter(&table, o)?;
         set(&mut table, o)?;
     }
     toml::to_string(&table).map_err(|e| bad(format!("cannot apply --set: {e}")))
+}
+
+/// `system.parameters.NAME=value` of an expression system must name a parameter the file
+/// declares: a new one would be a constant nothing reads, and a misspelt name would leave the
+/// intended parameter unchanged without a word. (A model's loader checks its own names.)
+fn check_parameter(table: &Table, o: &Override) -> Result<(), InputError> {
+    let parts: Vec<&str> = o.key.split('.').map(str::trim).collect();
+    let ["system", "parameters", name] = parts.as_slice() else {
+        return Ok(());
+    };
+    let system = table.get("system").and_then(Value::as_table);
+    if system.is_some_and(|s| s.contains_key("model")) {
+        return Ok(());
+    }
+    let declared = system.and_then(|s| s.get("parameters")).and_then(Value::as_table);
+    if declared.is_some_and(|d| d.contains_key(*name)) {
+        return Ok(());
+    }
+    let known: Vec<&str> = declared
+        .map(|d| d.keys().map(String::as_str).collect())
+        .unwrap_or_default();
+    Err(bad(format!(
+        "--set {}: the problem has no parameter '{name}' (it has: {})",
+        o.key,
+        if known.is_empty() {
+            "none".to_string()
+        } else {
+            known.join(", ")
+        }
+    )))
 }
 
 /// Sets `o.key` in `table` to `o.value`, creating missing tables on the way.
