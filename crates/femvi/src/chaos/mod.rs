@@ -2,16 +2,19 @@
 //! through each step by the step's tangent map (implicit differentiation of the step
 //! equations, `Integrator::tangent_map`; symplectic because the step is), and the chaos
 //! indicators built on them — MEGNO, FLI, the largest Lyapunov exponent and the whole
-//! spectrum (`accumulate.rs`) — and the sensitivity of the final state to the initial one.
+//! spectrum (`accumulate.rs`) — and the sensitivity of the final state to the initial one
+//! and to a parameter of the Lagrangian (`parameter.rs`).
 //!
 //! Cost: one element Hessian by automatic differentiation and one LU of the s·n step
 //! Jacobian per step, on top of the step itself.
 
 mod accumulate;
 mod map;
+mod parameter;
 mod step_map;
 
 pub use map::map;
+pub use parameter::{parameter_sensitivity, Frozen};
 
 use crate::discrete::Element;
 use crate::error::{invalid, Error, Result};
@@ -226,7 +229,7 @@ pub fn sensitivity<L: Lagrangian>(
     let energy = it.energy_stats().is_some();
     let mut product = ExtendedProduct::new(problem.lagrangian.dim(), energy);
     let mut steps = 0;
-    while options.max_steps.map_or(true, |m| steps < m) && it.step()? {
+    while options.max_steps.is_none_or(|m| steps < m) && it.step()? {
         product.step(&mut it)?;
         steps += 1;
     }
