@@ -32,8 +32,8 @@ use crate::step::{Integrator, Start};
 /// let aug = ExprLagrangian::new("0.5*x_dot^2 + g*cos(x)", &coords, &[])?;
 /// let lag = Frozen::new(&aug, 9.81)?;
 /// assert_eq!(lag.dim(), 1);
-/// assert!((lag.value(0.0, &[0.0], &[1.0]) - 10.31).abs() < 1e-12);
-/// # Ok::<(), femvi::Error>(())
+/// assert!((lag.value(0.0f64, &[0.0], &[1.0]) - 10.31).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Debug, Clone, Copy)]
 pub struct Frozen<'a, A> {
@@ -106,7 +106,7 @@ impl<A: Lagrangian> Lagrangian for Frozen<'_, A> {
 /// let (d, _) = parameter_sensitivity(&problem, 1.5, &Element::with_order(8)?, &SolveOptions::step(0.01))?;
 /// let w = 1.5f64.sqrt();
 /// assert!((d[0] + 2.0 * (w * 2.0).sin() / (2.0 * w)).abs() < 1e-10);
-/// # Ok::<(), femvi::Error>(())
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn parameter_sensitivity<A: Lagrangian>(
     problem: &Problem<A>,
