@@ -60,6 +60,45 @@ fn hand_coded_derivatives_match_automatic_differentiation() {
     assert!(worst < 1e-13, "{worst:e}");
 }
 
+/// The n-body monitor with the trait's default derivatives (dual numbers over `value`).
+struct NBodyByDuals(NBodyMonitor);
+
+impl Monitor for NBodyByDuals {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn value<D: femvi::Scalar>(&self, q: &[D]) -> D {
+        self.0.value(q)
+    }
+}
+
+#[test]
+fn nbody_monitor_derivatives_by_hand_match_dual_numbers() {
+    let mut rng = Lcg(7);
+    let mut worst = 0.0f64;
+    for (bodies, space) in [(7, 2), (3, 3), (2, 1)] {
+        let (hand, duals) = (NBodyMonitor::new(bodies, space), NBodyByDuals(NBodyMonitor::new(bodies, space)));
+        let n = bodies * space;
+        for _ in 0..10 {
+            let q: Vec<f64> = (0..n).map(|_| 4.0 * rng.uniform() - 2.0).collect();
+            let (mut g1, mut g2, mut h1, mut h2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n * n], vec![0.0; n * n]);
+            let v1 = hand.derivatives(&q, &mut g1, Some(&mut h1));
+            let v2 = duals.derivatives(&q, &mut g2, Some(&mut h2));
+            let scale = |x: &[f64]| x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            worst = worst.max((v1 - v2).abs() / v2.abs());
+            let dg: Vec<f64> = g1.iter().zip(&g2).map(|(a, b)| a - b).collect();
+            let dh: Vec<f64> = h1.iter().zip(&h2).map(|(a, b)| a - b).collect();
+            worst = worst.max(scale(&dg) / scale(&g2)).max(scale(&dh) / scale(&h2));
+            // The gradient alone agrees with the gradient of the full call.
+            let mut g3 = vec![0.0; n];
+            assert_eq!(hand.derivatives(&q, &mut g3, None), v1);
+            assert_eq!(g3, g1);
+        }
+    }
+    println!("n-body monitor, hand vs dual numbers: largest relative difference {worst:.2e}");
+    assert!(worst < 1e-13, "{worst:e}");
+}
+
 #[test]
 fn the_momentum_is_the_physical_momentum() {
     // ∂L_g/∂q' at q' = g v is ∂L/∂v at v (the pendulum: a non-quadratic potential).

@@ -80,6 +80,15 @@ impl Monitor for AnyMonitor {
             AnyMonitor::Expr(g) => g.value(q),
         }
     }
+    // Forwarded, so that the built-in monitors' hand-coded derivatives are used (without it
+    // every monitor went through the dual-number default).
+    fn derivatives(&self, q: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) -> f64 {
+        match self {
+            AnyMonitor::Kepler(g) => g.derivatives(q, grad, hess),
+            AnyMonitor::NBody(g) => g.derivatives(q, grad, hess),
+            AnyMonitor::Expr(g) => g.derivatives(q, grad, hess),
+        }
+    }
 }
 
 /// The monitor named in `[time] monitor`, or the model's default.
