@@ -287,3 +287,35 @@ fn refusals_are_typed_errors_and_nothing_hangs() {
     );
     assert!(*sol.t.last().unwrap() < 10.0);
 }
+
+/// E₀ in double-double against exact arithmetic: the references were computed with Python's
+/// `fractions.Fraction` (Kepler: H = p²/2 − 1/q of the rounded e = 0.99 pericentre state, a
+/// rational number, correctly rounded) and 50-digit `decimal` (three bodies: square roots).
+#[test]
+fn accurate_energy_levels_match_exact_arithmetic() {
+    let e = 0.99f64;
+    let (q0, p0) = ([1.0 - e, 0.0], [0.0, ((1.0 + e) / (1.0 - e)).sqrt()]);
+    let exact = -0.500000000000005;
+    assert_eq!(femvi::adaptive::kepler_energy(1.0, &q0, &p0), exact);
+    // H in f64 (p·v − L) is 2.3e-14 off: the error the accurate level removes.
+    let kepler = models::kepler(1.0).unwrap();
+    let mut v = vec![0.0; 2];
+    let plain = hamiltonian(&kepler, 0.0, &q0, &p0, &mut v, &mut PointDerivatives::new(2)).unwrap();
+    assert!((plain - exact).abs() > 1e-14, "{plain:e}");
+    let (masses, q, p) = (
+        [1.0, 0.5, 2e-3],
+        [0.1, -0.7, 1.3, 0.25, -0.9, 0.6],
+        [0.3, 0.2, -0.45, 0.11, 0.004, -0.003],
+    );
+    let h = femvi::adaptive::nbody_energy(1.3, &masses, 2, &q, &p);
+    assert!((h - -0.14101030640934617f64).abs() <= f64::EPSILON * 0.15, "{h:e}");
+    assert!(femvi::adaptive::nbody_energy(1.0, &masses, 2, &q[..4], &p).is_nan());
+    // A level that is not H(q0, p0) up to rounding is refused.
+    let problem = Problem::new(kepler, kepler_start(0.5), 0.0, 1.0);
+    let options = AdaptiveOptions {
+        energy_level: Some(-0.4),
+        ..AdaptiveOptions::step(0.1)
+    };
+    let err = solve_adaptive(&problem, KeplerMonitor, &Element::with_order(4).unwrap(), &options).unwrap_err();
+    assert!(matches!(err, Error::Invalid { .. }), "{err}");
+}

@@ -25,14 +25,16 @@
 mod borrowed;
 mod clock;
 mod derivatives;
+mod energy;
 mod lagrangian;
 mod monitor;
 mod record;
 mod solve;
 
+pub use energy::{kepler_energy, nbody_energy};
 pub use lagrangian::TimeTransformed;
 pub use monitor::{ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor};
-pub use solve::solve_adaptive;
+pub use solve::{solve_adaptive, start_momentum};
 
 use crate::error::Error;
 use crate::solution::Saved;
@@ -56,6 +58,10 @@ pub struct AdaptiveOptions {
     /// Hand-coded derivatives of L_g for a mechanical L (default true; false: automatic
     /// differentiation of L_g, to compare).
     pub hand_derivatives: bool,
+    /// The energy level E₀ if known more accurately than H(q₀, p₀) in f64 (None: that),
+    /// e.g. by [`kepler_energy`] or [`nbody_energy`] of [`start_momentum`]'s (q₀, p₀): an E₀
+    /// off by δ shifts the mean motion by about δ/E (`energy.rs`).
+    pub energy_level: Option<f64>,
 }
 
 impl AdaptiveOptions {
@@ -73,6 +79,7 @@ impl AdaptiveOptions {
             saveat: vec![],
             max_steps: 100_000_000,
             hand_derivatives: true,
+            energy_level: None,
         }
     }
 }
