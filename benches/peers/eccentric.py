@@ -200,7 +200,7 @@ def configs(binary, periods):
     """(e, code, configuration, thunk) for every run of the main benchmark."""
     runs = []
     for e in (0.9, 0.99):
-        adaptive = {4: (0.06, 0.03, 0.015), 8: (0.3, 0.15, 0.09)}
+        adaptive = {4: (0.06, 0.03, 0.015), 8: (0.3, 0.15, 0.09, 0.06)}
         for order, dss in adaptive.items():
             for ds in dss:
                 runs.append((e, "femvi adaptive", f"order {order}, ds = {ds}",

@@ -77,7 +77,10 @@ fn nbody_monitor_derivatives_by_hand_match_dual_numbers() {
     let mut rng = Lcg(7);
     let mut worst = 0.0f64;
     for (bodies, space) in [(7, 2), (3, 3), (2, 1)] {
-        let (hand, duals) = (NBodyMonitor::new(bodies, space), NBodyByDuals(NBodyMonitor::new(bodies, space)));
+        let (hand, duals) = (
+            NBodyMonitor::new(bodies, space),
+            NBodyByDuals(NBodyMonitor::new(bodies, space)),
+        );
         let n = bodies * space;
         for _ in 0..10 {
             let q: Vec<f64> = (0..n).map(|_| 4.0 * rng.uniform() - 2.0).collect();

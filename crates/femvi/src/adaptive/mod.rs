@@ -19,7 +19,10 @@
 //! nearly independent of e: C ≈ 0.02 (order 4) and C ≈ 6e-6 (order 8), measured on Kepler
 //! e = 0.9 and 0.99 over 1 000 orbits (`examples/adaptive_kepler.rs`; e.g. order 8, Δs = 0.3:
 //! 3.7e-7 and 2.5e-7). So Δs ≈ (ε/(N C))^{1/(2s)} for an error ε, relative to a; below
-//! about 1e-11·N (order 8, e = 0.9) and 3e-9 (e = 0.99, 1 000 orbits) round-off dominates.
+//! about 1e-11·N (order 8, e = 0.9) round-off dominates. For very eccentric orbits E₀ in f64
+//! is the floor (an E₀ off by δ shifts the mean motion by about δ/E; `energy.rs`): at
+//! e = 0.99 over 1 000 orbits 7e-9 with H(q₀, p₀) in f64, 1.3e-10 with
+//! [`AdaptiveOptions::energy_level`] from [`kepler_energy`] (benches/peers/eccentric.md).
 //! For N bodies, [`NBodyMonitor`] gives the same rule with the closest pair's orbits.
 
 mod borrowed;
