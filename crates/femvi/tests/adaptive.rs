@@ -60,6 +60,48 @@ fn hand_coded_derivatives_match_automatic_differentiation() {
     assert!(worst < 1e-13, "{worst:e}");
 }
 
+/// The n-body monitor with the trait's default derivatives (dual numbers over `value`).
+struct NBodyByDuals(NBodyMonitor);
+
+impl Monitor for NBodyByDuals {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn value<D: femvi::Scalar>(&self, q: &[D]) -> D {
+        self.0.value(q)
+    }
+}
+
+#[test]
+fn nbody_monitor_derivatives_by_hand_match_dual_numbers() {
+    let mut rng = Lcg(7);
+    let mut worst = 0.0f64;
+    for (bodies, space) in [(7, 2), (3, 3), (2, 1)] {
+        let (hand, duals) = (
+            NBodyMonitor::new(bodies, space),
+            NBodyByDuals(NBodyMonitor::new(bodies, space)),
+        );
+        let n = bodies * space;
+        for _ in 0..10 {
+            let q: Vec<f64> = (0..n).map(|_| 4.0 * rng.uniform() - 2.0).collect();
+            let (mut g1, mut g2, mut h1, mut h2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n * n], vec![0.0; n * n]);
+            let v1 = hand.derivatives(&q, &mut g1, Some(&mut h1));
+            let v2 = duals.derivatives(&q, &mut g2, Some(&mut h2));
+            let scale = |x: &[f64]| x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            worst = worst.max((v1 - v2).abs() / v2.abs());
+            let dg: Vec<f64> = g1.iter().zip(&g2).map(|(a, b)| a - b).collect();
+            let dh: Vec<f64> = h1.iter().zip(&h2).map(|(a, b)| a - b).collect();
+            worst = worst.max(scale(&dg) / scale(&g2)).max(scale(&dh) / scale(&h2));
+            // The gradient alone agrees with the gradient of the full call.
+            let mut g3 = vec![0.0; n];
+            assert_eq!(hand.derivatives(&q, &mut g3, None), v1);
+            assert_eq!(g3, g1);
+        }
+    }
+    println!("n-body monitor, hand vs dual numbers: largest relative difference {worst:.2e}");
+    assert!(worst < 1e-13, "{worst:e}");
+}
+
 #[test]
 fn the_momentum_is_the_physical_momentum() {
     // ∂L_g/∂q' at q' = g v is ∂L/∂v at v (the pendulum: a non-quadratic potential).
@@ -247,4 +289,36 @@ fn refusals_are_typed_errors_and_nothing_hangs() {
         sol.error
     );
     assert!(*sol.t.last().unwrap() < 10.0);
+}
+
+/// E₀ in double-double against exact arithmetic: the references were computed with Python's
+/// `fractions.Fraction` (Kepler: H = p²/2 − 1/q of the rounded e = 0.99 pericentre state, a
+/// rational number, correctly rounded) and 50-digit `decimal` (three bodies: square roots).
+#[test]
+fn accurate_energy_levels_match_exact_arithmetic() {
+    let e = 0.99f64;
+    let (q0, p0) = ([1.0 - e, 0.0], [0.0, ((1.0 + e) / (1.0 - e)).sqrt()]);
+    let exact = -0.500000000000005;
+    assert_eq!(femvi::adaptive::kepler_energy(1.0, &q0, &p0), exact);
+    // H in f64 (p·v − L) is 2.3e-14 off: the error the accurate level removes.
+    let kepler = models::kepler(1.0).unwrap();
+    let mut v = vec![0.0; 2];
+    let plain = hamiltonian(&kepler, 0.0, &q0, &p0, &mut v, &mut PointDerivatives::new(2)).unwrap();
+    assert!((plain - exact).abs() > 1e-14, "{plain:e}");
+    let (masses, q, p) = (
+        [1.0, 0.5, 2e-3],
+        [0.1, -0.7, 1.3, 0.25, -0.9, 0.6],
+        [0.3, 0.2, -0.45, 0.11, 0.004, -0.003],
+    );
+    let h = femvi::adaptive::nbody_energy(1.3, &masses, 2, &q, &p);
+    assert!((h - -0.14101030640934617f64).abs() <= f64::EPSILON * 0.15, "{h:e}");
+    assert!(femvi::adaptive::nbody_energy(1.0, &masses, 2, &q[..4], &p).is_nan());
+    // A level that is not H(q0, p0) up to rounding is refused.
+    let problem = Problem::new(kepler, kepler_start(0.5), 0.0, 1.0);
+    let options = AdaptiveOptions {
+        energy_level: Some(-0.4),
+        ..AdaptiveOptions::step(0.1)
+    };
+    let err = solve_adaptive(&problem, KeplerMonitor, &Element::with_order(4).unwrap(), &options).unwrap_err();
+    assert!(matches!(err, Error::Invalid { .. }), "{err}");
 }

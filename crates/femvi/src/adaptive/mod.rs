@@ -19,20 +19,25 @@
 //! nearly independent of e: C ≈ 0.02 (order 4) and C ≈ 6e-6 (order 8), measured on Kepler
 //! e = 0.9 and 0.99 over 1 000 orbits (`examples/adaptive_kepler.rs`; e.g. order 8, Δs = 0.3:
 //! 3.7e-7 and 2.5e-7). So Δs ≈ (ε/(N C))^{1/(2s)} for an error ε, relative to a; below
-//! about 1e-11·N (order 8, e = 0.9) and 3e-9 (e = 0.99, 1 000 orbits) round-off dominates.
+//! about 1e-11·N (order 8, e = 0.9) round-off dominates. For very eccentric orbits E₀ in f64
+//! is the floor (an E₀ off by δ shifts the mean motion by about δ/E; `energy.rs`): at
+//! e = 0.99 over 1 000 orbits 7e-9 with H(q₀, p₀) in f64, 1.3e-10 with
+//! [`AdaptiveOptions::energy_level`] from [`kepler_energy`] (benches/peers/eccentric.md).
 //! For N bodies, [`NBodyMonitor`] gives the same rule with the closest pair's orbits.
 
 mod borrowed;
 mod clock;
 mod derivatives;
+mod energy;
 mod lagrangian;
 mod monitor;
 mod record;
 mod solve;
 
+pub use energy::{kepler_energy, nbody_energy};
 pub use lagrangian::TimeTransformed;
 pub use monitor::{ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor};
-pub use solve::solve_adaptive;
+pub use solve::{solve_adaptive, start_momentum};
 
 use crate::error::Error;
 use crate::solution::Saved;
@@ -56,6 +61,10 @@ pub struct AdaptiveOptions {
     /// Hand-coded derivatives of L_g for a mechanical L (default true; false: automatic
     /// differentiation of L_g, to compare).
     pub hand_derivatives: bool,
+    /// The energy level E₀ if known more accurately than H(q₀, p₀) in f64 (None: that),
+    /// e.g. by [`kepler_energy`] or [`nbody_energy`] of [`start_momentum`]'s (q₀, p₀): an E₀
+    /// off by δ shifts the mean motion by about δ/E (`energy.rs`).
+    pub energy_level: Option<f64>,
 }
 
 impl AdaptiveOptions {
@@ -73,6 +82,7 @@ impl AdaptiveOptions {
             saveat: vec![],
             max_steps: 100_000_000,
             hand_derivatives: true,
+            energy_level: None,
         }
     }
 }

@@ -155,6 +155,70 @@ impl Monitor for NBodyMonitor {
         }
         sum.sqrt().recip()
     }
+
+    /// By hand (the dual-number default took most of a Pleiades step: n(n+1)/2 hyper-dual
+    /// passes over all pairs). With S = Σ w_ij, w = r⁻³ of d = x_i − x_j: ∂w/∂d = −3r⁻⁵d,
+    /// ∂²w/∂d² = −3r⁻⁵I + 15r⁻⁷ddᵀ; g = S^{−1/2}, ∇g = −½g³∇S, ∇²g = ¾g⁵∇S∇Sᵀ − ½g³∇²S.
+    fn derivatives(&self, q: &[f64], grad: &mut [f64], mut hess: Option<&mut [f64]>) -> f64 {
+        let (d, n) = (self.space, self.bodies * self.space);
+        let fits = q.len() == n && grad.len() == n && hess.as_ref().is_none_or(|h| h.len() == n * n);
+        if !fits || d > 3 {
+            return match hess {
+                Some(h) => super::derivatives::monitor_hessian(self, q, grad, h),
+                None => super::derivatives::monitor_gradient(self, q, grad),
+            };
+        }
+        // ∇S into `grad` and ∇²S into `hess` first.
+        grad.iter_mut().for_each(|x| *x = 0.0);
+        if let Some(h) = hess.as_deref_mut() {
+            h.iter_mut().for_each(|x| *x = 0.0);
+        }
+        let mut sum = 0.0;
+        for i in 0..self.bodies {
+            for j in i + 1..self.bodies {
+                let mut x = [0.0; 3];
+                let mut r2 = 0.0;
+                for (c, xc) in x.iter_mut().enumerate().take(d) {
+                    *xc = q[i * d + c] - q[j * d + c];
+                    r2 += *xc * *xc;
+                }
+                // The same rounding as `value`.
+                let w = (r2 * r2 * r2).sqrt().recip();
+                sum += w;
+                let a = -3.0 * w / r2;
+                for c in 0..d {
+                    grad[i * d + c] += a * x[c];
+                    grad[j * d + c] -= a * x[c];
+                }
+                if let Some(h) = hess.as_deref_mut() {
+                    let b = 15.0 * w / (r2 * r2);
+                    for c in 0..d {
+                        for e in 0..d {
+                            let eye = if c == e { a } else { 0.0 };
+                            let wce = eye + b * x[c] * x[e];
+                            let (ic, jc, ie, je) = (i * d + c, j * d + c, i * d + e, j * d + e);
+                            h[ic * n + ie] += wce;
+                            h[jc * n + je] += wce;
+                            h[ic * n + je] -= wce;
+                            h[jc * n + ie] -= wce;
+                        }
+                    }
+                }
+            }
+        }
+        let g = sum.sqrt().recip();
+        let g3 = g * g * g;
+        if let Some(h) = hess {
+            let g5 = g3 * g * g;
+            for a in 0..n {
+                for b in 0..n {
+                    h[a * n + b] = 0.75 * g5 * grad[a] * grad[b] - 0.5 * g3 * h[a * n + b];
+                }
+            }
+        }
+        grad.iter_mut().for_each(|x| *x *= -0.5 * g3);
+        g
+    }
 }
 
 /// A monitor given by a math expression in the coordinates (names as in the problem, the

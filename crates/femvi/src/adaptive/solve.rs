@@ -14,9 +14,20 @@ use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::Problem;
 use crate::step::{drive, Integrator, Start, TimeGrid};
 
-/// The start as (q0, p0): from (q0, v0) by p0 = ∂L/∂v; the start from (q0, q1) is refused
-/// (q1 would be at an unknown fictitious time).
-fn start_qp<L: Lagrangian>(lag: &L, t0: f64, start: &Start) -> Result<(Vec<f64>, Vec<f64>)> {
+/// The start as (q0, p0), as [`solve_adaptive`] takes it: from (q0, v0) by p0 = ∂L/∂v; the
+/// start from (q0, q1) is refused (q1 would be at an unknown fictitious time).
+///
+/// # Errors
+/// A start from (q0, q1), or wrong lengths.
+///
+/// ```
+/// use femvi::adaptive::start_momentum;
+/// let kepler = femvi::models::kepler(1.0)?;
+/// let start = femvi::Start::Velocity { q: vec![1.0, 0.0], v: vec![0.0, 1.0] };
+/// assert_eq!(start_momentum(&kepler, 0.0, &start)?.1, vec![0.0, 1.0]);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn start_momentum<L: Lagrangian>(lag: &L, t0: f64, start: &Start) -> Result<(Vec<f64>, Vec<f64>)> {
     let n = lag.dim();
     match start {
         Start::Momentum { q, p } => {
@@ -92,9 +103,19 @@ pub fn solve_adaptive<L: Lagrangian, G: Monitor>(
         return Err(invalid("saveat", "times must be finite and strictly increasing"));
     }
     let n = lag.dim();
-    let (q0, p0) = start_qp(lag, t0, &problem.start)?;
+    let (q0, p0) = start_momentum(lag, t0, &problem.start)?;
     let mut v0 = vec![0.0; n];
-    let e0 = hamiltonian(lag, t0, &q0, &p0, &mut v0, &mut PointDerivatives::new(n))?;
+    let mut e0 = hamiltonian(lag, t0, &q0, &p0, &mut v0, &mut PointDerivatives::new(n))?;
+    if let Some(level) = options.energy_level {
+        // Only a refinement of H(q0, p0): a level far from it would be another orbit.
+        if !(level.is_finite() && (level - e0).abs() <= 1e-8 * (1.0 + e0.abs())) {
+            return Err(invalid(
+                "energy level",
+                format!("E0 = {level} is not H(q0, p0) = {e0} up to rounding"),
+            ));
+        }
+        e0 = level;
+    }
     if monitor.dim() != 0 {
         check_len("monitor", n, monitor.dim())?;
     }
