@@ -253,7 +253,7 @@ impl Run {
         self.balance.max_abs = self.balance.max_abs.max(gap);
         self.balance.max_rel = self.balance.max_rel.max(gap / scale);
         self.max_rel = self.max_rel.max((h - self.h0).abs() / scale);
-        let keep = node.k == 0 || last || (self.every > 0 && node.k % self.every == 0);
+        let keep = node.k == 0 || last || (self.every > 0 && node.k.is_multiple_of(self.every));
         if keep {
             self.push(node, v, h);
         }
