@@ -25,7 +25,7 @@ use num_dual::Dual64;
 /// // A constant force f on a linear element of step h: F_d = (h f/2, h f/2), work f Δq.
 /// let element = Element::with_order(2)?;
 /// let f = LinearForce::drive(vec![3.0], 0.0);
-/// let mut fd = [0.0; 2];
+/// let mut fd = [0.0f64; 2];
 /// let work = element_forces(&element, &f, 0.0, 0.5, &[1.0], &[0.0, 0.2], &mut fd);
 /// assert!((fd[0] - 0.75).abs() < 1e-15 && (fd[1] - 0.75).abs() < 1e-15);
 /// assert!((work - 0.6).abs() < 1e-15);

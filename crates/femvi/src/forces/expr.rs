@@ -59,8 +59,8 @@ impl ExprForces {
     ///
     /// let x = ["x".to_string()];
     /// let f = ExprForces::new(&["-c*x_dot + f0*cos(w*t)"], &x, &[("c".into(), 0.1), ("f0".into(), 2.0), ("w".into(), 0.0)])?;
-    /// let mut out = [0.0];
-    /// f.force(0.0, &[0.0], &[1.0], &mut out);
+    /// let mut out = [0.0f64];
+    /// f.force(0.0f64, &[0.0], &[1.0], &mut out);
     /// assert!((out[0] - 1.9).abs() < 1e-15);
     /// assert!(ExprForces::new(&["x", "x"], &x, &[]).is_err()); // two forces, one coordinate
     /// # Ok::<(), femvi::expr::ExprError>(())

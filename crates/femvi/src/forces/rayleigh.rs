@@ -27,8 +27,8 @@ impl Rayleigh {
     /// use femvi::forces::{Force, Rayleigh};
     ///
     /// let r = Rayleigh::new("0.5*c*x_dot^2", &["x".to_string()], &[("c".into(), 0.3)])?;
-    /// let mut f = [0.0];
-    /// r.force(0.0, &[1.0], &[2.0], &mut f);
+    /// let mut f = [0.0f64];
+    /// r.force(0.0f64, &[1.0], &[2.0], &mut f);
     /// assert!((f[0] + 0.6).abs() < 1e-15);
     /// # Ok::<(), femvi::expr::ExprError>(())
     /// ```
