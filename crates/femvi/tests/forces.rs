@@ -386,3 +386,37 @@ fn damped_oscillator_bvp_order_2s() {
     };
     assert!(solve_forced_bvp(&lag, &LinearForce::damping(1, C), &e, &bv, &line_guess(&bv, &e), opts).is_err());
 }
+
+/// The Jacobian of the discrete forces (dual numbers) is the derivative of the discrete forces
+/// by central differences, for a nonlinear force of t, q and v on a degree-3 element in 2-d.
+#[test]
+fn discrete_force_jacobian_is_the_derivative() {
+    use femvi::forces::{element_forces, element_forces_jacobian};
+    let coords = ["x".to_string(), "y".to_string()];
+    let f = ExprForces::new(&["-x_dot*y^2 + sin(t*x)", "-0.5*y_dot^3 + x*x_dot"], &coords, &[]).unwrap();
+    let element = Element::with_order(6).unwrap();
+    let (t0, h, base) = (0.3, 0.2, [0.7, -0.4]);
+    let incr: Vec<f64> = (0..8)
+        .map(|i| if i < 2 { 0.0 } else { 0.05 * (i as f64).sin() })
+        .collect();
+    let w = incr.len();
+    let (mut fd, mut jac) = (vec![0.0; w], vec![0.0; w * w]);
+    element_forces_jacobian(&element, &f, t0, h, &base, &incr, &mut fd, &mut jac);
+    let d = 1e-6;
+    for b in 0..w {
+        let (mut xp, mut xm) = (incr.clone(), incr.clone());
+        xp[b] += d;
+        xm[b] -= d;
+        let (mut fp, mut fm) = (vec![0.0; w], vec![0.0; w]);
+        element_forces(&element, &f, t0, h, &base, &xp, &mut fp);
+        element_forces(&element, &f, t0, h, &base, &xm, &mut fm);
+        for a in 0..w {
+            let fdq = (fp[a] - fm[a]) / (2.0 * d);
+            assert!(
+                (fdq - jac[a * w + b]).abs() < 1e-7 * (1.0 + fdq.abs()),
+                "J[{a}][{b}] = {} vs {fdq}",
+                jac[a * w + b]
+            );
+        }
+    }
+}
