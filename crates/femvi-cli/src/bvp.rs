@@ -1,11 +1,12 @@
 //! `femvi bvp`: solves a two-point boundary value problem by the discrete variational
-//! principle (the library's [`femvi::bvp::solve`]), from the straight line or from a
+//! principle (the library's [`femvi::bvp::solve`]; with `[forces]`,
+//! [`femvi::forces::solve_forced_bvp`]), from the straight line or from a
 //! trajectory file interpolated onto the mesh; writes trajectory.csv and summary.json and,
 //! with plots on, coordinates.svg (coordinates against t) and, with a moving mesh, steps.svg.
 
 use crate::plot::{file, lines, Format, Series};
 use crate::problem::BvpProblem;
-use femvi::bvp::{line_guess, node_times, solve, BvpOptions};
+use femvi::bvp::{line_guess, node_times, BvpOptions};
 use femvi::lagrangian::{hamiltonian, PointDerivatives};
 use femvi::Lagrangian;
 use serde::Serialize;
@@ -172,7 +173,7 @@ fn run_with<L: Lagrangian>(
         command_line: std::env::args().collect(),
         problem: problem.source.clone(),
     };
-    match solve(lag, el, bv, &guess, opts) {
+    match crate::forced::solve_bvp(lag, &problem.source, &problem.coordinates, el, bv, &guess, opts) {
         Ok(sol) => {
             let n = lag.dim();
             let mut csv = csv::Writer::from_path(dir.join("trajectory.csv")).map_err(|e| (e.to_string(), 2))?;

@@ -62,6 +62,8 @@ pub struct TwoForm {
 /// Runs the check; Err carries a message and an exit code (1 numerical, 2 input).
 pub fn check(problem: &Problem) -> Result<CheckReport, (String, u8)> {
     crate::adaptive::refuse(problem, "femvi check").map_err(|e| (e, crate::BAD_INPUT))?;
+    crate::forced::refuse(problem, "the symplecticity check (use femvi_cli::forced::check)")
+        .map_err(|e| (e, crate::BAD_INPUT))?;
     crate::with_system!(&problem.system, l => check_with(l, problem))
 }
 

@@ -2,7 +2,7 @@
 //! package) load problem files and run them exactly as the command does: [`problem`]
 //! (problem files, table by table, into library types), [`run`] (a run with its outputs as
 //! observers, [`record`]; stopped runs and resume: [`signals`], [`resume`], [`summary`],
-//! [`estimate`]), [`check`], [`convergence`], [`bvp`], [`models`] (the model
+//! [`estimate`]), [`check`], [`forced`] (problems with `[forces]`), [`convergence`], [`bvp`], [`models`] (the model
 //! catalogue's text), [`plot`]. `main.rs` is only the argument parsing and exit codes.
 
 pub mod adaptive;
@@ -14,6 +14,7 @@ pub mod convergence;
 pub mod ensemble;
 pub mod estimate;
 pub mod events;
+pub mod forced;
 pub mod models;
 pub mod plot;
 pub mod problem;

@@ -222,6 +222,14 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
         Ok(p) => p,
         Err(code) => return code,
     };
+    match femvi_cli::forced::force_of(&problem) {
+        Ok(Some(f)) => return forced_check(path, &problem, &f, json, out),
+        Ok(None) => {}
+        Err(msg) => {
+            eprintln!("error: {}: {msg}", path.display());
+            return ExitCode::from(BAD_INPUT);
+        }
+    }
     let report = match check::check(&problem) {
         Ok(r) => r,
         Err((msg, code)) => {
@@ -240,6 +248,39 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
         println!("{text}");
     } else {
         check::print(&report);
+    }
+    ExitCode::SUCCESS
+}
+
+/// `femvi check` on a problem with `[forces]`: the energy balance instead of symplecticity.
+fn forced_check(
+    path: &std::path::Path,
+    problem: &problem::Problem,
+    force: &problem::forces::ProblemForce,
+    json: bool,
+    out: Option<PathBuf>,
+) -> ExitCode {
+    let report = match femvi_cli::forced::check(problem, force) {
+        Ok(r) => r,
+        Err((msg, code)) => {
+            eprintln!("error: {}: {msg}", path.display());
+            return ExitCode::from(code);
+        }
+    };
+    let text = serde_json::to_string_pretty(&report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+    if let Some(dir) = out {
+        if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("check.json"), &text)) {
+            eprintln!("error: cannot write {}: {e}", dir.display());
+            return ExitCode::from(BAD_INPUT);
+        }
+    }
+    if json {
+        println!("{text}");
+    } else {
+        femvi_cli::forced::print(&report);
+    }
+    if report.error.is_some() {
+        return ExitCode::from(NUMERICAL);
     }
     ExitCode::SUCCESS
 }
@@ -400,7 +441,9 @@ fn cmd_run(path: &std::path::Path, set: &[String], args: RunArgs) -> ExitCode {
                     "{}: {} steps to t = {} ({}), {energy}, {:.2} solver iterations per step, {:.3} s",
                     s.name, s.steps, s.final_t, s.scheme, s.mean_solver_iterations, s.wall_seconds
                 );
-                if let Some(b) = s.max_rel_energy_balance_error {
+                if let (Some(b), Some(w)) = (s.max_rel_energy_balance_error, s.final_work) {
+                    println!("note: [forces] do work W = {w:.6e}; the energy balance H - H0 = W holds to {b:.3e} (relative, every node)");
+                } else if let Some(b) = s.max_rel_energy_balance_error {
                     println!("note: the Lagrangian depends on time, so H is not conserved; dH/dt = -dL/dt holds to {b:.3e} (relative; trapezoid rule over the nodes)");
                 }
                 if let Some(n) = s.events_located {

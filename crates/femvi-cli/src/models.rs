@@ -64,16 +64,24 @@ pub fn cmd_models(name: Option<&str>) -> ExitCode {
             );
             println!("{:<20} coordinates: {shown}; symmetries: {symmetries}", "");
         }
+        println!("\nWith non-conservative forces ([forces], expression problems):");
+        for (name, description, _) in crate::forced::models::FORCED_MODEL_FILES {
+            println!("{name:<26} {description}");
+        }
         println!("\n`femvi models NAME` prints a complete problem file for NAME.");
         return ExitCode::SUCCESS;
     };
-    match MODEL_FILES.iter().find(|(n, _)| *n == name) {
+    let forced = crate::forced::models::FORCED_MODEL_FILES
+        .iter()
+        .map(|(n, _, t)| (*n, *t));
+    match MODEL_FILES.iter().copied().chain(forced).find(|(n, _)| *n == name) {
         Some((_, text)) => {
             print!("{text}");
             ExitCode::SUCCESS
         }
         None => {
-            let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).collect();
+            let forced = crate::forced::models::FORCED_MODEL_FILES.iter().map(|(n, _, _)| *n);
+            let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).chain(forced).collect();
             eprintln!(
                 "error: unknown model '{name}'{}; built-in models: {}",
                 problem::did_you_mean(name, &names),

@@ -99,6 +99,16 @@ pub fn run_as(
         Ok(None) => {}
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     }
+    match crate::forced::force_of(problem) {
+        Ok(Some(_)) if control.resume => {
+            return Ok(Outcome::Rejected(
+                "--resume is not available for problems with [forces]".into(),
+            ))
+        }
+        Ok(Some(f)) => return crate::forced::run(problem, &f, dir, out, command),
+        Ok(None) => {}
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    }
     if problem.events.is_empty() {
         let args = RunArgs {
             problem,

@@ -65,6 +65,10 @@ pub struct Summary {
     /// `[[events]]` only: the event whose `stop = true` ended the run, or null.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stopped_by_event: Option<Option<String>>,
+    /// `[forces]` only: the discrete work of the forces at the last node (then
+    /// `max_rel_energy_balance_error` is the largest |H − H0 − W| / |H0| over every node).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub final_work: Option<f64>,
     /// The femvi version that ran the problem.
     pub femvi_version: String,
     /// The command line (program and arguments).
@@ -141,6 +145,7 @@ pub(crate) fn run_summary(
         max_rel_energy_balance_error: recorders.max_rel_energy_balance_error(),
         events_located: None,
         stopped_by_event: None,
+        final_work: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
         command_line: command.to_vec(),
         problem: problem.source.clone(),
@@ -176,6 +181,7 @@ pub(crate) fn empty_summary(problem: &Problem, clock: Instant, error: String, co
         max_rel_energy_balance_error: None,
         events_located: None,
         stopped_by_event: None,
+        final_work: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
         command_line: command.to_vec(),
         problem: problem.source.clone(),

@@ -6,7 +6,8 @@
 //! Start with [`solution`]: [`solve()`] runs a [`Problem`] to a [`Solution`] (the README has
 //! a quick start). The modules read like a table of contents: [`lagrangian`] (continuous systems),
 //! [`bvp`] (two-point boundary value problems by the discrete variational principle),
-//! [`fem`] (bases, quadrature), [`discrete`] (the element: L_d, its derivatives, discrete
+//! [`fem`] (bases, quadrature), [`forces`] (non-conservative forces, discrete
+//! Lagrange–d'Alembert), [`discrete`] (the element: L_d, its derivatives, discrete
 //! Legendre transforms and energies), [`mod@solve`] (nonlinear solvers), [`step`] (the discrete
 //! flow with time steps as parameters and as variables, checkpoints, the run driver), [`diagnostics`] (symplecticity,
 //! orders), [`expr`] (Lagrangians from math expressions) and
@@ -21,6 +22,7 @@ pub mod discrete;
 pub mod error;
 pub mod expr;
 pub mod fem;
+pub mod forces;
 pub mod lagrangian;
 pub mod models;
 pub mod solution;

@@ -14,6 +14,7 @@
 mod boundary;
 mod errors;
 pub mod events;
+pub mod forces;
 mod initial;
 mod output;
 pub mod overrides;
@@ -62,6 +63,8 @@ pub struct ProblemFile {
     /// `[[events]]`: conditions whose zeros `femvi run` locates.
     #[serde(default)]
     pub events: Vec<events::EventTable>,
+    /// `[forces]`: non-conservative forces (run by [`crate::forced`]).
+    pub forces: Option<forces::ForcesTable>,
 }
 
 /// Everything a run needs, checked.
@@ -276,6 +279,10 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
     let every = file.output.every(src)?;
     let directory = file.output.directory(&name);
     let symmetries = symmetries::resolve(file.symmetries.as_ref(), n, system.model.as_ref(), src)?;
+    if let Some(f) = &file.forces {
+        let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        f.resolve(&system.coordinates, &params, src)?;
+    }
     let common = Common {
         name,
         system,

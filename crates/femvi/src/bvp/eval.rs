@@ -7,7 +7,7 @@
 //! ([`Element::full_hessian`]).
 
 use super::layout::Layout;
-use super::BoundaryValues;
+use super::{BoundaryValues, ElementTerm};
 use crate::discrete::{Element, ElementWork};
 use crate::lagrangian::Lagrangian;
 use crate::solve::BandMatrix;
@@ -27,6 +27,8 @@ pub(super) struct Assembly<'a, L: Lagrangian> {
     pub(super) incr: Vec<f64>,
     pub(super) grad: Vec<f64>,
     pub(super) hess: Vec<f64>,
+    /// Terms added to each element's gradient and Hessian (non-conservative forces).
+    pub(super) term: Option<&'a dyn ElementTerm>,
 }
 
 impl<'a, L: Lagrangian> Assembly<'a, L> {
@@ -37,6 +39,7 @@ impl<'a, L: Lagrangian> Assembly<'a, L> {
         bv: &'a BoundaryValues,
         nodes: Vec<f64>,
         times: Vec<f64>,
+        term: Option<&'a dyn ElementTerm>,
     ) -> Self {
         let (n, s) = (lag.dim(), element.degree());
         let layout = Layout {
@@ -58,6 +61,7 @@ impl<'a, L: Lagrangian> Assembly<'a, L> {
             incr: vec![0.0; (s + 1) * n],
             grad: vec![0.0; (s + 1) * n],
             hess: vec![0.0; ((s + 1) * n).pow(2)],
+            term,
         }
     }
 }
@@ -155,6 +159,9 @@ impl<L: Lagrangian> Assembly<'_, L> {
             &mut self.grad,
             &mut self.hess,
         );
+        if let Some(term) = self.term {
+            term.add(tk, h, &self.base, &self.incr, &mut self.grad, Some(&mut self.hess));
+        }
         let w = (self.element.degree() + 1) * self.n;
         scatter(&self.layout, k, w, &self.grad, &self.hess, r, band);
         value
@@ -175,6 +182,9 @@ impl<L: Lagrangian> Assembly<'_, L> {
             &mut self.work,
             &mut self.grad,
         );
+        if let Some(term) = self.term {
+            term.add(tk, h, &self.base, &self.incr, &mut self.grad, None);
+        }
         let lead = if moving { 2 } else { 0 };
         let m = lead + (self.element.degree() + 1) * self.n;
         for a in lead..m {
@@ -257,6 +267,7 @@ mod tests {
                 incr: vec![0.0; s + 1],
                 grad: vec![0.0; s + 1],
                 hess: vec![0.0; (s + 1) * (s + 1)],
+                term: None,
             };
             let len = layout.len();
             let mut x = vec![0.0; len];

@@ -181,6 +181,28 @@ pub fn solve<L: Lagrangian>(
     guess: &[f64],
     options: BvpOptions,
 ) -> Result<BvpSolution> {
+    solve_with_term(lag, element, bv, guess, options, None)
+}
+
+/// Terms added to an element's gradient ∂L_d/∂Q (and its Hessian) in the nodal equations: the
+/// discrete forces of [`crate::forces`]. Fixed meshes only.
+pub(crate) trait ElementTerm {
+    /// Adds the term of the element [t0, t0 + h] with nodal values `base` + `incr` to `grad`
+    /// and, if given, its derivative in the nodal values to `hess` (row-major, as the
+    /// element's Hessian).
+    fn add(&self, t0: f64, h: f64, base: &[f64], incr: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>);
+}
+
+/// [`solve`] with `term` added to every element's equations (and to the discrete Legendre
+/// transforms of the end values).
+pub(crate) fn solve_with_term<L: Lagrangian>(
+    lag: &L,
+    element: &Element,
+    bv: &BoundaryValues,
+    guess: &[f64],
+    options: BvpOptions,
+    term: Option<&dyn ElementTerm>,
+) -> Result<BvpSolution> {
     let n = lag.dim();
     bv.validate(n)?;
     element.check_nondegenerate()?;
@@ -188,7 +210,7 @@ pub fn solve<L: Lagrangian>(
     let nodes = initial_nodes(n, element, bv, guess)?;
     let uniform = uniform_times(bv);
     let mut x: Vec<f64> = nodes[n..nodes.len() - n].to_vec();
-    let mut asm = Assembly::new(lag, element, bv, nodes, uniform.clone());
+    let mut asm = Assembly::new(lag, element, bv, nodes, uniform.clone(), term);
     // The fixed uniform mesh first.
     let mut iterations = newton(&mut asm, &mut x, options, |x, dx| inf_norm(dx) / qscale(bv, x))?;
     if options.moving_mesh && bv.elements > 1 {
@@ -307,6 +329,9 @@ fn end_values<L: Lagrangian>(asm: &mut Assembly<'_, L>) -> (Vec<f64>, Vec<f64>) 
             &mut asm.work,
             &mut asm.grad,
         );
+        if let Some(term) = asm.term {
+            term.add(asm.times[k], h, &asm.base, &asm.incr, &mut asm.grad, None);
+        }
         q[k * n..(k + 1) * n].copy_from_slice(&asm.base);
         for c in 0..n {
             p[k * n + c] = -asm.grad[c];

@@ -1,0 +1,177 @@
+//! Problems with a `[forces]` table (issue 19): `femvi run` integrates them with the
+//! library's [`femvi::forces::solve_forced`] (discrete Lagrange–d'Alembert, Newton with exact
+//! Jacobians) and writes trajectory.csv with a `work` column (the accumulated discrete work W
+//! of the forces, so that `energy` − energy₀ − `work` is the balance error) and summary.json
+//! with `final_work` and, as `max_rel_energy_balance_error`, the largest
+//! |H − H₀ − W| / |H₀| over every node. `femvi bvp` solves them with
+//! [`femvi::forces::solve_forced_bvp`] ([`solve_bvp`]); `femvi check` reports the energy
+//! balance instead of symplecticity (`check.rs`). Commands that cannot handle forces refuse
+//! them ([`refuse`]).
+
+mod check;
+pub mod models;
+
+pub use check::{check, print, ForcedCheck};
+
+use crate::problem::forces::{of_source, ProblemForce};
+use crate::problem::Problem;
+use crate::run::{empty_summary, finish, Outcome, RunOutput};
+use femvi::bvp::{BoundaryValues, BvpOptions, BvpSolution};
+use femvi::forces::{solve_forced, ForcedSolution};
+use femvi::{Element, Lagrangian, SolveOptions};
+use std::path::Path;
+use std::time::Instant;
+
+/// The force of a loaded problem, or None if it has no `[forces]` table.
+///
+/// # Errors
+/// A message if the problem's text does not check (it did when it was loaded).
+pub fn force_of(problem: &Problem) -> Result<Option<ProblemForce>, String> {
+    of_source(&problem.source, &problem.coordinates)
+}
+
+/// Err for a problem with `[forces]`, which `what` cannot handle.
+///
+/// # Errors
+/// The message to print (exit code 2).
+pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
+    match force_of(problem)? {
+        Some(_) => Err(format!(
+            "{what} does not support [forces] (non-conservative forces); `femvi run`, `femvi check` and `femvi bvp` do"
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Integrates the loaded `problem` (its system as `lag`) under `force` with the problem's
+/// element, grid, solver options and `every`: what `femvi run` writes.
+///
+/// # Errors
+/// The library's message for options it does not support with forces (energy mode, events, a
+/// start from (q0, q1)) or bad input.
+pub fn solve_problem<L: Lagrangian + Clone>(
+    lag: &L,
+    problem: &Problem,
+    force: &ProblemForce,
+    every: usize,
+) -> Result<ForcedSolution, String> {
+    if !problem.events.is_empty() {
+        return Err("[[events]] are not located with [forces] (yet)".into());
+    }
+    if problem.energy.is_some() {
+        return Err("[time] mode = \"energy\" is not supported with [forces] (the discrete energy is not conserved; no energy equation fixes the steps): use mode = \"fixed\"".into());
+    }
+    let p = femvi::Problem::new(
+        lag.clone(),
+        problem.start.clone(),
+        problem.grid.t0(),
+        problem.grid.end(),
+    );
+    let options = SolveOptions {
+        steps: problem.steps.clone(),
+        solver: problem.options,
+        every,
+        ..SolveOptions::step(1.0)
+    };
+    solve_forced(&p, force, &problem.element, &options).map_err(|e| e.to_string())
+}
+
+/// `femvi run` on a problem with forces (the module documentation).
+pub fn run(
+    problem: &Problem,
+    force: &ProblemForce,
+    dir: &Path,
+    out: RunOutput,
+    command: &[String],
+) -> std::io::Result<Outcome> {
+    crate::with_system!(&problem.system, l => run_with(l, problem, force, dir, out, command))
+}
+
+fn run_with<L: Lagrangian + Clone>(
+    lag: &L,
+    problem: &Problem,
+    force: &ProblemForce,
+    dir: &Path,
+    out: RunOutput,
+    command: &[String],
+) -> std::io::Result<Outcome> {
+    let clock = Instant::now();
+    if out.npy || out.plots {
+        return Ok(Outcome::Rejected(
+            "with [forces], `femvi run` writes trajectory.csv and summary.json only (no --format npy, no plots)".into(),
+        ));
+    }
+    let sol = match solve_problem(lag, problem, force, problem.every) {
+        Ok(s) => s,
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    };
+    std::fs::create_dir_all(dir)?;
+    if out.csv {
+        write_csv(dir, problem, &sol)?;
+    }
+    let s = &sol.solution;
+    let mut summary = empty_summary(problem, clock, String::new(), command);
+    let (n, last) = (s.n, s.t.len().saturating_sub(1));
+    summary.steps = s.steps;
+    summary.final_t = s.t.get(last).copied().unwrap_or(problem.grid.t0());
+    summary.final_q = s.q.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
+    summary.final_p = s.p.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
+    let report = s.energy_report;
+    summary.max_rel_energy_error = report.map_or(f64::NAN, |r| r.max_rel_error);
+    summary.energy_conserved = false;
+    summary.max_rel_energy_balance_error = Some(sol.balance.max_rel);
+    summary.final_work = sol.work.last().copied();
+    summary.mean_solver_iterations = s.mean_iterations;
+    summary.error = s.error.as_ref().map(|e| e.to_string());
+    summary.status = crate::summary::status_of(summary.error.as_deref()).into();
+    summary.wall_seconds = clock.elapsed().as_secs_f64();
+    finish(dir, summary)
+}
+
+/// trajectory.csv: step, t, q, p, energy, work at the kept nodes.
+fn write_csv(dir: &Path, problem: &Problem, sol: &ForcedSolution) -> std::io::Result<()> {
+    let s = &sol.solution;
+    let n = s.n;
+    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
+    let mut header = vec!["step".to_string(), "t".to_string()];
+    header.extend(problem.coordinates.iter().cloned());
+    header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+    header.push("energy".into());
+    header.push("work".into());
+    w.write_record(&header)?;
+    let num = |x: f64| format!("{x:?}");
+    for (i, &t) in s.t.iter().enumerate() {
+        let mut row = vec![s.step[i].to_string(), num(t)];
+        row.extend(s.q[i * n..(i + 1) * n].iter().map(|&x| num(x)));
+        row.extend(s.p[i * n..(i + 1) * n].iter().map(|&x| num(x)));
+        row.push(num(s.energy[i]));
+        row.push(num(sol.work[i]));
+        w.write_record(&row)?;
+    }
+    w.flush()
+}
+
+/// The boundary value problem's solve, with the forces of `source` (the problem's text) if it
+/// has a `[forces]` table, else the conservative [`femvi::bvp::solve`].
+///
+/// # Errors
+/// As the library's solvers; a `[forces]` table that does not check is an
+/// [`femvi::Error::Invalid`].
+pub fn solve_bvp<L: Lagrangian>(
+    lag: &L,
+    source: &str,
+    coordinates: &[String],
+    element: &Element,
+    bv: &BoundaryValues,
+    guess: &[f64],
+    options: BvpOptions,
+) -> femvi::Result<BvpSolution> {
+    let force = of_source(source, coordinates).map_err(|reason| femvi::Error::Invalid {
+        what: "[forces]".into(),
+        reason,
+    })?;
+    match force {
+        Some(f) => femvi::forces::solve_forced_bvp(lag, &f, element, bv, guess, options),
+        None => femvi::bvp::solve(lag, element, bv, guess, options),
+    }
+}

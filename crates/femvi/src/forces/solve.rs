@@ -1,0 +1,306 @@
+//! [`solve_forced`]: a run with non-conservative forces, node by node with the forced Newton
+//! step (`step.rs`), returning the usual [`Solution`] with the accumulated discrete work and
+//! the energy balance max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
+
+use super::step::{ForcedStep, Taken};
+use super::Force;
+use crate::discrete::Element;
+use crate::error::{check_len, invalid, Error, Result};
+use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
+use crate::solution::{grid, EnergyReport, Problem, Saved, Solution, SolveOptions, Steps};
+use crate::step::Start;
+
+/// How well the energy balance H(t_k) − H(t_0) = W_k holds over a run (every node).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EnergyBalance {
+    /// max_k |H_k − H_0 − W_k|.
+    pub max_abs: f64,
+    /// The same relative to |H_0| (absolute where H_0 = 0).
+    pub max_rel: f64,
+}
+
+/// A forced run: the usual solution, the discrete work at its kept nodes, and the balance.
+#[derive(Debug, Clone)]
+pub struct ForcedSolution {
+    /// The nodes (t, q, p, v, H) as [`crate::solve`] returns them; `energy_report` holds the
+    /// largest relative change of H and, as `max_rel_balance`, the balance's relative error.
+    pub solution: Solution,
+    /// W_k at the kept nodes: the work of F along the element polynomials (and −∫∂L/∂t for a
+    /// time-dependent L), by the element's quadrature, accumulated from t0.
+    pub work: Vec<f64>,
+    /// max |H_k − H_0 − W_k| over every node.
+    pub balance: EnergyBalance,
+}
+
+/// Integrates `problem` under the force `force` with `element` (discrete Lagrange–d'Alembert,
+/// Newton's method with the exact Jacobian for every step).
+///
+/// Supported options: fixed or cyclic steps, `every`, `max_steps`, the solver's tolerance and
+/// iteration cap. A numerical failure is not an `Err`: the solution then ends at the last good
+/// node with [`Solution::error`] naming the step and time.
+///
+/// # Errors
+/// Bad input: the force's dimension differs from the Lagrangian's, wrong start lengths, an
+/// invalid span or step, a degenerate element, or options that are not supported with forces
+/// (time steps as variables, `saveat`, `dense`, `events`, a start from (q0, q1)).
+///
+/// # Example
+///
+/// ```
+/// use femvi::forces::{solve_forced, LinearForce};
+/// use femvi::{models, Element, Problem, SolveOptions, Start};
+///
+/// // The damped oscillator x'' = −x − 0.2 x': the energy decays by the work of the friction.
+/// let problem = Problem::new(models::harmonic(1.0, 1.0)?, Start::Velocity { q: vec![1.0], v: vec![0.0] }, 0.0, 10.0);
+/// let sol = solve_forced(&problem, &LinearForce::damping(1, 0.2), &Element::with_order(4)?, &SolveOptions::step(0.05))?;
+/// let s = &sol.solution;
+/// assert!(s.error.is_none() && s.energy.last().unwrap() < &0.2);
+/// assert!(sol.balance.max_abs < 1e-7);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn solve_forced<L: Lagrangian, F: Force>(
+    problem: &Problem<L>,
+    force: &F,
+    element: &Element,
+    options: &SolveOptions,
+) -> Result<ForcedSolution> {
+    let lag = &problem.lagrangian;
+    let n = lag.dim();
+    check_options(options)?;
+    check_len("force", n, force.dim())?;
+    element.check_nondegenerate()?;
+    options.solver.validate()?;
+    let grid = grid(problem, &options.steps)?;
+    let (q0, p0, v0) = start(lag, &problem.start, problem.t0)?;
+    let mut stepper = ForcedStep::new(lag, force, element, options.solver)?;
+    let mut run = Run::new(n, options.every);
+    let mut node = Node {
+        k: 0,
+        t: problem.t0,
+        q: q0,
+        p: p0,
+        cq: vec![0.0; n],
+        cp: vec![0.0; n],
+        work: 0.0,
+    };
+    let mut v = v0;
+    let mut error = None;
+    let mut stopped = false;
+    let mut taken = Taken::default();
+    let mut iterations = 0usize;
+    loop {
+        let next = grid.next(node.k, node.t);
+        if let Err(e) = run.record(lag, &node, &mut v, next.is_none()) {
+            error = Some(e);
+            break;
+        }
+        let Some((h, t_next)) = next else { break };
+        if options.max_steps.is_some_and(|m| node.k >= m) {
+            stopped = true;
+            break;
+        }
+        if let Err(e) = stepper.step(node.k, node.t, h, &node.q, &node.p, &v, &mut taken) {
+            error = Some(e);
+            break;
+        }
+        iterations += taken.iterations;
+        node.advance(&taken, t_next);
+    }
+    if stopped || error.is_some() {
+        run.keep_last(&node, &v);
+    }
+    Ok(run.finish(node.k, iterations, stopped, error))
+}
+
+/// Rejects the options a forced run does not support.
+fn check_options(options: &SolveOptions) -> Result<()> {
+    let unsupported = |what: &str| {
+        Err(invalid(
+            what,
+            "not supported with non-conservative forces (femvi::forces::solve_forced)",
+        ))
+    };
+    if matches!(options.steps, Steps::Energy { .. }) {
+        return unsupported("time steps as variables (energy mode)");
+    }
+    if !options.saveat.is_empty() {
+        return unsupported("saveat");
+    }
+    if options.dense {
+        return unsupported("dense output");
+    }
+    if !options.events.is_empty() {
+        return unsupported("events");
+    }
+    Ok(())
+}
+
+/// (q0, p0, v0) from the start.
+fn start<L: Lagrangian>(lag: &L, start: &Start, t0: f64) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+    let n = lag.dim();
+    if n == 0 {
+        return Err(invalid("dimension", "the system has no coordinates (dimension 0)"));
+    }
+    let mut work = PointDerivatives::new(n);
+    match start {
+        Start::Velocity { q, v } => {
+            check_len("q0", n, q.len())?;
+            check_len("v0", n, v.len())?;
+            crate::lagrangian::check_regular(lag, t0, q, v)?;
+            lag.first_derivatives(t0, q, v, false, &mut work);
+            Ok((q.clone(), work.l_v().to_vec(), v.clone()))
+        }
+        Start::Momentum { q, p } => {
+            check_len("q0", n, q.len())?;
+            check_len("p0", n, p.len())?;
+            let mut v = vec![0.0; n];
+            crate::lagrangian::velocity_from_momentum(lag, t0, q, p, &mut v, &mut work)?;
+            Ok((q.clone(), p.clone(), v))
+        }
+        Start::Positions { .. } => Err(invalid(
+            "start",
+            "a start from (q0, q1) is not supported with forces; give [initial] v or p",
+        )),
+    }
+}
+
+/// The current node with the compensation terms of its sums.
+struct Node {
+    k: usize,
+    t: f64,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    cq: Vec<f64>,
+    cp: Vec<f64>,
+    work: f64,
+}
+
+impl Node {
+    fn advance(&mut self, taken: &Taken, t_next: f64) {
+        compensated(&mut self.q, &mut self.cq, &taken.dq);
+        compensated(&mut self.p, &mut self.cp, &taken.dp);
+        self.work += taken.work + taken.time_work;
+        self.k += 1;
+        self.t = t_next;
+    }
+}
+
+/// x += dx with Kahan's compensation in `comp`.
+fn compensated(x: &mut [f64], comp: &mut [f64], dx: &[f64]) {
+    for ((x, c), d) in x.iter_mut().zip(comp.iter_mut()).zip(dx) {
+        let y = d - *c;
+        let t = *x + y;
+        *c = (t - *x) - y;
+        *x = t;
+    }
+}
+
+/// The kept nodes and the energy balance over all nodes.
+struct Run {
+    every: usize,
+    sol: Solution,
+    work: Vec<f64>,
+    ld: PointDerivatives,
+    h0: f64,
+    balance: EnergyBalance,
+    max_rel: f64,
+    last_kept: Option<usize>,
+    /// (node index, H) of the last node recorded.
+    last_h: Option<(usize, f64)>,
+}
+
+impl Run {
+    fn new(n: usize, every: usize) -> Self {
+        Self {
+            every,
+            sol: Solution {
+                n,
+                step: vec![],
+                t: vec![],
+                q: vec![],
+                p: vec![],
+                v: vec![],
+                energy: vec![],
+                saved: Saved::default(),
+                events: vec![],
+                dense: None,
+                steps: 0,
+                mean_iterations: 0.0,
+                energy_stats: None,
+                energy_report: None,
+                stopped: false,
+                error: None,
+            },
+            work: vec![],
+            ld: PointDerivatives::new(n),
+            h0: f64::NAN,
+            balance: EnergyBalance::default(),
+            max_rel: 0.0,
+            last_kept: None,
+            last_h: None,
+        }
+    }
+
+    /// H at the node (v: warm start in, velocity out), the balance, and the node if kept.
+    fn record<L: Lagrangian>(&mut self, lag: &L, node: &Node, v: &mut [f64], last: bool) -> Result<()> {
+        let h = hamiltonian(lag, node.t, &node.q, &node.p, v, &mut self.ld)?;
+        self.last_h = Some((node.k, h));
+        if self.h0.is_nan() {
+            self.h0 = h;
+        }
+        let scale = if self.h0 != 0.0 { self.h0.abs() } else { 1.0 };
+        let gap = (h - self.h0 - node.work).abs();
+        self.balance.max_abs = self.balance.max_abs.max(gap);
+        self.balance.max_rel = self.balance.max_rel.max(gap / scale);
+        self.max_rel = self.max_rel.max((h - self.h0).abs() / scale);
+        let keep = node.k == 0 || last || (self.every > 0 && node.k.is_multiple_of(self.every));
+        if keep {
+            self.push(node, v, h);
+        }
+        Ok(())
+    }
+
+    fn push(&mut self, node: &Node, v: &[f64], h: f64) {
+        if self.last_kept == Some(node.k) {
+            return;
+        }
+        self.last_kept = Some(node.k);
+        let s = &mut self.sol;
+        s.step.push(node.k);
+        s.t.push(node.t);
+        s.q.extend_from_slice(&node.q);
+        s.p.extend_from_slice(&node.p);
+        s.v.extend_from_slice(v);
+        s.energy.push(h);
+        self.work.push(node.work);
+    }
+
+    /// After a stop or a failure, the last good node is kept (its H was recorded).
+    fn keep_last(&mut self, node: &Node, v: &[f64]) {
+        if let Some((k, h)) = self.last_h {
+            if k == node.k {
+                self.push(node, v, h);
+            }
+        }
+    }
+
+    fn finish(mut self, steps: usize, iterations: usize, stopped: bool, error: Option<Error>) -> ForcedSolution {
+        self.sol.steps = steps;
+        self.sol.mean_iterations = if steps > 0 {
+            iterations as f64 / steps as f64
+        } else {
+            0.0
+        };
+        self.sol.stopped = stopped;
+        self.sol.error = error;
+        self.sol.energy_report = Some(EnergyReport {
+            max_rel_error: self.max_rel,
+            max_rel_balance: Some(self.balance.max_rel),
+        });
+        ForcedSolution {
+            solution: self.sol,
+            work: self.work,
+            balance: self.balance,
+        }
+    }
+}
