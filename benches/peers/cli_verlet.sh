@@ -3,8 +3,8 @@
 # h = 2π/1000), degree 1 with the trapezoid rule (Störmer–Verlet, the explicit path), every
 # 10 000th node written to trajectory.csv, --quiet; the C loop (verlet.c, gcc -O2) takes the
 # same 10^7 steps once. Process CPU time of each, K alternating rounds (default 5), ratio of
-# medians (alternate.py). FEMVI=path/to/femvi skips the build (to compare two builds, pass
-# EXTRA="label=command ..." with the other binary's command line). Run by hand, not by CI.
+# medians (alternate.py). FEMVI=path/to/femvi skips the build; EXTRA="label=/other/femvi"
+# adds another build's `femvi run` on the same problem (A/B). Run by hand, not by CI.
 set -euo pipefail
 cd "$(dirname "$0")"
 root=$(cd ../.. && pwd)
@@ -34,6 +34,9 @@ end = 62831.853071795864
 directory = "$work/out"
 every = 10000
 TOML
-# shellcheck disable=SC2086
+extra=()
+if [ -n "${EXTRA:-}" ]; then
+  extra=("${EXTRA%%=*}=${EXTRA#*=} run --quiet $work/kepler.toml")
+fi
 python3 alternate.py "$k" "c_loop=$work/verlet p1 1 10000000" \
-  "femvi_run=$FEMVI run --quiet $work/kepler.toml" ${EXTRA:-}
+  "femvi_run=$FEMVI run --quiet $work/kepler.toml" "${extra[@]}"

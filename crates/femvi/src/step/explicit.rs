@@ -308,7 +308,6 @@ fn verlet_loop<L: Lagrangian, F: FnMut(Node<'_>) -> bool, const N: usize, const 
         let Some((h, t_next)) = next else { break };
         let half_h = 0.5 * h;
         let (a, b) = (half_h * c.hprev, half_h * (c.hprev + h));
-        let prev = (c.q, c.p, c.cq, c.cp, c.pending);
         drift::<N, IDENTITY>(
             mass,
             [h, a, b],
@@ -318,12 +317,14 @@ fn verlet_loop<L: Lagrangian, F: FnMut(Node<'_>) -> bool, const N: usize, const 
             &mut dq,
             &mut y,
         );
-        // The pending increment joins the compensated sum off the critical path.
+        // The new carried values go to locals and are committed once the step is known to be
+        // finite (no copy of the old ones to roll back to). The pending increment joins the
+        // compensated sum off the critical path.
+        let (mut p, mut cp, mut q, mut cq) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
         for i in 0..N {
             let yp = c.pending[i] + c.cp[i];
-            let tp = c.p[i] + yp;
-            c.cp[i] = (c.p[i] - tp) + yp;
-            c.p[i] = tp;
+            p[i] = c.p[i] + yp;
+            cp[i] = (c.p[i] - p[i]) + yp;
         }
         lag.force(t + h, &y, &mut f1);
         // x·0 is NaN exactly when x is not finite: one sum tells whether all are.
@@ -331,19 +332,17 @@ fn verlet_loop<L: Lagrangian, F: FnMut(Node<'_>) -> bool, const N: usize, const 
         for i in 0..N {
             dp[i] = half_h * (c.f0[i] + f1[i]);
             let yq = dq[i] + c.cq[i];
-            let tq = c.q[i] + yq;
-            c.cq[i] = (c.q[i] - tq) + yq;
-            c.q[i] = tq;
-            c.pending[i] = dp[i];
-            probe += dp[i] * 0.0 + tq * 0.0;
+            q[i] = c.q[i] + yq;
+            cq[i] = (c.q[i] - q[i]) + yq;
+            probe += dp[i] * 0.0 + q[i] * 0.0;
         }
         if probe.is_nan() {
-            (c.q, c.p, c.cq, c.cp, c.pending) = prev;
             end.failed = true;
             break;
         }
-        end.last_q = prev.0;
+        end.last_q = c.q;
         end.last_dq = dq;
+        (c.p, c.cp, c.q, c.cq, c.pending) = (p, cp, q, cq, dp);
         c.fprev = c.f0;
         wprev = w;
         c.hprev = h;
@@ -354,12 +353,16 @@ fn verlet_loop<L: Lagrangian, F: FnMut(Node<'_>) -> bool, const N: usize, const 
         k1 += 1.0;
         t = t_next;
         end.done += 1;
-        // The node's momentum as `store` materialises it (dead code when `at_node` ignores it).
+        // The node's momentum as `store` materialises it (dead code when `at_node` ignores it),
+        // and a copy of q: `at_node` borrows copies, so that the carried values never have
+        // their address taken and stay in registers (f_k through memory would add a store and
+        // a load to the step's dependency chain).
         let mut p = [0.0; N];
         for i in 0..N {
             p[i] = c.p[i] + (c.pending[i] + c.cp[i]);
         }
-        let node = Node { k, t, q: &c.q, p: &p };
+        let q = c.q;
+        let node = Node { k, t, q: &q, p: &p };
         if !at_node(node) {
             break;
         }
