@@ -6,7 +6,9 @@
 //! the progress bar, flushes, time-based checkpoints and the stop signals are looked at when a
 //! chunk ends ([`Recorders::boundary`]). The nodes, rows and summary are those of
 //! [`femvi::step::drive`] with the same recorders, bit for bit; only the moments a signal is
-//! noticed and a time-based checkpoint is written move to the chunks' ends.
+//! noticed and a time-based checkpoint is written move to the chunks' ends. Energy mode, whose
+//! discrete energy is checked at every node too, goes a step at a time through
+//! [`Observer::node`].
 
 use super::Recorders;
 use femvi::step::{DriveReport, Observer};
@@ -56,19 +58,24 @@ pub fn drive_in_chunks<L: Lagrangian>(lag: &L, it: &mut Integrator<'_, L>, rec: 
     let mut stopped = Observer::<L>::stop(rec);
     let mut cap = Cap::new();
     while error.is_none() && !stopped {
-        let n = rec.chunk(it.node().k, cap.len);
+        let chunked = rec.chunked();
         let mut failed = None;
-        let advanced = it.advance_observed(
-            n,
-            #[inline(always)]
-            |node| match rec.each_node(lag, node, 0.0) {
-                Ok(()) => true,
-                Err(e) => {
-                    failed = Some(e);
-                    false
-                }
-            },
-        );
+        let advanced = if chunked {
+            let n = rec.chunk(it.node().k, cap.len);
+            it.advance_observed(
+                n,
+                #[inline(always)]
+                |node| match rec.each_node(lag, node, 0.0) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        failed = Some(e);
+                        false
+                    }
+                },
+            )
+        } else {
+            it.advance(1)
+        };
         match advanced {
             Ok(0) => break,
             Ok(done) => {
@@ -77,7 +84,13 @@ pub fn drive_in_chunks<L: Lagrangian>(lag: &L, it: &mut Integrator<'_, L>, rec: 
                     error = Some(e);
                     break;
                 }
-                error = rec.boundary(it, it.finished()).err();
+                let last = it.finished();
+                error = if chunked {
+                    rec.boundary(it, last)
+                } else {
+                    Observer::node(rec, it, last)
+                }
+                .err();
                 stopped = Observer::<L>::stop(rec);
                 cap.after(done);
             }

@@ -255,6 +255,12 @@ impl<'a> Recorders<'a> {
         self.resumed.map_or(0, |(s, _)| s) + k.saturating_sub(self.first_k.unwrap_or(k))
     }
 
+    /// Whether the run may be driven in chunks (not in energy mode: its nodes go through
+    /// [`Observer::node`], which also checks the discrete energy).
+    pub(super) fn chunked(&self) -> bool {
+        self.chunked
+    }
+
     /// How many steps the next chunk of a run at node `k` may take, at most `cap`: up to the
     /// next node the trajectory keeps and the next checkpoint due by step count (1 in energy
     /// mode).
