@@ -1,6 +1,6 @@
 /* The baseline of the work-precision benchmarks: a hand-written Störmer-Verlet loop (gcc -O2),
- * P1 (Kepler) or P3 (pendulum), run REPS times (argument 2, default 3) keeping the least time;
- * prints "verlet,PROBLEM,c loop,h,steps,cpu_seconds,ns_per_step". */
+ * P1 (Kepler) or P3 (pendulum), run REPS times (argument 2, default 3) keeping the least time,
+ * STEPS steps (argument 3, default 10^6 for P1 and 10^7 for P3); prints "verlet,PROBLEM,c loop,h,steps,cpu_seconds,ns_per_step". */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -17,7 +17,7 @@ int main(int argc, char **argv) {
     int kepler = argc > 1 && strcmp(argv[1], "p1") == 0;
     int reps = argc > 2 ? atoi(argv[2]) : 3;
     double h = kepler ? 2 * M_PI / 1000 : 0.01;
-    long steps = kepler ? 1000000 : 10000000;
+    long steps = argc > 3 ? atol(argv[3]) : kepler ? 1000000 : 10000000;
     double best = 1e300, x = 0, y = 0, px = 0, py = 0;
     for (int rep = 0; rep < (reps > 0 ? reps : 1); rep++) {
         x = kepler ? 0.4 : 0.0; y = 0; px = kepler ? 0 : 1.5; py = kepler ? 2 : 0;

@@ -1,7 +1,7 @@
 //! `femvi run` on a loaded problem: builds its integrator, checks the output estimate
 //! ([`crate::estimate`]), attaches the outputs ([`Recorders`]: trajectory.csv and .npy
 //! streamed as the run goes, plots, the energy error, the progress bar, checkpoints), drives
-//! the run with [`femvi::step::drive`] and writes summary.json ([`crate::summary`]): with
+//! the run in chunks of steps ([`crate::record::drive_in_chunks`]) and writes summary.json ([`crate::summary`]): with
 //! `"status": "running"` at the start, and at the end (also after a failure or a stop by a
 //! signal, with the error). With [`RunControl::resume`] it continues a stopped run from its
 //! checkpoint ([`crate::resume`]), bit for bit. A problem with `[[events]]` is driven by the
@@ -12,7 +12,6 @@ use crate::problem::Problem;
 use crate::record::{Checkpointing, Recorders};
 use crate::resume::{self, Policy};
 use crate::signals::{self, Signal};
-use femvi::step::drive;
 use femvi::{Integrator, Lagrangian};
 use std::path::Path;
 use std::time::Instant;
@@ -216,7 +215,7 @@ fn run_with<L: Lagrangian>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<Outcome>
         write_summary(dir, &running_summary(problem, clock, command))?;
         Recorders::start(problem, dir, out, lag.dim(), resumable.ok().map(|_| checkpointing))?
     };
-    let report = drive(&mut it, &mut recorders.observers());
+    let report = crate::record::drive_in_chunks(lag, &mut it, &mut recorders);
     if let Some(e) = recorders.write_failure() {
         return Err(e);
     }

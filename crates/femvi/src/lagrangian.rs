@@ -176,6 +176,7 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         self.potential.dim()
     }
 
+    #[inline]
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
         let mut kin = D::from(0.0);
         match (self.mass.diagonal_entries(), self.mass.dense_entries()) {

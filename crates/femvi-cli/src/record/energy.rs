@@ -6,7 +6,7 @@
 
 use femvi::solution::EnergyTracker;
 pub use femvi::solution::NodeEnergy;
-use femvi::step::Observer;
+use femvi::step::{Node, Observer};
 use femvi::{Integrator, Lagrangian, Start};
 use std::cell::Cell;
 use std::rc::Rc;
@@ -61,11 +61,27 @@ impl EnergyError {
     }
 }
 
+impl EnergyError {
+    /// The energy H at `node` of a run of `lag`, which becomes the tracker's current one;
+    /// [`EnergyError::current`] shows it after [`EnergyError::publish`].
+    ///
+    /// # Errors
+    /// As [`EnergyTracker::node`].
+    #[inline(always)]
+    pub fn at<L: Lagrangian>(&mut self, lag: &L, node: Node<'_>) -> femvi::Result<f64> {
+        Ok(self.tracker.node(lag, node.t, node.q, node.p)?.h)
+    }
+
+    /// Shows the last node's energy and relative error to the writers ([`EnergyError::current`]).
+    pub fn publish(&self) {
+        self.current.set(self.tracker.current());
+    }
+}
+
 impl<L: Lagrangian> Observer<L> for EnergyError {
     fn node(&mut self, it: &Integrator<'_, L>, _last: bool) -> femvi::Result<()> {
-        let node = it.node();
-        let e = self.tracker.node(it.lagrangian(), node.t, node.q, node.p)?;
-        self.current.set(e);
+        self.at(it.lagrangian(), it.node())?;
+        self.publish();
         Ok(())
     }
 }

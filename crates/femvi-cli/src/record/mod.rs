@@ -1,10 +1,12 @@
 //! What `femvi run` records as it goes: one [`Observer`](femvi::step::Observer) per output,
-//! driven by [`femvi::step::drive`]. The relative energy error ([`EnergyError`]) is computed
+//! driven in chunks of steps by [`drive_in_chunks`] (or node by node by
+//! [`femvi::solution::solve_with`] for runs with events). The relative energy error ([`EnergyError`]) is computed
 //! once per node and shared with the trajectory writers ([`CsvRows`], [`NpyRows`],
 //! [`PlotData`]), so [`Recorders`] runs them in the order they must run, stops the run at the
 //! first non-finite node, flushes the rows at least every second ([`Pacer`]) and writes the
 //! checkpoints; [`Progress`] draws the bar.
 
+mod chunks;
 mod csv_rows;
 mod energy;
 mod npy_rows;
@@ -13,6 +15,7 @@ mod plot_data;
 mod progress;
 mod recorders;
 
+pub use chunks::drive_in_chunks;
 pub use csv_rows::CsvRows;
 pub use energy::{EnergyError, NodeEnergy};
 pub use npy_rows::{write_table, NpyRows};

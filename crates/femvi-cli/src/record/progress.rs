@@ -14,6 +14,8 @@ pub struct Progress {
     bar: Option<indicatif::ProgressBar>,
     /// Nodes seen, the start node included.
     nodes: u64,
+    /// The bar is next updated at this many steps or later.
+    next: u64,
 }
 
 impl Progress {
@@ -32,14 +34,18 @@ impl Progress {
             clock: Instant::now(),
             bar: None,
             nodes: 0,
+            next: 0,
         }
     }
 
-    /// Shows `steps` steps done, reaching time `t` (every 256 steps).
-    fn update(&mut self, steps: u64, t: f64) {
-        if !self.enabled || (steps & 255) != 0 {
+    /// Shows `steps` steps done, reaching time `t`, when at least 256 steps have passed
+    /// since it last did.
+    pub fn show(&mut self, steps: usize, t: f64) {
+        let steps = steps as u64;
+        if !self.enabled || steps < self.next {
             return;
         }
+        self.next = steps + 256;
         if self.bar.is_none() && self.clock.elapsed().as_secs_f64() > 1.0 {
             let bar =
                 indicatif::ProgressBar::with_draw_target(Some(self.total), indicatif::ProgressDrawTarget::stderr());
@@ -61,7 +67,7 @@ impl<L: Lagrangian> Observer<L> for Progress {
     fn node(&mut self, it: &Integrator<'_, L>, _last: bool) -> femvi::Result<()> {
         self.nodes += 1;
         if self.nodes > 1 {
-            self.update(self.nodes - 1, it.node().t);
+            self.show((self.nodes - 1) as usize, it.node().t);
         }
         Ok(())
     }

@@ -11,7 +11,7 @@ use crate::problem::Problem;
 use crate::resume::{self, EnergySaved, Policy, RunCheckpoint};
 use crate::run::RunOutput;
 use crate::signals::{self, Signal};
-use femvi::step::Observer;
+use femvi::step::{Node, Observer};
 use femvi::{Integrator, Lagrangian};
 use std::cell::Cell;
 use std::path::Path;
@@ -56,8 +56,16 @@ pub struct Recorders<'a> {
     /// The energy tracker was restored from a checkpoint: the first node shown (the
     /// checkpoint's) is already in it.
     restored: bool,
-    /// Nodes seen by this process (on resume, the checkpoint's node first).
+    /// Nodes recorded by this process (on resume, the checkpoint's node first); in a run
+    /// driven in chunks ([`super::drive_in_chunks`]), the chunks' last nodes.
     nodes: usize,
+    /// The index k of the first node shown (steps are counted from it).
+    first_k: Option<usize>,
+    /// The trajectory keeps every `every`-th node: the chunks end there.
+    every: usize,
+    /// Whether the run may be driven in chunks (not in energy mode, whose discrete energy is
+    /// checked at every node).
+    chunked: bool,
     good: Good,
     signal: Option<Signal>,
 }
@@ -129,6 +137,9 @@ impl<'a> Recorders<'a> {
             resumed: None,
             restored: false,
             nodes: 0,
+            first_k: None,
+            every: problem.every.max(1),
+            chunked: problem.energy.is_none(),
             good: Good {
                 steps: 0,
                 t: f64::NAN,
@@ -193,6 +204,9 @@ impl<'a> Recorders<'a> {
             resumed: Some((cp.steps, f64::from_bits(cp.energy.max_rel_bits))),
             restored: !cp.energy.tracker.is_empty(),
             nodes: 0,
+            first_k: None,
+            every: problem.every.max(1),
+            chunked: problem.energy.is_none(),
             good: Good {
                 steps: cp.steps,
                 t: cp.integrator.t,
@@ -235,10 +249,77 @@ impl<'a> Recorders<'a> {
         (self.good.steps, self.good.t, &self.good.q, &self.good.p)
     }
 
-    /// Steps up to the node being recorded, counted from the start of the first run.
+    /// Steps up to node `k`, counted from the start of the first run.
     #[inline]
-    fn steps(&self) -> usize {
-        self.resumed.map_or(0, |(s, _)| s) + self.nodes.saturating_sub(1)
+    fn steps_at(&self, k: usize) -> usize {
+        self.resumed.map_or(0, |(s, _)| s) + k.saturating_sub(self.first_k.unwrap_or(k))
+    }
+
+    /// Whether the run may be driven in chunks (not in energy mode: its nodes go through
+    /// [`Observer::node`], which also checks the discrete energy).
+    pub(super) fn chunked(&self) -> bool {
+        self.chunked
+    }
+
+    /// How many steps the next chunk of a run at node `k` may take, at most `cap`: up to the
+    /// next node the trajectory keeps and the next checkpoint due by step count (1 in energy
+    /// mode).
+    pub(super) fn chunk(&self, k: usize, cap: usize) -> usize {
+        if !self.chunked {
+            return 1;
+        }
+        let mut n = cap.min(self.every - k % self.every);
+        if let Some(e) = self.checkpoints.as_ref().and_then(|c| c.policy.every_steps) {
+            if e > 0 {
+                n = n.min(e - self.steps_at(k) % e);
+            }
+        }
+        n.max(1)
+    }
+
+    /// What every node needs, inside a chunk too: its energy, the check that it is finite,
+    /// and the copy of the last good node. `discrete` is energy mode's discrete energy (0
+    /// otherwise).
+    #[inline(always)]
+    pub(super) fn each_node<L: Lagrangian>(&mut self, lag: &L, node: Node<'_>, discrete: f64) -> femvi::Result<()> {
+        self.first_k.get_or_insert(node.k);
+        let h = if self.restored {
+            self.restored = false;
+            self.current.get().h
+        } else {
+            self.energy.at(lag, node)?
+        };
+        check_finite(&node, h, discrete)?;
+        self.good.steps = self.steps_at(node.k);
+        self.good.t = node.t;
+        if self.good.q.len() == node.q.len() && self.good.p.len() == node.p.len() {
+            // Element by element: a few numbers, not worth a call to memmove at every node.
+            self.good.q.iter_mut().zip(node.q).for_each(|(g, x)| *g = *x);
+            self.good.p.iter_mut().zip(node.p).for_each(|(g, x)| *g = *x);
+        } else {
+            self.good.q = node.q.to_vec();
+            self.good.p = node.p.to_vec();
+        }
+        Ok(())
+    }
+
+    /// What the node ending a chunk needs after [`Self::each_node`]: the progress bar, the
+    /// outputs, flushes and checkpoints (`last`: the grid's final node).
+    pub(super) fn boundary<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        self.nodes += 1;
+        self.energy.publish();
+        let node = it.node();
+        self.progress.show(self.steps_at(node.k), node.t);
+        if let Some(csv) = self.csv.as_mut() {
+            csv.node(it, last)?;
+        }
+        if let Some(npy) = self.npy.as_mut() {
+            npy.node(it, last)?;
+        }
+        if let Some(plots) = self.plots.as_mut() {
+            plots.node(it, last)?;
+        }
+        self.pace(it, last)
     }
 
     /// Puts the buffered rows on disk.
@@ -261,7 +342,7 @@ impl<'a> Recorders<'a> {
                 femvi_version: env!("CARGO_PKG_VERSION").to_string(),
                 problem_sha256: c.tag.clone(),
                 outputs: c.outputs.clone(),
-                steps: self.steps(),
+                steps: self.steps_at(it.node().k),
                 csv_bytes,
                 npy_rows: npy?,
                 energy: EnergySaved {
@@ -278,7 +359,7 @@ impl<'a> Recorders<'a> {
 
     /// Flushes and checkpoints when due, after node `it` (`last`: the grid's final node).
     fn pace<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
-        let steps = self.steps();
+        let steps = self.steps_at(it.node().k);
         let mut checkpoint = match (&self.checkpoints, self.nodes) {
             (None, _) => false,
             (Some(_), 1) => self.resumed.is_none(),
@@ -310,15 +391,34 @@ fn resumed_energy<L: Lagrangian>(problem: &Problem, fresh: &Integrator<'_, L>) -
     Ok(energy)
 }
 
-/// An error if the node `it` is at, or its energy `h`, is not finite.
-#[inline]
-fn check_finite<L: Lagrangian>(it: &Integrator<'_, L>, h: f64) -> femvi::Result<()> {
-    let node = it.node();
-    // The discrete energy of energy mode is fixed by the first step: NaN (undefined) before.
-    let discrete = match it.energy_stats() {
-        Some(s) if node.k > 0 => s.energy,
+/// The discrete energy of energy mode at the node `it` is at (0 otherwise): fixed by the
+/// first step, NaN (undefined) before.
+fn discrete_energy<L: Lagrangian>(it: &Integrator<'_, L>) -> f64 {
+    match it.energy_stats() {
+        Some(s) if it.node().k > 0 => s.energy,
         _ => 0.0,
-    };
+    }
+}
+
+/// An error if `node`, its energy `h` or the discrete energy is not finite.
+#[inline(always)]
+fn check_finite(node: &Node<'_>, h: f64, discrete: f64) -> femvi::Result<()> {
+    // x·0 is NaN exactly when x is not finite: one sum tells whether all are.
+    let probe = node
+        .q
+        .iter()
+        .chain(node.p)
+        .fold(node.t * 0.0 + h * 0.0 + discrete * 0.0, |s, x| s + x * 0.0);
+    if !probe.is_nan() {
+        return Ok(());
+    }
+    not_finite(node, h, discrete)
+}
+
+/// The error of [`check_finite`].
+#[cold]
+#[inline(never)]
+fn not_finite(node: &Node<'_>, h: f64, discrete: f64) -> femvi::Result<()> {
     let finite = node.t.is_finite() && node.q.iter().chain(node.p).all(|x| x.is_finite());
     if finite && h.is_finite() && discrete.is_finite() {
         return Ok(());
@@ -332,34 +432,8 @@ fn check_finite<L: Lagrangian>(it: &Integrator<'_, L>, h: f64) -> femvi::Result<
 
 impl<L: Lagrangian> Observer<L> for Recorders<'_> {
     fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
-        self.nodes += 1;
-        self.progress.node(it, last)?;
-        if self.restored {
-            self.restored = false;
-        } else {
-            self.energy.node(it, last)?;
-        }
-        check_finite(it, self.current.get().h)?;
-        let node = it.node();
-        self.good.steps = self.steps();
-        self.good.t = node.t;
-        if self.good.q.len() == node.q.len() && self.good.p.len() == node.p.len() {
-            self.good.q.copy_from_slice(node.q);
-            self.good.p.copy_from_slice(node.p);
-        } else {
-            self.good.q = node.q.to_vec();
-            self.good.p = node.p.to_vec();
-        }
-        if let Some(csv) = self.csv.as_mut() {
-            csv.node(it, last)?;
-        }
-        if let Some(npy) = self.npy.as_mut() {
-            npy.node(it, last)?;
-        }
-        if let Some(plots) = self.plots.as_mut() {
-            plots.node(it, last)?;
-        }
-        self.pace(it, last)
+        self.each_node(it.lagrangian(), it.node(), discrete_energy(it))?;
+        self.boundary(it, last)
     }
 
     fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&femvi::Error>) -> femvi::Result<()> {

@@ -60,8 +60,15 @@ pub struct EnergyTracker {
     v: Vec<f64>,
     work: PointDerivatives,
     e0: f64,
-    max_rel: f64,
+    /// The largest |H − H0| since the start or the last restore: the largest relative error
+    /// is this over |H0| (division rounds monotonically, so the quotient of the maximum is the
+    /// maximum of the quotients, bit for bit), which saves a division per node.
+    max_dev: f64,
+    /// The largest relative error restored from a checkpoint (0 otherwise).
+    max_rel_floor: f64,
+    /// The last node's energy; its `rel` is computed when asked for if `rel_stale`.
     current: NodeEnergy,
+    rel_stale: bool,
     balance: Option<Balance>,
 }
 
@@ -77,8 +84,10 @@ impl EnergyTracker {
             v,
             work: PointDerivatives::new(dim),
             e0: f64::NAN,
-            max_rel: 0.0,
+            max_dev: 0.0,
+            max_rel_floor: 0.0,
             current: NodeEnergy::default(),
+            rel_stale: false,
             balance: (!autonomous).then_some(Balance {
                 last: None,
                 work: 0.0,
@@ -92,6 +101,10 @@ impl EnergyTracker {
     /// # Errors
     /// As [`hamiltonian`]: the Legendre transform cannot be inverted there, or the lengths
     /// are not the tracker's dimension.
+    ///
+    /// Inlined (its rare parts are not), so that a caller's loop over nodes (the command's
+    /// explicit fast path) keeps the mechanical case in registers.
+    #[inline(always)]
     pub fn node<L: Lagrangian>(&mut self, lag: &L, t: f64, q: &[f64], p: &[f64]) -> Result<NodeEnergy> {
         let n = self.v.len();
         let h = match lag.mass_matrix() {
@@ -103,34 +116,63 @@ impl EnergyTracker {
                 let pv: f64 = p.iter().zip(self.v.iter()).map(|(a, b)| a * b).sum();
                 pv - lag.value(t, q, &self.v)
             }
-            _ => hamiltonian(lag, t, q, p, &mut self.v, &mut self.work)?,
+            _ => self.general(lag, t, q, p)?,
         };
         if self.e0.is_nan() {
             self.e0 = h;
         }
-        let rel = if self.e0 != 0.0 {
-            ((h - self.e0) / self.e0).abs()
-        } else {
-            (h - self.e0).abs()
-        };
-        self.max_rel = self.max_rel.max(rel);
-        self.current = NodeEnergy { h, rel };
-        if let Some(b) = self.balance.as_mut() {
-            lag.first_derivatives(t, q, &self.v, true, &mut self.work);
-            let lt = self.work.l_t();
-            if let Some((t0, lt0)) = b.last {
-                b.work -= 0.5 * (t - t0) * (lt + lt0);
-            }
-            b.last = Some((t, lt));
-            let scale = if self.e0 != 0.0 { self.e0.abs() } else { 1.0 };
-            b.max_rel = b.max_rel.max((h - self.e0 - b.work).abs() / scale);
+        self.max_dev = self.max_dev.max((h - self.e0).abs());
+        self.current.h = h;
+        self.rel_stale = true;
+        if self.balance.is_some() {
+            self.balance_at(lag, t, q, h);
         }
-        Ok(self.current)
+        // The caller that does not read `rel` (the command between written nodes) does not
+        // pay its division.
+        Ok(self.current())
+    }
+
+    /// |H − H0| relative to |H0| (itself where H0 = 0).
+    #[inline(always)]
+    fn relative(&self, dev: f64) -> f64 {
+        if self.e0 != 0.0 {
+            dev / self.e0.abs()
+        } else {
+            dev
+        }
+    }
+
+    /// H by [`hamiltonian`] (any Lagrangian).
+    #[inline(never)]
+    fn general<L: Lagrangian>(&mut self, lag: &L, t: f64, q: &[f64], p: &[f64]) -> Result<f64> {
+        hamiltonian(lag, t, q, p, &mut self.v, &mut self.work)
+    }
+
+    /// The energy balance of a time-dependent L at the node (t, q) with energy h.
+    #[inline(never)]
+    fn balance_at<L: Lagrangian>(&mut self, lag: &L, t: f64, q: &[f64], h: f64) {
+        let Some(b) = self.balance.as_mut() else { return };
+        lag.first_derivatives(t, q, &self.v, true, &mut self.work);
+        let lt = self.work.l_t();
+        if let Some((t0, lt0)) = b.last {
+            b.work -= 0.5 * (t - t0) * (lt + lt0);
+        }
+        b.last = Some((t, lt));
+        let scale = if self.e0 != 0.0 { self.e0.abs() } else { 1.0 };
+        b.max_rel = b.max_rel.max((h - self.e0 - b.work).abs() / scale);
     }
 
     /// The energy of the last node shown (zeros before the first).
+    #[inline(always)]
     pub fn current(&self) -> NodeEnergy {
-        self.current
+        if self.rel_stale {
+            NodeEnergy {
+                h: self.current.h,
+                rel: self.relative((self.current.h - self.e0).abs()),
+            }
+        } else {
+            self.current
+        }
     }
 
     /// The velocity at the last node shown (the inverse Legendre transform of its momentum).
@@ -141,7 +183,7 @@ impl EnergyTracker {
     /// The largest errors so far (0 before the first node).
     pub fn report(&self) -> EnergyReport {
         EnergyReport {
-            max_rel_error: self.max_rel,
+            max_rel_error: self.max_rel_floor.max(self.relative(self.max_dev)),
             max_rel_balance: self.balance.map(|b| b.max_rel),
         }
     }
@@ -152,11 +194,12 @@ impl EnergyTracker {
     pub fn words(&self) -> Vec<u64> {
         let b = self.balance;
         let last = b.and_then(|b| b.last);
+        let current = self.current();
         let mut w = vec![
             self.e0.to_bits(),
-            self.max_rel.to_bits(),
-            self.current.h.to_bits(),
-            self.current.rel.to_bits(),
+            self.report().max_rel_error.to_bits(),
+            current.h.to_bits(),
+            current.rel.to_bits(),
             u64::from(b.is_some()),
             u64::from(last.is_some()),
             last.map_or(0, |l| l.0.to_bits()),
@@ -183,8 +226,10 @@ impl EnergyTracker {
             ));
         }
         self.e0 = f(0);
-        self.max_rel = f(1);
+        self.max_rel_floor = f(1);
+        self.max_dev = 0.0;
         self.current = NodeEnergy { h: f(2), rel: f(3) };
+        self.rel_stale = false;
         if let Some(b) = self.balance.as_mut() {
             b.last = (words[5] == 1).then(|| (f(6), f(7)));
             b.work = f(8);

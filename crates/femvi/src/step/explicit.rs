@@ -7,7 +7,7 @@
 
 use super::checkpoint::{Reader, Words};
 use super::grid::TimeGrid;
-use super::state::{Increments, LastElement, RunState};
+use super::state::{Increments, LastElement, Node, RunState};
 use crate::error::{Error, Result, StepError, StepFailure};
 use crate::lagrangian::{Lagrangian, MassMatrix};
 
@@ -149,7 +149,12 @@ impl ExplicitStep {
     /// compensated update of `RunState::commit`. Any split of a run into calls gives the same
     /// numbers (the lazy state persists); tests compare it with a hand-written variable-step
     /// Verlet loop and with Newton's method on the element equations.
-    pub(crate) fn advance<L: Lagrangian, const N: usize, const IDENTITY: bool>(
+    ///
+    /// `at_node` sees every node reached, (k, t, q, p) with p materialised exactly as the
+    /// state would hold it; returning false stops the loop after that node. Its work does not
+    /// feed the step's dependency chain, so the processor overlaps the two.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn advance<L: Lagrangian, F: FnMut(Node<'_>) -> bool, const N: usize, const IDENTITY: bool>(
         &mut self,
         lag: &L,
         mass: &MassMatrix,
@@ -157,10 +162,11 @@ impl ExplicitStep {
         state: &mut RunState,
         last: &mut LastElement,
         max_steps: usize,
+        at_node: &mut F,
     ) -> Result<usize> {
         let mut c = self.load::<L, N>(lag, state);
         let (k0, t0) = (state.k, state.t);
-        let run = verlet_loop::<L, N, IDENTITY>(lag, mass, grid, &mut c, k0, t0, max_steps);
+        let run = verlet_loop::<L, F, N, IDENTITY>(lag, mass, grid, &mut c, (k0, t0), max_steps, at_node);
         self.store(&mut c, state);
         state.steps += run.done;
         if run.done > 0 {
@@ -265,14 +271,14 @@ struct LoopEnd<const N: usize> {
 /// sums (against three products and four sums through P_k), which put this loop within the
 /// hand-written loop's time.
 #[inline(always)]
-fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
+fn verlet_loop<L: Lagrangian, F: FnMut(Node<'_>) -> bool, const N: usize, const IDENTITY: bool>(
     lag: &L,
     mass: &MassMatrix,
     grid: &TimeGrid,
     cr: &mut Carry<N>,
-    k0: usize,
-    t0: f64,
+    (k0, t0): (usize, f64),
     max_steps: usize,
+    at_node: &mut F,
 ) -> LoopEnd<N> {
     let mut c = *cr;
     let (mut f1, mut y, mut dq, mut dp) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
@@ -302,7 +308,6 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
         let Some((h, t_next)) = next else { break };
         let half_h = 0.5 * h;
         let (a, b) = (half_h * c.hprev, half_h * (c.hprev + h));
-        let prev = (c.q, c.p, c.cq, c.cp, c.pending);
         drift::<N, IDENTITY>(
             mass,
             [h, a, b],
@@ -312,12 +317,14 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
             &mut dq,
             &mut y,
         );
-        // The pending increment joins the compensated sum off the critical path.
+        // The new carried values go to locals and are committed once the step is known to be
+        // finite (no copy of the old ones to roll back to). The pending increment joins the
+        // compensated sum off the critical path.
+        let (mut p, mut cp, mut q, mut cq) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
         for i in 0..N {
             let yp = c.pending[i] + c.cp[i];
-            let tp = c.p[i] + yp;
-            c.cp[i] = (c.p[i] - tp) + yp;
-            c.p[i] = tp;
+            p[i] = c.p[i] + yp;
+            cp[i] = (c.p[i] - p[i]) + yp;
         }
         lag.force(t + h, &y, &mut f1);
         // x·0 is NaN exactly when x is not finite: one sum tells whether all are.
@@ -325,19 +332,17 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
         for i in 0..N {
             dp[i] = half_h * (c.f0[i] + f1[i]);
             let yq = dq[i] + c.cq[i];
-            let tq = c.q[i] + yq;
-            c.cq[i] = (c.q[i] - tq) + yq;
-            c.q[i] = tq;
-            c.pending[i] = dp[i];
-            probe += dp[i] * 0.0 + tq * 0.0;
+            q[i] = c.q[i] + yq;
+            cq[i] = (c.q[i] - q[i]) + yq;
+            probe += dp[i] * 0.0 + q[i] * 0.0;
         }
         if probe.is_nan() {
-            (c.q, c.p, c.cq, c.cp, c.pending) = prev;
             end.failed = true;
             break;
         }
-        end.last_q = prev.0;
+        end.last_q = c.q;
         end.last_dq = dq;
+        (c.p, c.cp, c.q, c.cq, c.pending) = (p, cp, q, cq, dp);
         c.fprev = c.f0;
         wprev = w;
         c.hprev = h;
@@ -348,6 +353,19 @@ fn verlet_loop<L: Lagrangian, const N: usize, const IDENTITY: bool>(
         k1 += 1.0;
         t = t_next;
         end.done += 1;
+        // The node's momentum as `store` materialises it (dead code when `at_node` ignores it),
+        // and a copy of q: `at_node` borrows copies, so that the carried values never have
+        // their address taken and stay in registers (f_k through memory would add a store and
+        // a load to the step's dependency chain).
+        let mut p = [0.0; N];
+        for i in 0..N {
+            p[i] = c.p[i] + (c.pending[i] + c.cp[i]);
+        }
+        let q = c.q;
+        let node = Node { k, t, q: &q, p: &p };
+        if !at_node(node) {
+            break;
+        }
     }
     *cr = c;
     end.k = k;

@@ -208,7 +208,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         if self.energy.is_some() {
             return self.step_energy();
         }
-        if let Some(done) = self.fast_explicit(1) {
+        if let Some(done) = self.fast_explicit(1, &mut |_| true) {
             return done.map(|d| d > 0);
         }
         let Some((h, t_next)) = self.grid.next(self.state.k, self.state.t) else {
@@ -267,18 +267,58 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn advance(&mut self, max_steps: usize) -> Result<usize> {
-        if let Some(done) = self.fast_explicit(max_steps) {
+        self.advance_observed(max_steps, |_| true)
+    }
+
+    /// As [`Integrator::advance`], showing every node reached to `at_node`, which may stop
+    /// the run after it by returning false. The explicit fast path calls it from inside its
+    /// loop (the node's momentum materialised as [`Integrator::node`] would give it), so that
+    /// per-node work such as an energy check runs without leaving the loop; the nodes and
+    /// their bits are those of [`Integrator::step`].
+    ///
+    /// # Errors
+    /// As [`Integrator::step`]; the steps before the failure are kept (and were shown).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+    /// let kepler = models::kepler(1.0)?;
+    /// let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid)?;
+    /// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
+    /// let grid = TimeGrid::uniform(0.0, 0.001, 1.0)?;
+    /// let mut it = Integrator::new(&kepler, &verlet, grid, start, SolverOptions::default())?;
+    /// // The largest |q| over the nodes; stop once t passes 0.5.
+    /// let mut largest = 0.0f64;
+    /// let done = it.advance_observed(usize::MAX, |node| {
+    ///     largest = largest.max(node.q[0].hypot(node.q[1]));
+    ///     node.t < 0.5
+    /// })?;
+    /// assert_eq!(done, it.node().k);
+    /// assert!(it.node().t >= 0.5 && it.node().t < 0.502);
+    /// assert!((largest - 1.0).abs() < 1e-5);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn advance_observed<F: FnMut(Node<'_>) -> bool>(&mut self, max_steps: usize, mut at_node: F) -> Result<usize> {
+        if let Some(done) = self.fast_explicit(max_steps, &mut at_node) {
             return done;
         }
         let mut done = 0;
         while done < max_steps && self.step()? {
             done += 1;
+            if !at_node(self.node()) {
+                break;
+            }
         }
         Ok(done)
     }
 
     /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).
-    fn fast_explicit(&mut self, max_steps: usize) -> Option<Result<usize>> {
+    fn fast_explicit<F: FnMut(Node<'_>) -> bool>(
+        &mut self,
+        max_steps: usize,
+        at_node: &mut F,
+    ) -> Option<Result<usize>> {
         let Solver::Explicit(ex) = &mut self.solver else {
             return None;
         };
@@ -291,7 +331,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         // mass and its arrays live in registers.
         macro_rules! fast {
             ($N:literal, $I:literal) => {
-                ex.advance::<L, $N, $I>(lag, mass, grid, state, last, max_steps)
+                ex.advance::<L, F, $N, $I>(lag, mass, grid, state, last, max_steps, at_node)
             };
         }
         Some(match (state.n, mass.is_identity()) {

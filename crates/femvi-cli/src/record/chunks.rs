@@ -1,0 +1,104 @@
+//! How `femvi run` drives a run (issue 15, item 4): in chunks of steps through
+//! [`Integrator::advance_observed`] up to the next node the trajectory keeps, the next
+//! checkpoint due by step count, or a length that keeps the chunks a few milliseconds long.
+//! Every node still gets its energy, its finiteness check and its place as the last good node
+//! ([`Recorders::each_node`], which the explicit fast path runs inside its loop); the outputs,
+//! the progress bar, flushes, time-based checkpoints and the stop signals are looked at when a
+//! chunk ends ([`Recorders::boundary`]). The nodes, rows and summary are those of
+//! [`femvi::step::drive`] with the same recorders, bit for bit; only the moments a signal is
+//! noticed and a time-based checkpoint is written move to the chunks' ends. Energy mode, whose
+//! discrete energy is checked at every node too, goes a step at a time through
+//! [`Observer::node`].
+
+use super::Recorders;
+use femvi::step::{DriveReport, Observer};
+use femvi::{Integrator, Lagrangian};
+use std::time::{Duration, Instant};
+
+/// The longest chunk (steps).
+const MAX_CHUNK: usize = 1 << 22;
+/// Chunks faster than this grow (×2).
+const SHORT: Duration = Duration::from_millis(1);
+/// Chunks slower than this shrink (÷2).
+const LONG: Duration = Duration::from_millis(10);
+
+/// The length limit of the chunks, adapted to their time.
+struct Cap {
+    len: usize,
+    clock: Instant,
+}
+
+impl Cap {
+    fn new() -> Self {
+        Cap {
+            len: 256,
+            clock: Instant::now(),
+        }
+    }
+
+    /// After a chunk of `n` steps.
+    fn after(&mut self, n: usize) {
+        let now = Instant::now();
+        let took = now.duration_since(self.clock);
+        self.clock = now;
+        if took > LONG {
+            self.len = (self.len / 2).max(1);
+        } else if took < SHORT && n >= self.len {
+            self.len = (self.len * 2).min(MAX_CHUNK);
+        }
+    }
+}
+
+/// Steps `it` (a run of `lag`) to the end of its grid in chunks, recording it with `rec`;
+/// the report of [`femvi::step::drive`]: a failure of a step or of the recorders stops the
+/// run, the integrator stays at the last good node, and the recorders' `finish` still runs.
+pub fn drive_in_chunks<L: Lagrangian>(lag: &L, it: &mut Integrator<'_, L>, rec: &mut Recorders<'_>) -> DriveReport {
+    let mut error = Observer::node(rec, it, it.finished()).err();
+    let mut steps = 0;
+    let mut stopped = Observer::<L>::stop(rec);
+    let mut cap = Cap::new();
+    while error.is_none() && !stopped {
+        let chunked = rec.chunked();
+        let mut failed = None;
+        let advanced = if chunked {
+            let n = rec.chunk(it.node().k, cap.len);
+            it.advance_observed(
+                n,
+                #[inline(always)]
+                |node| match rec.each_node(lag, node, 0.0) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        failed = Some(e);
+                        false
+                    }
+                },
+            )
+        } else {
+            it.advance(1)
+        };
+        match advanced {
+            Ok(0) => break,
+            Ok(done) => {
+                steps += done;
+                if let Some(e) = failed {
+                    error = Some(e);
+                    break;
+                }
+                let last = it.finished();
+                error = if chunked {
+                    rec.boundary(it, last)
+                } else {
+                    Observer::node(rec, it, last)
+                }
+                .err();
+                stopped = Observer::<L>::stop(rec);
+                cap.after(done);
+            }
+            Err(e) => error = Some(e),
+        }
+    }
+    if let Err(e) = Observer::finish(rec, it, error.as_ref()) {
+        error.get_or_insert(e);
+    }
+    DriveReport { steps, stopped, error }
+}
