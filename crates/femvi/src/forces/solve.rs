@@ -22,7 +22,7 @@ pub struct EnergyBalance {
 /// A forced run: the usual solution, the discrete work at its kept nodes, and the balance.
 #[derive(Debug, Clone)]
 pub struct ForcedSolution {
-    /// The nodes (t, q, p, v, H) as [`crate::solve`] returns them; `energy_report` holds the
+    /// The nodes (t, q, p, v, H) as [`crate::solve()`] returns them; `energy_report` holds the
     /// largest relative change of H and, as `max_rel_balance`, the balance's relative error.
     pub solution: Solution,
     /// W_k at the kept nodes: the work of F along the element polynomials (and −∫∂L/∂t for a
