@@ -108,6 +108,12 @@ pub struct Indicators {
     pub t: f64,
     /// The error that stopped the run, if any.
     pub error: Option<String>,
+    /// Positions at the last node (summary.json, not chaos.json).
+    #[serde(skip)]
+    pub final_q: Vec<f64>,
+    /// Momenta at the last node (summary.json, not chaos.json).
+    #[serde(skip)]
+    pub final_p: Vec<f64>,
 }
 
 fn pick(report: &ChaosReport, wanted: &[Indicator]) -> Indicators {
@@ -118,6 +124,8 @@ fn pick(report: &ChaosReport, wanted: &[Indicator]) -> Indicators {
         fli: has(Indicator::Fli).then_some(report.last.fli),
         spectrum: report.spectrum.clone(),
         steps: report.steps,
+        final_q: report.final_node.1.clone(),
+        final_p: report.final_node.2.clone(),
         t: report.last.t,
         error: report.error.as_ref().map(|e| e.to_string()),
     }
@@ -253,6 +261,8 @@ fn failed(problem: &Problem, error: String) -> Indicators {
         steps: 0,
         t: problem.grid.t0(),
         error: Some(error),
+        final_q: vec![],
+        final_p: vec![],
     }
 }
 
@@ -321,10 +331,34 @@ pub struct ChaosArgs {
     pub plot: Option<crate::plot::Format>,
     /// The spectrum's transient ([`ChaosOptions::spectrum_transient`]).
     pub transient: f64,
+    /// The command line, for summary.json.
+    pub command_line: Vec<String>,
+}
+
+/// summary.json of a one-orbit `femvi chaos`: the run's summary fields (the energy error is
+/// not tracked there: null) with the indicators under `chaos`.
+fn summary_of(
+    problem: &Problem,
+    one: &Indicators,
+    clock: std::time::Instant,
+    command: &[String],
+) -> crate::summary::Summary {
+    let error = one.error.clone();
+    crate::summary::Summary {
+        status: crate::summary::status_of(error.as_deref()).into(),
+        steps: one.steps,
+        final_t: one.t,
+        final_q: one.final_q.clone(),
+        final_p: one.final_p.clone(),
+        chaos: Some(one.clone()),
+        error: error.clone(),
+        ..crate::summary::empty_summary(problem, clock, String::new(), command)
+    }
 }
 
 /// `femvi chaos`: exit code 0, 1 (a run failed) or 2 (bad input).
 pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u8)> {
+    let clock = std::time::Instant::now();
     let bad = |m: String| (m, crate::BAD_INPUT);
     crate::adaptive::refuse(problem, "femvi chaos").map_err(bad)?;
     crate::forced::refuse(problem, "femvi chaos").map_err(bad)?;
@@ -358,6 +392,7 @@ pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u
         if let Some(dir) = &args.out {
             std::fs::create_dir_all(dir)
                 .and_then(|_| std::fs::write(dir.join("chaos.json"), &text))
+                .and_then(|_| crate::summary::write_summary(dir, &summary_of(problem, one, clock, &args.command_line)))
                 .map_err(io)?;
         }
         if args.json {

@@ -115,6 +115,7 @@ fn dispatch(cli: Cli) -> ExitCode {
                 threads,
                 plot,
                 transient,
+                command_line: std::env::args().collect(),
             };
             match load(&problem, &set).map(|p| femvi_cli::chaos::cmd_chaos(&p, &args)) {
                 Ok(Ok(true)) => ExitCode::SUCCESS,

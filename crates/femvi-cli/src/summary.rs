@@ -69,6 +69,9 @@ pub struct Summary {
     /// `max_rel_energy_balance_error` is the largest |H − H0 − W| / |H0| over every node).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub final_work: Option<f64>,
+    /// `femvi chaos --out DIR` (one orbit) only: the indicators, as chaos.json has them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chaos: Option<crate::chaos::Indicators>,
     /// The femvi version that ran the problem.
     pub femvi_version: String,
     /// The command line (program and arguments).
@@ -146,6 +149,7 @@ pub(crate) fn run_summary(
         events_located: None,
         stopped_by_event: None,
         final_work: None,
+        chaos: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
         command_line: command.to_vec(),
         problem: problem.source.clone(),
@@ -182,6 +186,7 @@ pub(crate) fn empty_summary(problem: &Problem, clock: Instant, error: String, co
         events_located: None,
         stopped_by_event: None,
         final_work: None,
+        chaos: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
         command_line: command.to_vec(),
         problem: problem.source.clone(),

@@ -263,3 +263,35 @@ fn a_map_over_a_parameter_equals_one_point_runs() {
         String::from_utf8_lossy(&bad.stderr)
     );
 }
+
+/// `--out DIR` for one orbit writes summary.json: the indicators of chaos.json under `chaos`
+/// and the final state of `femvi run` on the same file.
+#[test]
+fn one_orbit_summary_holds_the_indicators_and_the_final_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hh.toml");
+    std::fs::write(&path, FILE).unwrap();
+    let (c, r) = (dir.path().join("c"), dir.path().join("r"));
+    femvi()
+        .args(["chaos", path.to_str().unwrap(), "--out", c.to_str().unwrap()])
+        .assert()
+        .success();
+    femvi()
+        .args(["run", path.to_str().unwrap(), "--quiet", "--out", r.to_str().unwrap()])
+        .assert()
+        .success();
+    let read = |p: std::path::PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (summary, chaos, run) = (
+        read(c.join("summary.json")),
+        read(c.join("chaos.json")),
+        read(r.join("summary.json")),
+    );
+    assert_eq!(summary["status"], "done");
+    assert_eq!(summary["steps"], 3000);
+    assert_eq!(summary["chaos"]["megno"], chaos["megno"]);
+    assert_eq!(summary["chaos"]["fli"], chaos["fli"]);
+    assert_eq!(summary["final_q"], run["final_q"]);
+    assert_eq!(summary["final_p"], run["final_p"]);
+}

@@ -84,6 +84,8 @@ pub struct ChaosReport {
     pub series: Vec<ChaosSample>,
     /// The error that stopped the run early, if any (the indicators are those before it).
     pub error: Option<Error>,
+    /// The last node reached (t, q, p).
+    pub final_node: FinalNode,
 }
 
 /// Runs `problem` with `element` (steps and solver from `options`; its outputs are not used)
@@ -185,12 +187,14 @@ pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOpt
         orthonormalise(&mut w, d, &mut logs);
         sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
     }
+    let node = it.node();
     Ok(ChaosReport {
         steps,
         last: sample(&growth, t),
         spectrum: (k > 0).then(|| sums.iter().map(|s| s / (t - counted_from)).collect()),
         series,
         error,
+        final_node: (node.t, node.q.to_vec(), node.p.to_vec()),
     })
 }
 
