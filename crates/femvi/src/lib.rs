@@ -15,6 +15,7 @@
 
 pub mod adaptive;
 pub mod bvp;
+pub mod constraints;
 pub mod chaos;
 pub mod diagnostics;
 pub mod discrete;

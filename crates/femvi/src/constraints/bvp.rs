@@ -1,0 +1,1 @@
+//! Constrained two-point boundary value problems (placeholder, filled below).
