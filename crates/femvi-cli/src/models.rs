@@ -29,6 +29,32 @@ pub const MODEL_FILES: &[(&str, &str)] = &[
         "double-pendulum",
         include_str!("../../../examples/models/double-pendulum.toml"),
     ),
+    (
+        "spherical-pendulum",
+        include_str!("../../../examples/models/spherical-pendulum.toml"),
+    ),
+    (
+        "double-pendulum-cartesian",
+        include_str!("../../../examples/models/double-pendulum-cartesian.toml"),
+    ),
+    ("chain", include_str!("../../../examples/models/chain.toml")),
+];
+
+/// The models of [`MODEL_FILES`] that are problem files with `[constraints]` (expressions in
+/// Cartesian coordinates, not entries of `femvi::models::MODELS`).
+const CONSTRAINED: &[(&str, &str)] = &[
+    (
+        "spherical-pendulum",
+        "point mass on a sphere |q| = l, Cartesian x, y, z",
+    ),
+    (
+        "double-pendulum-cartesian",
+        "planar double pendulum, Cartesian x1, y1, x2, y2, two rods",
+    ),
+    (
+        "chain",
+        "three masses on rods from a pivot, planar, Cartesian, three rods",
+    ),
 ];
 
 /// Lists the models, or prints the problem file of `name`.
@@ -63,6 +89,10 @@ pub fn cmd_models(name: Option<&str>) -> ExitCode {
                 }
             );
             println!("{:<20} coordinates: {shown}; symmetries: {symmetries}", "");
+        }
+        println!("\nWith holonomic constraints ([constraints], problem files in Cartesian coordinates):");
+        for (name, description) in CONSTRAINED {
+            println!("{name:<26} {description}");
         }
         println!("\n`femvi models NAME` prints a complete problem file for NAME.");
         return ExitCode::SUCCESS;

@@ -45,7 +45,9 @@ pub fn load(path: &Path) -> Result<Problem, String> {
 
 /// [`load`] that also accepts adaptive-mode problems (for `solve`).
 pub fn load_any(path: &Path) -> Result<Problem, String> {
-    problem::load(path).map_err(|e| e.to_string())
+    let problem = problem::load(path).map_err(|e| e.to_string())?;
+    femvi_cli::constrained::refuse(&problem, "the Python package").map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(problem)
 }
 
 /// Runs a loaded problem. Err: the library rejected it (message as the command prints it).

@@ -31,9 +31,18 @@ const THETA0: f64 = 1.0;
 const PHIDOT0: f64 = 2.0;
 
 fn reference() -> Result<Vec<f64>, femvi::Error> {
-    let start = Start::Velocity { q: vec![THETA0, 0.0], v: vec![0.0, PHIDOT0] };
-    let sol = femvi::solve(&Problem::new(Angles { g: G }, start, 0.0, T), &Element::with_order(8)?, &SolveOptions::step(0.002))?;
-    let q = sol.q_row(sol.len() - 1).ok_or_else(|| femvi::Error::Observer("empty".into()))?;
+    let start = Start::Velocity {
+        q: vec![THETA0, 0.0],
+        v: vec![0.0, PHIDOT0],
+    };
+    let sol = femvi::solve(
+        &Problem::new(Angles { g: G }, start, 0.0, T),
+        &Element::with_order(8)?,
+        &SolveOptions::step(0.002),
+    )?;
+    let q = sol
+        .q_row(sol.len() - 1)
+        .ok_or_else(|| femvi::Error::Observer("empty".into()))?;
     let (th, ph) = (q[0], q[1]);
     Ok(vec![th.sin() * ph.cos(), th.sin() * ph.sin(), -th.cos()])
 }
@@ -44,7 +53,16 @@ fn error(element: &Element, h: f64, enforcement: Enforcement, exact: &[f64]) -> 
         q: vec![THETA0.sin(), 0.0, -THETA0.cos()],
         v: vec![0.0, THETA0.sin() * PHIDOT0, 0.0],
     };
-    let run = solve_constrained_with(&Problem::new(lag, start, 0.0, T), &sphere, element, &SolveOptions { every: 0, ..SolveOptions::step(h) }, enforcement)?;
+    let run = solve_constrained_with(
+        &Problem::new(lag, start, 0.0, T),
+        &sphere,
+        element,
+        &SolveOptions {
+            every: 0,
+            ..SolveOptions::step(h)
+        },
+        enforcement,
+    )?;
     if let Some(e) = run.solution.error {
         return Err(e);
     }
@@ -57,7 +75,12 @@ fn main() -> Result<(), femvi::Error> {
     let gauss = |s| Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s));
     let lobatto = |s| Element::galerkin(s, NodeFamily::Lobatto, QuadratureKind::GaussLobatto(s + 1));
     for (name, family) in [("gauss", 0), ("lobatto", 1)] {
-        for enforcement in [Enforcement::Ends, Enforcement::Nodes, Enforcement::Points, Enforcement::Weak] {
+        for enforcement in [
+            Enforcement::Ends,
+            Enforcement::Nodes,
+            Enforcement::Points,
+            Enforcement::Weak,
+        ] {
             for s in 1..=4usize {
                 let element = if family == 0 { gauss(s)? } else { lobatto(s)? };
                 let hs: Vec<f64> = match s {
@@ -76,9 +99,17 @@ fn main() -> Result<(), femvi::Error> {
                         }
                     }
                 }
-                let orders: Vec<String> = errs.windows(2).map(|w| format!("{:.2}", (w[0] / w[1]).log2())).collect();
+                let orders: Vec<String> = errs
+                    .windows(2)
+                    .map(|w| format!("{:.2}", (w[0] / w[1]).log2()))
+                    .collect();
                 let errs_s: Vec<String> = errs.iter().map(|e| format!("{e:.2e}")).collect();
-                println!("{name:8} {:7} s={s} errors {} orders {}", format!("{enforcement:?}"), errs_s.join(" "), orders.join(" "));
+                println!(
+                    "{name:8} {:7} s={s} errors {} orders {}",
+                    format!("{enforcement:?}"),
+                    errs_s.join(" "),
+                    orders.join(" ")
+                );
             }
         }
     }

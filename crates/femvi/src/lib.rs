@@ -15,8 +15,8 @@
 
 pub mod adaptive;
 pub mod bvp;
-pub mod constraints;
 pub mod chaos;
+pub mod constraints;
 pub mod diagnostics;
 pub mod discrete;
 pub mod error;

@@ -99,7 +99,15 @@ impl ConstraintJet {
 
     /// Adds `scale` Σ_l λ_l ∇²g_l to the n×n block of `out` (row-major, row stride `stride`)
     /// starting at (`row`, `col`).
-    pub fn add_contracted_hessian(&self, lambda: &[f64], scale: f64, out: &mut [f64], stride: usize, row: usize, col: usize) {
+    pub fn add_contracted_hessian(
+        &self,
+        lambda: &[f64],
+        scale: f64,
+        out: &mut [f64],
+        stride: usize,
+        row: usize,
+        col: usize,
+    ) {
         let n = self.n;
         for (l, &lam) in lambda.iter().enumerate().take(self.m) {
             if lam == 0.0 {
@@ -125,7 +133,9 @@ impl ConstraintJet {
 
     /// Infinity norm of g.
     pub fn residual(&self) -> f64 {
-        self.g.iter().fold(0.0f64, |a, &x| if x.is_nan() { f64::NAN } else { a.max(x.abs()) })
+        self.g
+            .iter()
+            .fold(0.0f64, |a, &x| if x.is_nan() { f64::NAN } else { a.max(x.abs()) })
     }
 
     /// Ratio of the smallest to the largest singular value of G (1 for m = 0; 0 if G is

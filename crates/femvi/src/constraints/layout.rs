@@ -86,7 +86,13 @@ impl Layout {
                 let p = s - 1;
                 let mut a = vec![0.0; p * w];
                 (0..p).for_each(|i| a[i * w + i + 1] = 1.0);
-                Self { points: p, a, omega: vec![1.0; p], sites: p, psi: identity(p) }
+                Self {
+                    points: p,
+                    a,
+                    omega: vec![1.0; p],
+                    sites: p,
+                    psi: identity(p),
+                }
             }
             Enforcement::Points => {
                 if s == 1 {
@@ -101,7 +107,13 @@ impl Layout {
                         "pointwise at the quadrature points needs a rule without the end points (the end constraints would repeat)",
                     ));
                 }
-                Self { points: r, a: quadrature_basis(element), omega: vec![1.0; r], sites: r, psi: identity(r) }
+                Self {
+                    points: r,
+                    a: quadrature_basis(element),
+                    omega: vec![1.0; r],
+                    sites: r,
+                    psi: identity(r),
+                }
             }
             Enforcement::Weak => {
                 let k = s - 1;
@@ -119,13 +131,25 @@ impl Layout {
                     let x = 2.0 * element.rule.nodes[i] - 1.0;
                     (0..k).for_each(|c| psi[i * k + c] = legendre(c, x));
                 }
-                Self { points: r, a: quadrature_basis(element), omega: element.rule.weights.clone(), sites: k, psi }
+                Self {
+                    points: r,
+                    a: quadrature_basis(element),
+                    omega: element.rule.weights.clone(),
+                    sites: k,
+                    psi,
+                }
             }
         })
     }
 
     fn empty() -> Self {
-        Self { points: 0, a: vec![], omega: vec![], sites: 0, psi: vec![] }
+        Self {
+            points: 0,
+            a: vec![],
+            omega: vec![],
+            sites: 0,
+            psi: vec![],
+        }
     }
 }
 

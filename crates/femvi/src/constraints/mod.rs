@@ -51,9 +51,8 @@
 //! Files: `expr.rs` (constraints from expressions), `jet.rs` (g, G, ∇²g by AD), `layout.rs`
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `tangent.rs`
-//! (symplecticity on the manifold), `bvp.rs` (constrained two-point problems).
+//! (symplecticity on the manifold). Constrained boundary value problems are not available yet.
 
-mod bvp;
 mod expr;
 mod jet;
 mod layout;
@@ -61,7 +60,6 @@ mod project;
 mod solve;
 mod step;
 mod tangent;
-
 
 pub use expr::ExprConstraints;
 pub use layout::Enforcement;

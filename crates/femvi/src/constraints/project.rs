@@ -67,32 +67,39 @@ impl Projector {
         let pd = &mut self.pd;
         let k = n + m;
         let scale = |x: &[f64]| x.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
-        let report = newton_dense(&mut self.x, tol, max_iterations, scale, &mut self.newton, |x, r, jac| {
-            let (vv, mu) = x.split_at(n);
-            lag.second_derivatives(t, q, vv, false, pd);
-            for a in 0..n {
-                let mut ra = pd.l_v()[a] - p_tilde[a];
-                for l in 0..m {
-                    ra += jet.jac[l * n + a] * mu[l];
-                }
-                r[a] = ra;
-            }
-            for l in 0..m {
-                r[n + l] = (0..n).map(|a| jet.jac[l * n + a] * vv[a]).sum();
-            }
-            if let Some(jac) = jac {
-                jac.iter_mut().for_each(|x| *x = 0.0);
+        let report = newton_dense(
+            &mut self.x,
+            tol,
+            max_iterations,
+            scale,
+            &mut self.newton,
+            |x, r, jac| {
+                let (vv, mu) = x.split_at(n);
+                lag.second_derivatives(t, q, vv, false, pd);
                 for a in 0..n {
-                    for b in 0..n {
-                        jac[a * k + b] = pd.h(1 + n + a, 1 + n + b);
-                    }
+                    let mut ra = pd.l_v()[a] - p_tilde[a];
                     for l in 0..m {
-                        jac[a * k + n + l] = jet.jac[l * n + a];
-                        jac[(n + l) * k + a] = jet.jac[l * n + a];
+                        ra += jet.jac[l * n + a] * mu[l];
+                    }
+                    r[a] = ra;
+                }
+                for l in 0..m {
+                    r[n + l] = (0..n).map(|a| jet.jac[l * n + a] * vv[a]).sum();
+                }
+                if let Some(jac) = jac {
+                    jac.iter_mut().for_each(|x| *x = 0.0);
+                    for a in 0..n {
+                        for b in 0..n {
+                            jac[a * k + b] = pd.h(1 + n + a, 1 + n + b);
+                        }
+                        for l in 0..m {
+                            jac[a * k + n + l] = jet.jac[l * n + a];
+                            jac[(n + l) * k + a] = jet.jac[l * n + a];
+                        }
                     }
                 }
-            }
-        })?;
+            },
+        )?;
         self.iterations = report.iterations;
         v.copy_from_slice(&self.x[..n]);
         let mu = self.x[n..].to_vec();

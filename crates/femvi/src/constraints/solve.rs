@@ -142,7 +142,17 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
     run.defect = tangent.then_some(0.0);
     let mut p = vec![0.0; n];
     run.projector
-        .project(lag, &jet, problem.t0, &q0, &p_tilde, &mut v, &mut p, options.solver.tolerance, options.solver.max_iterations)
+        .project(
+            lag,
+            &jet,
+            problem.t0,
+            &q0,
+            &p_tilde,
+            &mut v,
+            &mut p,
+            options.solver.tolerance,
+            options.solver.max_iterations,
+        )
         .map_err(|f| step_error(0, problem.t0, f))?;
     run.out.start_projection = p.iter().zip(&p_tilde).fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
     run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v)?;
@@ -153,10 +163,16 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
 fn check_options(options: &SolveOptions) -> Result<()> {
     options.solver.validate()?;
     if matches!(options.steps, Steps::Energy { .. }) {
-        return Err(invalid("time mode", "time steps as variables are not available with constraints"));
+        return Err(invalid(
+            "time mode",
+            "time steps as variables are not available with constraints",
+        ));
     }
     if !options.saveat.is_empty() || !options.events.is_empty() || options.dense {
-        return Err(invalid("output", "saveat, events and dense output are not available with constraints"));
+        return Err(invalid(
+            "output",
+            "saveat, events and dense output are not available with constraints",
+        ));
     }
     Ok(())
 }
@@ -219,7 +235,14 @@ struct Run {
 }
 
 impl Run {
-    fn new(element: &Element, layout: Layout, n: usize, m: usize, enforcement: Enforcement, options: &SolveOptions) -> Self {
+    fn new(
+        element: &Element,
+        layout: Layout,
+        n: usize,
+        m: usize,
+        enforcement: Enforcement,
+        options: &SolveOptions,
+    ) -> Self {
         let sys = StepSystem::new(element, layout, n, m);
         let newton = DenseNewtonWork::new(sys.unknowns());
         let solution = Solution {
@@ -266,7 +289,16 @@ impl Run {
 
     /// Appends node `k` to the kept arrays.
     #[allow(clippy::too_many_arguments)]
-    fn keep<L: Lagrangian, C: Constraints>(&mut self, lag: &L, con: &C, k: usize, t: f64, q: &[f64], p: &[f64], v: &[f64]) -> Result<()> {
+    fn keep<L: Lagrangian, C: Constraints>(
+        &mut self,
+        lag: &L,
+        con: &C,
+        k: usize,
+        t: f64,
+        q: &[f64],
+        p: &[f64],
+        v: &[f64],
+    ) -> Result<()> {
         let n = q.len();
         self.kept_jet.eval(con, q, true);
         let sol = &mut self.out.solution;
@@ -321,13 +353,20 @@ impl Run {
             self.sys.start.eval(con, &q, true);
             let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
             let sys = &mut self.sys;
-            let solved = newton_dense(&mut x, self.tol, self.max_iterations, |_| scale, &mut self.newton, |xx, r, jac| {
-                sys.eval(element, lag, con, t, h, &q, &p, xx, jac.is_some());
-                sys.newton_residual(r);
-                if let Some(jac) = jac {
-                    sys.newton_jacobian(jac);
-                }
-            });
+            let solved = newton_dense(
+                &mut x,
+                self.tol,
+                self.max_iterations,
+                |_| scale,
+                &mut self.newton,
+                |xx, r, jac| {
+                    sys.eval(element, lag, con, t, h, &q, &p, xx, jac.is_some());
+                    sys.newton_residual(r);
+                    if let Some(jac) = jac {
+                        sys.newton_jacobian(jac);
+                    }
+                },
+            );
             let report = match solved {
                 Ok(rep) => rep,
                 Err(f) => {
@@ -353,7 +392,17 @@ impl Run {
                 self.out.solution.error = Some(singular(k + 1, t1, &self.sys.end));
                 break;
             }
-            let projected = self.projector.project(lag, &self.sys.end, t1, &q1, &p_tilde, &mut v, &mut p1, self.tol, self.max_iterations);
+            let projected = self.projector.project(
+                lag,
+                &self.sys.end,
+                t1,
+                &q1,
+                &p_tilde,
+                &mut v,
+                &mut p1,
+                self.tol,
+                self.max_iterations,
+            );
             let mu = match projected {
                 Ok(mu) => mu,
                 Err(f) => {
@@ -363,7 +412,15 @@ impl Run {
             };
             if let Some(worst) = self.defect {
                 self.sys.eval(element, lag, con, t, h, &q, &p, &x, true);
-                let ends = StepEnds { t0: t, q0: &q, p0: &p, t1, q1: &q1, v1: &v, mu: &mu };
+                let ends = StepEnds {
+                    t0: t,
+                    q0: &q,
+                    p0: &p,
+                    t1,
+                    q1: &q1,
+                    v1: &v,
+                    mu: &mu,
+                };
                 self.defect = Some(worst.max(step_defect(lag, con, &self.sys, &ends)));
             }
             std::mem::swap(&mut q, &mut q1);

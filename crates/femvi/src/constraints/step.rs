@@ -100,7 +100,16 @@ impl StepSystem {
         self.incr[..n].iter_mut().for_each(|v| *v = 0.0);
         self.incr[n..].copy_from_slice(&x[..s * n]);
         if with_jac {
-            element.hessian_in_place(lag, t0, h, qk, &self.incr, &mut self.ework, &mut self.grad, &mut self.hess);
+            element.hessian_in_place(
+                lag,
+                t0,
+                h,
+                qk,
+                &self.incr,
+                &mut self.ework,
+                &mut self.grad,
+                &mut self.hess,
+            );
         } else {
             element.gradient_in_place(lag, t0, h, qk, &self.incr, false, &mut self.ework, &mut self.grad);
         }

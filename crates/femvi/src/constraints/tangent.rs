@@ -84,7 +84,12 @@ pub(crate) struct StepEnds<'a> {
 }
 
 /// The defect of one step (module doc).
-pub(crate) fn step_defect<L: Lagrangian, C: Constraints>(lag: &L, con: &C, sys: &StepSystem, ends: &StepEnds<'_>) -> f64 {
+pub(crate) fn step_defect<L: Lagrangian, C: Constraints>(
+    lag: &L,
+    con: &C,
+    sys: &StepSystem,
+    ends: &StepEnds<'_>,
+) -> f64 {
     let (n, m, s, f) = (sys.n, sys.m, sys.s, sys.full);
     let k = sys.unknowns();
     let ju = DMatrix::from_fn(k, k, |i, j| sys.jac[sys.newton_row(i) * f + j + n]);
@@ -103,18 +108,34 @@ pub(crate) fn step_defect<L: Lagrangian, C: Constraints>(lag: &L, con: &C, sys: 
         return f64::NAN;
     };
     // δZ = (δq_k, δU); δq_{k+1} = δQ^s; δp̃ = node-s rows · δZ.
-    let dz = |r: usize, c: usize| if r < n { if c < n && r == c { 1.0 } else { 0.0 } } else { du[(r - n, c)] };
+    let dz = |r: usize, c: usize| {
+        if r < n {
+            if c < n && r == c {
+                1.0
+            } else {
+                0.0
+            }
+        } else {
+            du[(r - n, c)]
+        }
+    };
     let dq1 = DMatrix::from_fn(n, 2 * n, |a, c| dz(s * n + a, c));
-    let dpt = DMatrix::from_fn(n, 2 * n, |a, c| (0..f).map(|z| sys.jac[(s * n + a) * f + z] * dz(z, c)).sum());
+    let dpt = DMatrix::from_fn(n, 2 * n, |a, c| {
+        (0..f).map(|z| sys.jac[(s * n + a) * f + z] * dz(z, c)).sum()
+    });
     // The projection.
     let mut jet1 = ConstraintJet::new(m, n);
     jet1.eval(con, ends.q1, true);
     let mut pd = PointDerivatives::new(n);
     lag.second_derivatives(ends.t1, ends.q1, ends.v1, false, &mut pd);
     let g1 = DMatrix::from_row_slice(m, n, &jet1.jac);
-    let mu_hess = DMatrix::from_fn(n, n, |a, b| (0..m).map(|l| ends.mu[l] * jet1.hess[(l * n + a) * n + b]).sum());
+    let mu_hess = DMatrix::from_fn(n, n, |a, b| {
+        (0..m).map(|l| ends.mu[l] * jet1.hess[(l * n + a) * n + b]).sum()
+    });
     let lvq = DMatrix::from_fn(n, n, |a, b| pd.h(1 + n + a, 1 + b));
-    let gv = DMatrix::from_fn(m, n, |l, a| (0..n).map(|b| jet1.hess[(l * n + a) * n + b] * ends.v1[b]).sum());
+    let gv = DMatrix::from_fn(m, n, |l, a| {
+        (0..n).map(|b| jet1.hess[(l * n + a) * n + b] * ends.v1[b]).sum()
+    });
     let mut kkt = DMatrix::zeros(n + m, n + m);
     for a in 0..n {
         for b in 0..n {
@@ -155,7 +176,13 @@ fn omega(b: &DMatrix<f64>, n: usize) -> DMatrix<f64> {
 }
 
 /// An orthonormal basis (columns) of the tangent space of T*N at (q, p).
-fn tangent_basis<L: Lagrangian, C: Constraints>(lag: &L, con: &C, t: f64, q: &[f64], p: &[f64]) -> Option<DMatrix<f64>> {
+fn tangent_basis<L: Lagrangian, C: Constraints>(
+    lag: &L,
+    con: &C,
+    t: f64,
+    q: &[f64],
+    p: &[f64],
+) -> Option<DMatrix<f64>> {
     let (n, m) = (q.len(), con.count());
     let mut v = vec![0.0; n];
     let mut pd = PointDerivatives::new(n);

@@ -92,12 +92,22 @@ impl Constraints for Chain {
 /// ```
 pub fn chain(d: usize, particles: usize, m: f64, g: f64, l: f64) -> Result<(Mechanical<UniformGravity>, Chain)> {
     if !(d == 2 || d == 3) || particles == 0 {
-        return Err(invalid("chain", format!("needs 2 or 3 dimensions and at least one particle, got d = {d}, {particles} particles")));
+        return Err(invalid(
+            "chain",
+            format!("needs 2 or 3 dimensions and at least one particle, got d = {d}, {particles} particles"),
+        ));
     }
     if !(m > 0.0 && m.is_finite() && g >= 0.0 && g.is_finite() && l > 0.0 && l.is_finite()) {
-        return Err(invalid("chain", format!("needs m > 0, g >= 0, l > 0 finite, got m = {m}, g = {g}, l = {l}")));
+        return Err(invalid(
+            "chain",
+            format!("needs m > 0, g >= 0, l > 0 finite, got m = {m}, g = {g}, l = {l}"),
+        ));
     }
-    let gravity = UniformGravity { d, particles, mg: m * g };
+    let gravity = UniformGravity {
+        d,
+        particles,
+        mg: m * g,
+    };
     let lag = Mechanical::new(gravity, MassMatrix::diagonal(vec![m; d * particles])?)?;
     Ok((lag, Chain { d, particles, l }))
 }

@@ -1,1 +1,0 @@
-//! Constrained two-point boundary value problems (placeholder, filled below).
