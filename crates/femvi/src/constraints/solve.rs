@@ -125,7 +125,8 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
     let mut jet = ConstraintJet::new(m, n);
     jet.eval(constraints, &q0, true);
     let qmax = q0.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
-    if !(jet.residual() <= START_TOLERANCE * qmax * qmax) {
+    let within = jet.residual() <= START_TOLERANCE * qmax * qmax;
+    if !within {
         return Err(invalid(
             "initial q",
             format!(
