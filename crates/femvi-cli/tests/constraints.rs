@@ -6,7 +6,7 @@ use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 
 fn model(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../examples/models/{name}.toml"))
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../examples/constrained/{name}.toml"))
 }
 
 /// Asserts exit code 2 and `needle` in the standard error.

@@ -6,6 +6,7 @@
 //! Start with [`solution`]: [`solve()`] runs a [`Problem`] to a [`Solution`] (the README has
 //! a quick start). The modules read like a table of contents: [`lagrangian`] (continuous systems),
 //! [`bvp`] (two-point boundary value problems by the discrete variational principle),
+//! [`constraints`] (holonomic constraints with multipliers; RATTLE at degree 1),
 //! [`fem`] (bases, quadrature), [`discrete`] (the element: L_d, its derivatives, discrete
 //! Legendre transforms and energies), [`mod@solve`] (nonlinear solvers), [`step`] (the discrete
 //! flow with time steps as parameters and as variables, checkpoints, the run driver), [`diagnostics`] (symplecticity,

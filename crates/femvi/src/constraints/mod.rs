@@ -63,7 +63,7 @@ mod tangent;
 
 pub use expr::ExprConstraints;
 pub use layout::Enforcement;
-pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, START_TOLERANCE};
+pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};
 pub use tangent::{manifold_symplecticity, ManifoldSymplecticity};
 
 use crate::lagrangian::Scalar;

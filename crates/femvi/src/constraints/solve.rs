@@ -19,6 +19,11 @@ use crate::step::Start;
 /// A start is accepted if ‖g(q0)‖∞ ≤ `START_TOLERANCE` · max(1, ‖q0‖∞²).
 pub const START_TOLERANCE: f64 = 1e-10;
 
+/// The most coordinates a constrained problem may have: the steps are solved by dense Newton
+/// with constraint Hessians by hyper-dual numbers (m n² numbers per point), so memory and time
+/// grow like n³.
+pub const MAX_COORDINATES: usize = 200;
+
 /// Below this ratio of the smallest to the largest singular value, G(q) counts as singular.
 const RANK_TOLERANCE: f64 = 1e-12;
 
@@ -90,7 +95,8 @@ pub fn solve_constrained<L: Lagrangian, C: Constraints>(
 ///
 /// # Errors
 /// [`Error::Dimension`] if the constraints and the Lagrangian disagree on n, or the start has
-/// the wrong length; [`Error::Invalid`] for a start off the manifold (naming the residual), a
+/// the wrong length; [`Error::Invalid`] for m ≥ n or n > [`MAX_COORDINATES`], a start off the
+/// manifold (naming the residual), a
 /// start from (q0, q1), time steps as variables, `saveat`, `events` or `dense` (not
 /// available with constraints), or invalid solver options; [`Error::SingularConstraints`] if
 /// G(q0) is singular.
@@ -117,6 +123,12 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
     let lag = &problem.lagrangian;
     let (n, m) = (lag.dim(), constraints.count());
     check_len("constraints' coordinates", n, constraints.dim())?;
+    if n > MAX_COORDINATES || m >= n.max(1) {
+        return Err(invalid(
+            "constraints",
+            format!("need fewer constraints than coordinates and at most {MAX_COORDINATES} coordinates, got {m} constraints on {n}"),
+        ));
+    }
     check_options(options)?;
     element.check_nondegenerate()?;
     let layout = Layout::new(element, enforcement)?;
