@@ -87,7 +87,7 @@ use crate::lagrangian::Scalar;
 ///         out[0] = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] - self.l * self.l;
 ///     }
 /// }
-/// let mut g = [0.0];
+/// let mut g = [0.0f64];
 /// Sphere { l: 1.0 }.value(&[0.6, 0.0, -0.8], &mut g);
 /// assert!(g[0].abs() < 1e-15);
 /// ```
