@@ -362,6 +362,7 @@ pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u
     let bad = |m: String| (m, crate::BAD_INPUT);
     crate::adaptive::refuse(problem, "femvi chaos").map_err(bad)?;
     crate::forced::refuse(problem, "femvi chaos").map_err(bad)?;
+    crate::constrained::refuse(problem, "femvi chaos").map_err(bad)?;
     let mut wanted = args
         .indicators
         .iter()

@@ -61,6 +61,9 @@ pub struct TwoForm {
 
 /// Runs the check; Err carries a message and an exit code (1 numerical, 2 input).
 pub fn check(problem: &Problem) -> Result<CheckReport, (String, u8)> {
+    if let Some(c) = crate::constrained::settings(problem).map_err(|e| (e, crate::BAD_INPUT))? {
+        return crate::constrained::check::check(problem, &c);
+    }
     crate::adaptive::refuse(problem, "femvi check").map_err(|e| (e, crate::BAD_INPUT))?;
     crate::forced::refuse(problem, "the symplecticity check (use femvi_cli::forced::check)")
         .map_err(|e| (e, crate::BAD_INPUT))?;

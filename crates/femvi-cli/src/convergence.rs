@@ -87,6 +87,7 @@ pub struct Study {
 pub fn study(problem: &Problem, steps: &[f64], reference: Option<Reference>, l2: bool) -> Result<Study, (String, u8)> {
     crate::adaptive::refuse(problem, "femvi convergence").map_err(|e| (e, crate::BAD_INPUT))?;
     crate::forced::refuse(problem, "femvi convergence").map_err(|e| (e, crate::BAD_INPUT))?;
+    crate::constrained::refuse(problem, "femvi convergence").map_err(|e| (e, crate::BAD_INPUT))?;
     if problem.energy.is_some() {
         return Err((
             "convergence studies use fixed steps: set [time] mode = \"fixed\"".into(),

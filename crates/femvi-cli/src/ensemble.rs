@@ -284,6 +284,7 @@ pub fn command(path: &Path, args: &EnsembleArgs) -> Result<bool, (String, u8)> {
     let problem = crate::problem::load_with(path, &args.set).map_err(|e| bad(e.to_string()))?;
     crate::adaptive::refuse(&problem, "femvi ensemble").map_err(|e| bad(format!("{}: {e}", path.display())))?;
     crate::forced::refuse(&problem, "femvi ensemble").map_err(|e| bad(format!("{}: {e}", path.display())))?;
+    crate::constrained::refuse(&problem, "femvi ensemble").map_err(|e| bad(format!("{}: {e}", path.display())))?;
     let n = problem.coordinates.len();
     let states = match &args.states {
         Some(f) => Some(read_states(f, 2 * n).map_err(bad)?),

@@ -10,6 +10,7 @@ pub mod bvp;
 pub mod chaos;
 pub mod chaos_plot;
 pub mod check;
+pub mod constrained;
 pub mod convergence;
 pub mod ensemble;
 pub mod estimate;

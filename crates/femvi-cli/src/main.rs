@@ -224,6 +224,13 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
         Err(code) => return code,
     };
     match femvi_cli::forced::force_of(&problem) {
+        Ok(Some(_)) if femvi_cli::constrained::refuse(&problem, "").is_err() => {
+            eprintln!(
+                "error: {}: [forces] and [constraints] together are not supported (yet)",
+                path.display()
+            );
+            return ExitCode::from(BAD_INPUT);
+        }
         Ok(Some(f)) => return forced_check(path, &problem, &f, json, out),
         Ok(None) => {}
         Err(msg) => {

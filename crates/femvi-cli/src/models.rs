@@ -29,6 +29,34 @@ pub const MODEL_FILES: &[(&str, &str)] = &[
         "double-pendulum",
         include_str!("../../../examples/models/double-pendulum.toml"),
     ),
+    (
+        "spherical-pendulum",
+        include_str!("../../../examples/constrained/spherical-pendulum.toml"),
+    ),
+    (
+        "double-pendulum-cartesian",
+        include_str!("../../../examples/constrained/double-pendulum-cartesian.toml"),
+    ),
+    ("chain", include_str!("../../../examples/constrained/chain.toml")),
+];
+
+/// The models of [`MODEL_FILES`] that are problem files with `[constraints]` (expressions in
+/// Cartesian coordinates, not entries of `femvi::models::MODELS`), in examples/constrained/
+/// (not examples/models/, whose files the tests also run with `--plot`, which constrained
+/// runs do not draw yet; `crates/femvi-cli/tests/constraints.rs` runs them).
+const CONSTRAINED: &[(&str, &str)] = &[
+    (
+        "spherical-pendulum",
+        "point mass on a sphere |q| = l, Cartesian x, y, z",
+    ),
+    (
+        "double-pendulum-cartesian",
+        "planar double pendulum, Cartesian x1, y1, x2, y2, two rods",
+    ),
+    (
+        "chain",
+        "three masses on rods from a pivot, planar, Cartesian, three rods",
+    ),
 ];
 
 /// Lists the models, or prints the problem file of `name`.
@@ -66,6 +94,10 @@ pub fn cmd_models(name: Option<&str>) -> ExitCode {
         }
         println!("\nWith non-conservative forces ([forces], expression problems):");
         for (name, description, _) in crate::forced::models::FORCED_MODEL_FILES {
+            println!("{name:<26} {description}");
+        }
+        println!("\nWith holonomic constraints ([constraints], problem files in Cartesian coordinates):");
+        for (name, description) in CONSTRAINED {
             println!("{name:<26} {description}");
         }
         println!("\n`femvi models NAME` prints a complete problem file for NAME.");

@@ -93,6 +93,11 @@ pub fn run_as(
         plots: out.plots || problem.plots,
         ..out
     };
+    match crate::constrained::settings(problem) {
+        Ok(Some(c)) => return crate::constrained::run(problem, &c, dir, out, control.resume, command),
+        Ok(None) => {}
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    }
     match crate::adaptive::settings(problem) {
         Ok(Some(a)) => return crate::adaptive::run(problem, &a, dir, out, command),
         Ok(None) => {}

@@ -47,6 +47,7 @@ pub fn load(path: &Path) -> Result<Problem, String> {
 pub fn load_any(path: &Path) -> Result<Problem, String> {
     let problem = problem::load(path).map_err(|e| e.to_string())?;
     femvi_cli::forced::refuse(&problem, "the Python package").map_err(|e| format!("{}: {e}", path.display()))?;
+    femvi_cli::constrained::refuse(&problem, "the Python package").map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(problem)
 }
 

@@ -80,6 +80,17 @@ pub enum Error {
         /// Where it was detected.
         t: f64,
     },
+    /// The constraint Jacobian G(q) = ∂g/∂q lost rank at a node: the constraints are dependent
+    /// there (or the step that led there failed on a singular Newton system).
+    #[error("the constraint Jacobian is singular at node {step} (t = {t}): its smallest singular value is {ratio:.3e} of its largest")]
+    SingularConstraints {
+        /// Index of the node (0 is the start).
+        step: usize,
+        /// Time of the node.
+        t: f64,
+        /// Smallest over largest singular value of G.
+        ratio: f64,
+    },
     /// A step failed.
     #[error(transparent)]
     Step(#[from] StepError),

@@ -6,6 +6,7 @@
 //! Start with [`solution`]: [`solve()`] runs a [`Problem`] to a [`Solution`] (the README has
 //! a quick start). The modules read like a table of contents: [`lagrangian`] (continuous systems),
 //! [`bvp`] (two-point boundary value problems by the discrete variational principle),
+//! [`constraints`] (holonomic constraints with multipliers; RATTLE at degree 1),
 //! [`fem`] (bases, quadrature), [`forces`] (non-conservative forces, discrete
 //! Lagrange–d'Alembert), [`discrete`] (the element: L_d, its derivatives, discrete
 //! Legendre transforms and energies), [`mod@solve`] (nonlinear solvers), [`step`] (the discrete
@@ -17,6 +18,7 @@
 pub mod adaptive;
 pub mod bvp;
 pub mod chaos;
+pub mod constraints;
 pub mod diagnostics;
 pub mod discrete;
 pub mod error;

@@ -12,6 +12,7 @@
 //! [`load_bvp_with`] and [`load_text`] (text in hand, as the Python package has it).
 
 mod boundary;
+pub mod constraints;
 mod errors;
 pub mod events;
 pub mod forces;
@@ -65,6 +66,8 @@ pub struct ProblemFile {
     pub events: Vec<events::EventTable>,
     /// `[forces]`: non-conservative forces (run by [`crate::forced`]).
     pub forces: Option<forces::ForcesTable>,
+    /// `[constraints]`: holonomic constraints (`crate::constrained` runs such problems).
+    pub constraints: Option<constraints::ConstraintsTable>,
 }
 
 /// Everything a run needs, checked.
@@ -273,6 +276,10 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
     });
     let system = file.system.resolve(src)?;
     let n = system.coordinates.len();
+    if let Some(c) = &file.constraints {
+        let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        c.resolve(&system.coordinates, &params, src)?;
+    }
     let accuracy = file.time.as_ref().and_then(|t| t.accuracy);
     let (element, scheme_label) = file.scheme.element(accuracy, src)?;
     let options = file.solver.options(src)?;
@@ -305,6 +312,9 @@ fn build_bvp(src: &Source, file: &ProblemFile, c: Common) -> Result<BvpProblem, 
     }
     if !file.events.is_empty() {
         return Err(src.error("[[events]] apply to initial value problems (`femvi run`), not to `femvi bvp`"));
+    }
+    if file.constraints.is_some() {
+        return Err(src.error("`femvi bvp` does not support [constraints] (yet); `femvi run` and `femvi check` do"));
     }
     let b = file
         .boundary
@@ -371,4 +381,12 @@ fn build_ivp(
         events,
         source: c.source,
     })
+}
+
+/// A [`Source`] for messages about a problem's text as run (tables re-read after loading).
+pub(crate) fn source_of(text: &str) -> Source<'_> {
+    Source {
+        path: Path::new("problem"),
+        text,
+    }
 }

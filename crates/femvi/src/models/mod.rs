@@ -8,9 +8,11 @@
 //! parameters and their defaults, resolved by [`parameters`] and [`coordinates`]); the
 //! systems themselves are in one file per family: `simple.rs` (harmonic oscillator, pendulum,
 //! Kepler, Hénon–Heiles), `forced.rs`, `fpu.rs`, `gravity.rs` (n-body, with the data of
-//! [`outer_solar_system`](mod@outer_solar_system) in `outer_solar_system.rs`) and
-//! `double_pendulum.rs`.
+//! [`outer_solar_system`](mod@outer_solar_system) in `outer_solar_system.rs`),
+//! `double_pendulum.rs` and `constrained.rs` (chains of particles on rods, in Cartesian
+//! coordinates, for [`crate::constraints`]).
 
+mod constrained;
 mod double_pendulum;
 mod forced;
 mod fpu;
@@ -18,6 +20,7 @@ mod gravity;
 pub mod outer_solar_system;
 mod simple;
 
+pub use constrained::{chain, Chain, UniformGravity};
 pub use double_pendulum::DoublePendulum;
 pub use forced::{forced_oscillator, ForcedPotential};
 pub use fpu::{fpu, FpuPotential};

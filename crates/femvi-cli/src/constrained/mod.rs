@@ -1,0 +1,186 @@
+//! Problems with a `[constraints]` table (holonomic constraints, [`femvi::constraints`]):
+//! `femvi run` writes trajectory.csv with the columns of an unconstrained run plus the
+//! multipliers `lambda_1 … lambda_m` (those of the exact flow at each node: −Gᵀλ is the
+//! constraint force) and `residual` (max |g(q)|), summary.json, and constraints.json (the
+//! largest constraint and hidden-constraint residuals, how much the start momentum was
+//! projected onto the manifold's cotangent space, the enforcement); `femvi check` measures
+//! symplecticity on the manifold (`check.rs`). Commands and modes that cannot handle
+//! constraints refuse them ([`refuse`], exit code 2).
+
+pub mod check;
+
+use crate::problem::{Problem, ProblemFile};
+use crate::run::{finish, Outcome, RunOutput};
+use crate::summary::empty_summary;
+use femvi::constraints::{solve_constrained_with, ConstrainedSolution, Enforcement, ExprConstraints};
+use femvi::{Lagrangian, SolveOptions};
+use std::path::Path;
+use std::time::Instant;
+
+/// The constraints of a loaded problem (re-read from its text as run), or None.
+///
+/// # Errors
+/// A message if the table does not compile (it did when the problem was loaded).
+pub fn settings(problem: &Problem) -> Result<Option<(ExprConstraints, Enforcement)>, String> {
+    let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
+    let Some(table) = file.constraints else {
+        return Ok(None);
+    };
+    let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
+    let src = crate::problem::source_of(&problem.source);
+    table
+        .resolve(&problem.coordinates, &params, &src)
+        .map(Some)
+        .map_err(|e| e.to_string())
+}
+
+/// Err for a constrained problem given to `what`, which does not handle constraints.
+///
+/// # Errors
+/// The message to print (exit code 2).
+pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
+    match settings(problem)? {
+        Some(_) => Err(format!(
+            "{what} does not support [constraints] (only `femvi run`, `femvi check` and the library's femvi::constraints do)"
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Why a constrained problem cannot run as given, if it cannot.
+fn unsupported(problem: &Problem, resume: bool) -> Option<String> {
+    if crate::forced::refuse(problem, "").is_err() {
+        // Both tables: the constrained solver would ignore the forces.
+        return Some("[forces] and [constraints] together are not supported (yet)".into());
+    }
+    if !problem.events.is_empty() {
+        return Some("[[events]] are not located with [constraints] (yet)".into());
+    }
+    if problem.energy.is_some() {
+        return Some("[time] mode = \"energy\" is not available with [constraints]".into());
+    }
+    if resume {
+        return Some("--resume is not available with [constraints]".into());
+    }
+    match crate::adaptive::settings(problem) {
+        Ok(Some(_)) => Some("[time] mode = \"adaptive\" is not available with [constraints]".into()),
+        Ok(None) => None,
+        Err(e) => Some(e),
+    }
+}
+
+/// Runs a constrained problem with output into `dir` (the module documentation).
+pub fn run(
+    problem: &Problem,
+    constraints: &(ExprConstraints, Enforcement),
+    dir: &Path,
+    out: RunOutput,
+    resume: bool,
+    command: &[String],
+) -> std::io::Result<Outcome> {
+    if let Some(msg) = unsupported(problem, resume) {
+        return Ok(Outcome::Rejected(msg));
+    }
+    if out.plots {
+        return Ok(Outcome::Rejected(
+            "plots are not drawn for [constraints] (yet); run without --plot".into(),
+        ));
+    }
+    crate::with_system!(&problem.system, l => run_with(l, problem, constraints, dir, command))
+}
+
+/// The library's constrained solve of a loaded problem: what `femvi run` writes.
+///
+/// # Errors
+/// The library's refusal (bad start, unsupported options) as a message.
+pub fn solve<L: Lagrangian + Clone>(
+    lag: &L,
+    problem: &Problem,
+    constraints: &(ExprConstraints, Enforcement),
+) -> Result<ConstrainedSolution, String> {
+    let p = femvi::Problem::new(
+        lag.clone(),
+        problem.start.clone(),
+        problem.grid.t0(),
+        problem.grid.end(),
+    );
+    let options = SolveOptions {
+        steps: problem.steps.clone(),
+        solver: problem.options,
+        every: problem.every,
+        ..SolveOptions::step(1.0)
+    };
+    solve_constrained_with(&p, &constraints.0, &problem.element, &options, constraints.1).map_err(|e| e.to_string())
+}
+
+// One arm of `with_system!` is a Copy type; `solve` clones.
+fn run_with<L: Lagrangian + Clone>(
+    lag: &L,
+    problem: &Problem,
+    constraints: &(ExprConstraints, Enforcement),
+    dir: &Path,
+    command: &[String],
+) -> std::io::Result<Outcome> {
+    let clock = Instant::now();
+    let run = match solve(lag, problem, constraints) {
+        Ok(run) => run,
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    };
+    std::fs::create_dir_all(dir)?;
+    write_csv(dir, problem, &run)?;
+    write_json(dir, &run)?;
+    let sol = &run.solution;
+    let mut summary = empty_summary(problem, clock, String::new(), command);
+    let (n, last) = (sol.n, sol.len().saturating_sub(1));
+    summary.steps = sol.steps;
+    summary.final_t = sol.t.get(last).copied().unwrap_or(problem.grid.t0());
+    summary.final_q = sol.q.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
+    summary.final_p = sol.p.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
+    let e0 = sol.energy.first().copied().unwrap_or(0.0);
+    let scale = if e0 == 0.0 { 1.0 } else { e0.abs() };
+    summary.max_rel_energy_error = sol.energy.iter().fold(0.0, |m, h| m.max((h - e0).abs() / scale));
+    summary.mean_solver_iterations = sol.mean_iterations;
+    summary.error = sol.error.as_ref().map(|e| e.to_string());
+    summary.status = crate::summary::status_of(summary.error.as_deref()).into();
+    summary.wall_seconds = clock.elapsed().as_secs_f64();
+    finish(dir, summary)
+}
+
+/// trajectory.csv: step, t, q, p, energy, the multipliers and the constraint residual.
+fn write_csv(dir: &Path, problem: &Problem, run: &ConstrainedSolution) -> std::io::Result<()> {
+    let (sol, m) = (&run.solution, run.m);
+    let n = sol.n;
+    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
+    let mut header = vec!["step".to_string(), "t".to_string()];
+    header.extend(problem.coordinates.iter().cloned());
+    header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+    header.push("energy".into());
+    header.extend((1..=m).map(|l| format!("lambda_{l}")));
+    header.push("residual".into());
+    w.write_record(&header)?;
+    let num = |x: f64| format!("{x:?}");
+    for i in 0..sol.len() {
+        let mut row = vec![sol.step[i].to_string(), num(sol.t[i])];
+        row.extend(sol.q[i * n..(i + 1) * n].iter().map(|&x| num(x)));
+        row.extend(sol.p[i * n..(i + 1) * n].iter().map(|&x| num(x)));
+        row.push(num(sol.energy[i]));
+        row.extend(run.multipliers[i * m..(i + 1) * m].iter().map(|&x| num(x)));
+        row.push(num(run.residual[i]));
+        w.write_record(&row)?;
+    }
+    w.flush()
+}
+
+/// constraints.json: residuals, the start projection and the enforcement.
+fn write_json(dir: &Path, run: &ConstrainedSolution) -> std::io::Result<()> {
+    let hidden = run.hidden_residual.iter().fold(0.0f64, |a, &b| a.max(b));
+    let value = serde_json::json!({
+        "constraints": run.m,
+        "enforcement": format!("{:?}", run.enforcement).to_lowercase(),
+        "max_residual": run.max_residual,
+        "max_hidden_residual_kept_nodes": hidden,
+        "start_projection": run.start_projection,
+    });
+    let text = serde_json::to_string_pretty(&value).map_err(std::io::Error::other)?;
+    std::fs::write(dir.join("constraints.json"), text + "\n")
+}

@@ -1,0 +1,96 @@
+//! `[constraints]` through the binary: the spherical pendulum model file (residuals and the
+//! multiplier columns), `femvi check` reporting the symplecticity defect on the manifold, and
+//! starts, expressions and commands that cannot take constraints refused with exit code 2.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn model(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../examples/constrained/{name}.toml"))
+}
+
+/// Asserts exit code 2 and `needle` in the standard error.
+fn refused(cmd: &mut Command, needle: &str) {
+    let out = cmd.output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.code() == Some(2) && err.contains(needle), "{err}");
+}
+
+fn femvi() -> Command {
+    Command::cargo_bin("femvi").unwrap()
+}
+
+#[test]
+fn spherical_pendulum_runs_on_the_sphere() {
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["run", "--quiet", "--set", "time.end=5.0"])
+        .arg(model("spherical-pendulum"))
+        .arg("--out")
+        .arg(out.path())
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.path().join("trajectory.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "step,t,x,y,z,p_x,p_y,p_z,energy,lambda_1,residual"
+    );
+    let mut count = 0;
+    for line in lines {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        // |q| = 1 to round-off; the residual column is |g(q)| recomputed here.
+        let g = v[2] * v[2] + v[3] * v[3] + v[4] * v[4] - 1.0;
+        assert!(g.abs() <= 1e-13 && (v[10] - g.abs()).abs() <= 1e-15, "{line}");
+        count += 1;
+    }
+    assert_eq!(count, 501);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("constraints.json")).unwrap()).unwrap();
+    assert!(json["max_residual"].as_f64().unwrap() <= 1e-13);
+}
+
+#[test]
+fn check_measures_symplecticity_on_the_manifold() {
+    let assert = femvi()
+        .args(["check", "--json", "--set", "time.end=2.0"])
+        .arg(model("double-pendulum-cartesian"))
+        .assert()
+        .success();
+    let report: serde_json::Value = serde_json::from_slice(&assert.get_output().stdout).unwrap();
+    let defect = report["symplecticity_defect"].as_f64().unwrap();
+    assert!(defect <= 1e-12 && report["symplecticity_samples"] == 400, "{report}");
+}
+
+#[test]
+fn bad_constrained_input_is_refused() {
+    let out = tempfile::tempdir().unwrap();
+    // A start off the sphere names its residual.
+    refused(
+        femvi()
+            .args(["run", "--quiet", "--set", "initial.q=[0.85,0.0,-0.5403023058681398]"])
+            .arg(model("spherical-pendulum"))
+            .arg("--out")
+            .arg(out.path()),
+        "violates the constraints: max |g(q0)| = 1.443e-2",
+    );
+    refused(
+        femvi()
+            .args(["run", "--quiet", "--set", "constraints.holonomic=[\"x^2 + w^2\"]"])
+            .arg(model("spherical-pendulum")),
+        "unknown symbol 'w'",
+    );
+    refused(
+        femvi()
+            .args(["convergence", "--steps", "0.1,0.05"])
+            .arg(model("spherical-pendulum")),
+        "does not support [constraints]",
+    );
+    femvi()
+        .args(["run", "--quiet", "--set", "time.mode=\"energy\""])
+        .arg(model("spherical-pendulum"))
+        .arg("--out")
+        .arg(out.path())
+        .assert()
+        .code(2);
+}

@@ -1,0 +1,262 @@
+//! One constrained step: the residual and Jacobian of the augmented element equations (the
+//! `//!` of [`crate::constraints`] derives them), assembled over all columns (Q^0 … Q^s and the
+//! multipliers) and all node rows (0 … s), so that the Newton matrix (Q^0 columns and node-s
+//! rows left out), the new momentum p̃ = ∂L_d^aug/∂Q^s and the tangent map (which also needs the
+//! Q^0 columns and the node-s rows) come from one assembly.
+
+use super::jet::ConstraintJet;
+use super::layout::Layout;
+use super::Constraints;
+use crate::discrete::{Element, ElementWork};
+use crate::lagrangian::Lagrangian;
+
+/// Buffers and sizes of the constrained step equations of one element.
+#[derive(Debug, Clone)]
+pub(crate) struct StepSystem {
+    pub n: usize,
+    pub m: usize,
+    pub s: usize,
+    pub layout: Layout,
+    /// Rows (= columns) of the full system: (s+1)n + m + I m.
+    pub full: usize,
+    /// Full residual: node rows 0 … s, then g(Q^s), then the interior constraint rows.
+    pub res: Vec<f64>,
+    /// Full Jacobian, row-major `full` × `full` (columns Q^0 … Q^s, λ̂, Λ̂).
+    pub jac: Vec<f64>,
+    incr: Vec<f64>,
+    grad: Vec<f64>,
+    hess: Vec<f64>,
+    ework: ElementWork,
+    /// Jets at the evaluation points, at q_k (start) and at Q^s (end).
+    pub jets: Vec<ConstraintJet>,
+    pub start: ConstraintJet,
+    pub end: ConstraintJet,
+    lam_at: Vec<f64>,
+    y: Vec<f64>,
+    /// The multipliers λ̂, Λ̂ of the last evaluation (the unknowns hold h·λ̂, h·Λ̂, so that
+    /// their round-off is on the scale of the positions and the Newton tolerance fits both).
+    pub mult: Vec<f64>,
+}
+
+impl StepSystem {
+    pub fn new(element: &Element, layout: Layout, n: usize, m: usize) -> Self {
+        let s = element.degree();
+        let w = s + 1;
+        let full = w * n + m + layout.sites * m;
+        Self {
+            n,
+            m,
+            s,
+            full,
+            res: vec![0.0; full],
+            jac: vec![0.0; full * full],
+            incr: vec![0.0; w * n],
+            grad: vec![0.0; w * n],
+            hess: vec![0.0; w * n * w * n],
+            ework: ElementWork::new(element, n),
+            jets: (0..layout.points).map(|_| ConstraintJet::new(m, n)).collect(),
+            start: ConstraintJet::new(m, n),
+            end: ConstraintJet::new(m, n),
+            lam_at: vec![0.0; layout.points * m],
+            y: vec![0.0; n],
+            mult: vec![0.0; m + layout.sites * m],
+            layout,
+        }
+    }
+
+    /// Number of Newton unknowns: s n + m + I m.
+    pub fn unknowns(&self) -> usize {
+        self.full - self.n
+    }
+
+    /// Full row of Newton row `i`: node rows 0 … s−1 and the constraint rows (node-s rows
+    /// left out). Newton column j is full column j + n (the Q^0 columns left out).
+    pub fn newton_row(&self, i: usize) -> usize {
+        if i < self.s * self.n {
+            i
+        } else {
+            i + self.n
+        }
+    }
+
+    /// Evaluates the full residual (and the full Jacobian if `with_jac`) at the Newton
+    /// unknowns `x` (increments Q^j − q_k, then h·λ̂, h·Λ̂). `start` must hold the jet at q_k (with
+    /// second derivatives if `with_jac`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn eval<L: Lagrangian, C: Constraints>(
+        &mut self,
+        element: &Element,
+        lag: &L,
+        con: &C,
+        t0: f64,
+        h: f64,
+        qk: &[f64],
+        pk: &[f64],
+        x: &[f64],
+        with_jac: bool,
+    ) {
+        let (n, m, s) = (self.n, self.m, self.s);
+        let w = s + 1;
+        self.incr[..n].iter_mut().for_each(|v| *v = 0.0);
+        self.incr[n..].copy_from_slice(&x[..s * n]);
+        if with_jac {
+            element.hessian_in_place(
+                lag,
+                t0,
+                h,
+                qk,
+                &self.incr,
+                &mut self.ework,
+                &mut self.grad,
+                &mut self.hess,
+            );
+        } else {
+            element.gradient_in_place(lag, t0, h, qk, &self.incr, false, &mut self.ework, &mut self.grad);
+        }
+        for (l, xl) in self.mult.iter_mut().zip(&x[s * n..]) {
+            *l = xl / h;
+        }
+        let (lam_start, sites) = self.mult.split_at(m);
+        let lay = &self.layout;
+        // Points, jets and multipliers there.
+        for i in 0..lay.points {
+            self.y.copy_from_slice(qk);
+            for j in 1..w {
+                let a = lay.a[i * w + j];
+                for c in 0..n {
+                    self.y[c] += a * self.incr[j * n + c];
+                }
+            }
+            self.jets[i].eval(con, &self.y, with_jac);
+            let li = &mut self.lam_at[i * m..(i + 1) * m];
+            li.iter_mut().for_each(|v| *v = 0.0);
+            for c in 0..lay.sites {
+                let psi = lay.psi[i * lay.sites + c];
+                for l in 0..m {
+                    li[l] += psi * sites[c * m + l];
+                }
+            }
+        }
+        self.y.copy_from_slice(qk);
+        for c in 0..n {
+            self.y[c] += self.incr[s * n + c];
+        }
+        self.end.eval(con, &self.y, with_jac);
+        // Node rows.
+        self.res[..w * n].copy_from_slice(&self.grad);
+        for (r, p) in self.res[..n].iter_mut().zip(pk) {
+            *r += p;
+        }
+        self.start.add_transpose_times(lam_start, -1.0, &mut self.res[..n]);
+        for i in 0..lay.points {
+            let li = &self.lam_at[i * m..(i + 1) * m];
+            for j in 0..w {
+                let coef = -lay.a[i * w + j] * lay.omega[i];
+                if coef != 0.0 {
+                    self.jets[i].add_transpose_times(li, coef, &mut self.res[j * n..(j + 1) * n]);
+                }
+            }
+        }
+        // Constraint rows.
+        let (end_row, site_row) = (w * n, w * n + m);
+        self.res[end_row..site_row].copy_from_slice(&self.end.g);
+        self.res[site_row..].iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..lay.points {
+            for c in 0..lay.sites {
+                let f = lay.omega[i] * lay.psi[i * lay.sites + c];
+                for l in 0..m {
+                    self.res[site_row + c * m + l] += f * self.jets[i].g[l];
+                }
+            }
+        }
+        if with_jac {
+            self.assemble_jacobian(h);
+        }
+    }
+
+    fn assemble_jacobian(&mut self, h: f64) {
+        let lam_start = &self.mult[..self.m];
+        let (n, m, s) = (self.n, self.m, self.s);
+        let (w, f) = (s + 1, self.full);
+        let wn = w * n;
+        let lay = &self.layout;
+        let jac = &mut self.jac;
+        jac.iter_mut().for_each(|v| *v = 0.0);
+        for rj in 0..wn {
+            jac[rj * f..rj * f + wn].copy_from_slice(&self.hess[rj * wn..(rj + 1) * wn]);
+        }
+        self.start.add_contracted_hessian(lam_start, -1.0, jac, f, 0, 0);
+        for i in 0..lay.points {
+            let li = &self.lam_at[i * m..(i + 1) * m];
+            let jet = &self.jets[i];
+            for j in 0..w {
+                for mm in 0..w {
+                    let coef = -lay.a[i * w + j] * lay.a[i * w + mm] * lay.omega[i];
+                    if coef != 0.0 {
+                        jet.add_contracted_hessian(li, coef, jac, f, j * n, mm * n);
+                    }
+                }
+            }
+        }
+        // Node row 0, column λ̂: −G(q_k)ᵀ.
+        for a in 0..n {
+            for l in 0..m {
+                jac[a * f + wn + l] = -self.start.jac[l * n + a];
+            }
+        }
+        // Node rows, columns Λ̂_c; constraint rows c, columns Q^m.
+        let site_col = wn + m;
+        for i in 0..lay.points {
+            let jet = &self.jets[i];
+            for c in 0..lay.sites {
+                let wp = lay.omega[i] * lay.psi[i * lay.sites + c];
+                for j in 0..w {
+                    let coef = lay.a[i * w + j] * wp;
+                    if coef == 0.0 {
+                        continue;
+                    }
+                    for a in 0..n {
+                        for l in 0..m {
+                            let g = coef * jet.jac[l * n + a];
+                            jac[(j * n + a) * f + site_col + c * m + l] -= g;
+                            jac[(site_col + c * m + l) * f + j * n + a] += g;
+                        }
+                    }
+                }
+            }
+        }
+        // End row: G(Q^s) in columns Q^s.
+        for l in 0..m {
+            for a in 0..n {
+                jac[(wn + l) * f + s * n + a] = self.end.jac[l * n + a];
+            }
+        }
+        // The unknowns are h times the multipliers.
+        for row in jac.chunks_exact_mut(f) {
+            row[wn..].iter_mut().for_each(|v| *v /= h);
+        }
+    }
+
+    /// Copies the Newton residual (node rows 0 … s−1 and the constraint rows) into `r`.
+    pub fn newton_residual(&self, r: &mut [f64]) {
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri = self.res[self.newton_row(i)];
+        }
+    }
+
+    /// Copies the Newton Jacobian into `jac` (row-major, `unknowns()`²).
+    pub fn newton_jacobian(&self, jac: &mut [f64]) {
+        let k = self.unknowns();
+        for i in 0..k {
+            let ri = self.newton_row(i);
+            for j in 0..k {
+                jac[i * k + j] = self.jac[ri * self.full + j + self.n];
+            }
+        }
+    }
+
+    /// p̃ = ∂L_d^aug/∂Q^s without the end multiplier (node row s of the last evaluation).
+    pub fn momentum_before_projection(&self) -> &[f64] {
+        &self.res[self.s * self.n..(self.s + 1) * self.n]
+    }
+}
