@@ -286,15 +286,7 @@ pub fn write_map(dir: &Path, axes: &[Axis], rows: &[Indicators], wanted: &[Indic
     csv.write_record(&header)?;
     let mut flat = Vec::with_capacity(rows.len() * header.len());
     for (idx, r) in rows.iter().enumerate() {
-        let mut rest = idx;
-        let mut values: Vec<f64> = axes
-            .iter()
-            .map(|a| {
-                let v = a.value(rest % a.n);
-                rest /= a.n;
-                v
-            })
-            .collect();
+        let mut values = values_at(axes, idx);
         for (i, _) in names.iter().filter(|(i, _)| wanted.contains(i)) {
             let v = match i {
                 Indicator::Megno => r.megno,

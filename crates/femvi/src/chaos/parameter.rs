@@ -67,12 +67,19 @@ impl<A: Lagrangian> Lagrangian for Frozen<'_, A> {
     }
 
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
-        let mut qa = Vec::with_capacity(q.len() + 1);
-        qa.extend_from_slice(q);
-        qa.push(D::from(self.theta));
-        let mut va = Vec::with_capacity(v.len() + 1);
-        va.extend_from_slice(v);
-        va.push(D::zero());
+        // Called at every quadrature point of every solver iteration: small systems use
+        // stack buffers, larger ones allocate.
+        const STACK: usize = 16;
+        let n = q.len();
+        if n < STACK && v.len() == n {
+            let (mut qa, mut va) = ([D::zero(); STACK], [D::zero(); STACK]);
+            qa[..n].copy_from_slice(q);
+            qa[n] = D::from(self.theta);
+            va[..n].copy_from_slice(v);
+            return self.aug.value(t, &qa[..=n], &va[..=n]);
+        }
+        let qa: Vec<D> = q.iter().copied().chain([D::from(self.theta)]).collect();
+        let va: Vec<D> = v.iter().copied().chain([D::zero()]).collect();
         self.aug.value(t, &qa, &va)
     }
 

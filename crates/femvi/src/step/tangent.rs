@@ -121,7 +121,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
         let qi = |j: usize, c: usize| 2 + j * n + c;
         let dim = s * n + 1;
         // Unknowns: dX^m (m = 1..=s), then dt_{k+1}. Rows: R_j (j < s), then R_E.
-        let jac = nalgebra::DMatrix::from_fn(dim, dim, |row, col| {
+        let mut jac = nalgebra::DMatrix::from_fn(dim, dim, |row, col| {
             let rz = if row < s * n { qi(row / n, row % n) } else { 0 };
             if col < s * n {
                 fz(rz, qi(col / n + 1, col % n))
@@ -130,7 +130,6 @@ impl<L: Lagrangian> Integrator<'_, L> {
             }
         });
         let fresh = self.state.k == 1 || self.energy.as_ref().is_some_and(|e| e.last_fresh);
-        let mut jac = jac;
         if fresh {
             // The step was taken with h as a parameter (the first one, or a degenerate one):
             // its row is dt_{k+1} − dt_k = 0 instead of the energy equation, and E' is the
