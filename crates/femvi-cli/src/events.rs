@@ -20,12 +20,9 @@ use std::time::Instant;
 /// themselves), the events.
 pub fn solve_options(problem: &Problem) -> SolveOptions {
     SolveOptions {
-        steps: problem.steps.clone(),
-        solver: problem.options,
-        every: 0,
         events: problem.events.iter().map(|e| e.event()).collect(),
         track_energy: false,
-        ..SolveOptions::step(1.0)
+        ..problem.solve_options(0)
     }
 }
 
@@ -38,12 +35,7 @@ pub fn run<L: Lagrangian + Clone>(
     command: &[String],
 ) -> std::io::Result<Outcome> {
     let clock = Instant::now();
-    let p = femvi::Problem::new(
-        lag.clone(),
-        problem.start.clone(),
-        problem.grid.t0(),
-        problem.grid.end(),
-    );
+    let p = problem.library(lag.clone());
     let options = solve_options(problem);
     std::fs::create_dir_all(dir)?;
     let mut recorders = Recorders::attach(problem, dir, out, lag.dim())?;

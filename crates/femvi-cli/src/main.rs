@@ -245,19 +245,25 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
             return ExitCode::from(code);
         }
     };
-    let text = serde_json::to_string_pretty(&report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+    emit_check(&report, json, out, check::print).unwrap_or(ExitCode::SUCCESS)
+}
+
+/// Writes a check report to `out`/check.json if asked and shows it (JSON or `print`); an
+/// exit code if the file cannot be written.
+fn emit_check<T: serde::Serialize>(report: &T, json: bool, out: Option<PathBuf>, print: fn(&T)) -> Option<ExitCode> {
+    let text = serde_json::to_string_pretty(report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
     if let Some(dir) = out {
         if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("check.json"), &text)) {
             eprintln!("error: cannot write {}: {e}", dir.display());
-            return ExitCode::from(BAD_INPUT);
+            return Some(ExitCode::from(BAD_INPUT));
         }
     }
     if json {
         println!("{text}");
     } else {
-        check::print(&report);
+        print(report);
     }
-    ExitCode::SUCCESS
+    None
 }
 
 /// `femvi check` on a problem with `[forces]`: the energy balance instead of symplecticity.
@@ -275,17 +281,8 @@ fn forced_check(
             return ExitCode::from(code);
         }
     };
-    let text = serde_json::to_string_pretty(&report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
-    if let Some(dir) = out {
-        if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("check.json"), &text)) {
-            eprintln!("error: cannot write {}: {e}", dir.display());
-            return ExitCode::from(BAD_INPUT);
-        }
-    }
-    if json {
-        println!("{text}");
-    } else {
-        femvi_cli::forced::print(&report);
+    if let Some(code) = emit_check(&report, json, out, femvi_cli::forced::print) {
+        return code;
     }
     if report.error.is_some() {
         return ExitCode::from(NUMERICAL);

@@ -7,7 +7,7 @@
 use crate::check::CheckReport;
 use crate::problem::Problem;
 use femvi::constraints::{manifold_symplecticity, Enforcement, ExprConstraints};
-use femvi::{Lagrangian, SolveOptions};
+use femvi::Lagrangian;
 
 /// The report for a constrained problem; Err carries a message and an exit code.
 pub fn check(problem: &Problem, constraints: &(ExprConstraints, Enforcement)) -> Result<CheckReport, (String, u8)> {
@@ -25,17 +25,8 @@ fn check_with<L: Lagrangian + Clone>(
             crate::BAD_INPUT,
         ));
     }
-    let p = femvi::Problem::new(
-        lag.clone(),
-        problem.start.clone(),
-        problem.grid.t0(),
-        problem.grid.end(),
-    );
-    let options = SolveOptions {
-        steps: problem.steps.clone(),
-        solver: problem.options,
-        ..SolveOptions::step(1.0)
-    };
+    let p = problem.library(lag.clone());
+    let options = problem.solve_options(1);
     let r = manifold_symplecticity(&p, &constraints.0, &problem.element, &options, constraints.1)
         .map_err(|e| (e.to_string(), crate::BAD_INPUT))?;
     let sol = &r.run.solution;

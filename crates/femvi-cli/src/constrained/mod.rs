@@ -13,7 +13,7 @@ use crate::problem::{Problem, ProblemFile};
 use crate::run::{finish, Outcome, RunOutput};
 use crate::summary::empty_summary;
 use femvi::constraints::{solve_constrained_with, ConstrainedSolution, Enforcement, ExprConstraints};
-use femvi::{Lagrangian, SolveOptions};
+use femvi::Lagrangian;
 use std::path::Path;
 use std::time::Instant;
 
@@ -98,18 +98,8 @@ pub fn solve<L: Lagrangian + Clone>(
     problem: &Problem,
     constraints: &(ExprConstraints, Enforcement),
 ) -> Result<ConstrainedSolution, String> {
-    let p = femvi::Problem::new(
-        lag.clone(),
-        problem.start.clone(),
-        problem.grid.t0(),
-        problem.grid.end(),
-    );
-    let options = SolveOptions {
-        steps: problem.steps.clone(),
-        solver: problem.options,
-        every: problem.every,
-        ..SolveOptions::step(1.0)
-    };
+    let p = problem.library(lag.clone());
+    let options = problem.solve_options(problem.every);
     solve_constrained_with(&p, &constraints.0, &problem.element, &options, constraints.1).map_err(|e| e.to_string())
 }
 

@@ -18,7 +18,7 @@ use crate::problem::Problem;
 use crate::run::{empty_summary, finish, Outcome, RunOutput};
 use femvi::bvp::{BoundaryValues, BvpOptions, BvpSolution};
 use femvi::forces::{solve_forced, ForcedSolution};
-use femvi::{Element, Lagrangian, SolveOptions};
+use femvi::{Element, Lagrangian};
 use std::path::Path;
 use std::time::Instant;
 
@@ -61,18 +61,8 @@ pub fn solve_problem<L: Lagrangian + Clone>(
     if problem.energy.is_some() {
         return Err("[time] mode = \"energy\" is not supported with [forces] (the discrete energy is not conserved; no energy equation fixes the steps): use mode = \"fixed\"".into());
     }
-    let p = femvi::Problem::new(
-        lag.clone(),
-        problem.start.clone(),
-        problem.grid.t0(),
-        problem.grid.end(),
-    );
-    let options = SolveOptions {
-        steps: problem.steps.clone(),
-        solver: problem.options,
-        every,
-        ..SolveOptions::step(1.0)
-    };
+    let p = problem.library(lag.clone());
+    let options = problem.solve_options(every);
     solve_forced(&p, force, &problem.element, &options).map_err(|e| e.to_string())
 }
 

@@ -110,6 +110,24 @@ pub struct Problem {
     pub source: String,
 }
 
+impl Problem {
+    /// The library's problem for this file with the Lagrangian `lag` (span from the grid).
+    pub fn library<L>(&self, lag: L) -> femvi::Problem<L> {
+        femvi::Problem::new(lag, self.start.clone(), self.grid.t0(), self.grid.end())
+    }
+
+    /// The library's solve options for this file: its steps and solver, every `every`-th
+    /// node kept.
+    pub fn solve_options(&self, every: usize) -> femvi::SolveOptions {
+        femvi::SolveOptions {
+            steps: self.steps.clone(),
+            solver: self.options,
+            every,
+            ..femvi::SolveOptions::step(1.0)
+        }
+    }
+}
+
 /// A boundary value problem read from a file with a `[boundary]` table.
 pub struct BvpProblem {
     /// The problem's name.

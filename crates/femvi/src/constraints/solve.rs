@@ -12,7 +12,7 @@ use super::Constraints;
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result, StepError, StepFailure};
 use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
-use crate::solution::{Problem, Saved, Solution, SolveOptions, Steps};
+use crate::solution::{Problem, Solution, SolveOptions, Steps};
 use crate::solve::{newton_dense, DenseNewtonWork, NewtonFailure};
 use crate::step::Start;
 
@@ -258,24 +258,7 @@ impl Run {
     ) -> Self {
         let sys = StepSystem::new(element, layout, n, m);
         let newton = DenseNewtonWork::new(sys.unknowns());
-        let solution = Solution {
-            n,
-            step: vec![],
-            t: vec![],
-            q: vec![],
-            p: vec![],
-            v: vec![],
-            energy: vec![],
-            saved: Saved::default(),
-            events: vec![],
-            dense: None,
-            steps: 0,
-            mean_iterations: 0.0,
-            energy_stats: None,
-            energy_report: None,
-            stopped: false,
-            error: None,
-        };
+        let solution = Solution::empty(n);
         Self {
             sys,
             projector: Projector::new(n, m),

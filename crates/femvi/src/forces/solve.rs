@@ -7,7 +7,7 @@ use super::Force;
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
-use crate::solution::{grid, EnergyReport, Problem, Saved, Solution, SolveOptions, Steps};
+use crate::solution::{grid, EnergyReport, Problem, Solution, SolveOptions, Steps};
 use crate::step::Start;
 
 /// How well the energy balance H(t_k) − H(t_0) = W_k holds over a run (every node).
@@ -213,24 +213,7 @@ impl Run {
     fn new(n: usize, every: usize) -> Self {
         Self {
             every,
-            sol: Solution {
-                n,
-                step: vec![],
-                t: vec![],
-                q: vec![],
-                p: vec![],
-                v: vec![],
-                energy: vec![],
-                saved: Saved::default(),
-                events: vec![],
-                dense: None,
-                steps: 0,
-                mean_iterations: 0.0,
-                energy_stats: None,
-                energy_report: None,
-                stopped: false,
-                error: None,
-            },
+            sol: Solution::empty(n),
             work: vec![],
             ld: PointDerivatives::new(n),
             h0: f64::NAN,

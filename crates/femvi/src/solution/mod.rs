@@ -185,6 +185,29 @@ pub struct Solution {
 }
 
 impl Solution {
+    /// A solution of dimension n with nothing recorded yet (the solvers of other equations,
+    /// `forces` and `constraints`, fill it as they go).
+    pub(crate) fn empty(n: usize) -> Self {
+        Self {
+            n,
+            step: vec![],
+            t: vec![],
+            q: vec![],
+            p: vec![],
+            v: vec![],
+            energy: vec![],
+            saved: Saved::default(),
+            events: vec![],
+            dense: None,
+            steps: 0,
+            mean_iterations: 0.0,
+            energy_stats: None,
+            energy_report: None,
+            stopped: false,
+            error: None,
+        }
+    }
+
     /// Number of kept nodes.
     pub fn len(&self) -> usize {
         self.t.len()
