@@ -99,7 +99,6 @@ fn damped_oscillator_nodal_order_2s() {
         // H is quadratic and F linear: Gauss elements keep the balance H_k − H_0 = W_k exactly
         // (the quadratic-invariant property of Gauss methods applied to d/dt H = F·v), so only
         // round-off remains; its order is measured on the Duffing oscillator below.
-        let _ = ob;
         assert!(eb.iter().all(|&b| b < 1e-13), "s = {s}: balance {eb:?}");
     }
 }

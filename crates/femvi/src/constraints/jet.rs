@@ -93,8 +93,7 @@ impl ConstraintJet {
     }
 
     fn value_only<C: Constraints + ?Sized>(&mut self, c: &C, q: &[f64]) {
-        let qv: Vec<f64> = q.to_vec();
-        c.value(&qv, &mut self.g);
+        c.value(q, &mut self.g);
     }
 
     /// Adds `scale` Σ_l λ_l ∇²g_l to the n×n block of `out` (row-major, row stride `stride`)

@@ -60,7 +60,7 @@ impl Projector {
         p: &mut [f64],
         tol: f64,
         max_iterations: usize,
-    ) -> Result<Vec<f64>, NewtonFailure> {
+    ) -> Result<&[f64], NewtonFailure> {
         let (n, m) = (self.n, self.m);
         self.x[..n].copy_from_slice(v);
         self.x[n..].iter_mut().for_each(|x| *x = 0.0);
@@ -102,10 +102,9 @@ impl Projector {
         )?;
         self.iterations = report.iterations;
         v.copy_from_slice(&self.x[..n]);
-        let mu = self.x[n..].to_vec();
         p.copy_from_slice(p_tilde);
-        jet.add_transpose_times(&mu, -1.0, p);
-        Ok(mu)
+        jet.add_transpose_times(&self.x[n..], -1.0, p);
+        Ok(&self.x[n..])
     }
 }
 

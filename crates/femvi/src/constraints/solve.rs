@@ -383,7 +383,7 @@ impl Run {
                 comp[c] = y - (sum - q[c]);
                 q1[c] = sum;
             }
-            let p_tilde = self.sys.momentum_before_projection().to_vec();
+            let p_tilde = self.sys.momentum_before_projection();
             if self.sys.end.conditioning() <= RANK_TOLERANCE {
                 self.out.solution.error = Some(singular(k + 1, t1, &self.sys.end));
                 break;
@@ -393,7 +393,7 @@ impl Run {
                 &self.sys.end,
                 t1,
                 &q1,
-                &p_tilde,
+                p_tilde,
                 &mut v,
                 &mut p1,
                 self.tol,

@@ -220,6 +220,12 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
             }
         }
         out.iterations = iterations;
-        self.last = Some((self.incr.clone(), h));
+        match &mut self.last {
+            Some((incr, last_h)) => {
+                incr.copy_from_slice(&self.incr);
+                *last_h = h;
+            }
+            None => self.last = Some((self.incr.clone(), h)),
+        }
     }
 }
