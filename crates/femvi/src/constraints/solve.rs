@@ -415,7 +415,7 @@ impl Run {
                     t1,
                     q1: &q1,
                     v1: &v,
-                    mu: &mu,
+                    mu,
                 };
                 self.defect = Some(worst.max(step_defect(lag, con, &self.sys, &ends)));
             }

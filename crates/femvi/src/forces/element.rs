@@ -46,10 +46,43 @@ pub fn element_forces<D: Scalar, F: Force>(
         out.iter_mut().for_each(|o| *o = D::from(f64::NAN));
         return D::from(f64::NAN);
     }
+    // Called at every solver iteration: small systems use stack buffers, larger ones allocate.
+    if n <= STACK {
+        let mut buf = [D::from(0.0); 3 * STACK];
+        let (q, rest) = buf.split_at_mut(STACK);
+        let (v, f) = rest.split_at_mut(STACK);
+        accumulate(
+            element,
+            force,
+            (t0, h),
+            base,
+            incr,
+            out,
+            (&mut q[..n], &mut v[..n], &mut f[..n]),
+        )
+    } else {
+        let mut buf = vec![D::from(0.0); 3 * n];
+        let (q, rest) = buf.split_at_mut(n);
+        let (v, f) = rest.split_at_mut(n);
+        accumulate(element, force, (t0, h), base, incr, out, (q, v, f))
+    }
+}
+
+/// Largest n (and, for the Jacobian, 4n nodal values) evaluated from stack buffers.
+const STACK: usize = 16;
+
+/// The sums of [`element_forces`] with the point buffers (q, v, F) given.
+fn accumulate<D: Scalar, F: Force>(
+    element: &Element,
+    force: &F,
+    (t0, h): (f64, f64),
+    base: &[f64],
+    incr: &[D],
+    out: &mut [D],
+    (q, v, f): (&mut [D], &mut [D], &mut [D]),
+) -> D {
+    let (n, w) = (base.len(), element.nodes());
     out.iter_mut().for_each(|o| *o = D::from(0.0));
-    let mut q = vec![D::from(0.0); n];
-    let mut v = vec![D::from(0.0); n];
-    let mut f = vec![D::from(0.0); n];
     let mut work = D::from(0.0);
     for i in 0..element.points() {
         for c in 0..n {
@@ -64,7 +97,7 @@ pub fn element_forces<D: Scalar, F: Force>(
             }
         }
         let t = t0 + element.rule.nodes[i] * h;
-        force.force(D::from(t), &q, &v, &mut f);
+        force.force(D::from(t), q, v, f);
         let bh = element.rule.weights[i] * h;
         for c in 0..n {
             work += f[c] * v[c] * bh;
@@ -112,11 +145,18 @@ pub fn element_forces_jacobian<F: Force>(
         return f64::NAN;
     }
     let work = element_forces(element, force, t0, h, base, incr, out);
-    let mut xd: Vec<Dual64> = incr.iter().map(|&x| Dual64::from(x)).collect();
-    let mut fd = vec![Dual64::from(0.0); w];
+    let (mut xs, mut fs) = ([Dual64::from(0.0); 4 * STACK], [Dual64::from(0.0); 4 * STACK]);
+    let (mut xh, mut fh);
+    let (xd, fd) = if w <= 4 * STACK {
+        (&mut xs[..w], &mut fs[..w])
+    } else {
+        (xh, fh) = (vec![Dual64::from(0.0); w], vec![Dual64::from(0.0); w]);
+        (&mut xh[..], &mut fh[..])
+    };
+    xd.iter_mut().zip(incr).for_each(|(d, &x)| *d = Dual64::from(x));
     for b in 0..w {
         xd[b].eps = 1.0;
-        element_forces(element, force, t0, h, base, &xd, &mut fd);
+        element_forces(element, force, t0, h, base, xd, fd);
         xd[b].eps = 0.0;
         for (a, f) in fd.iter().enumerate() {
             jac[a * w + b] = f.eps;
