@@ -8,71 +8,11 @@
 //! (error-free transformations: Dekker, Knuth; Hida, Li, Bailey's QD library), for the
 //! Kepler and n-body models.
 
-/// A double-double number hi + lo, |lo| ≤ ulp(hi)/2.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Dd {
-    hi: f64,
-    lo: f64,
-}
+use crate::fem::dd::Dd;
 
-fn two_sum(a: f64, b: f64) -> Dd {
-    let s = a + b;
-    let bb = s - a;
-    Dd {
-        hi: s,
-        lo: (a - (s - bb)) + (b - bb),
-    }
-}
-
-fn quick_two_sum(a: f64, b: f64) -> Dd {
-    let s = a + b;
-    Dd { hi: s, lo: b - (s - a) }
-}
-
-fn two_prod(a: f64, b: f64) -> Dd {
-    let p = a * b;
-    Dd {
-        hi: p,
-        lo: a.mul_add(b, -p),
-    }
-}
-
-impl Dd {
-    fn from(x: f64) -> Self {
-        Self { hi: x, lo: 0.0 }
-    }
-    fn neg(self) -> Self {
-        Self {
-            hi: -self.hi,
-            lo: -self.lo,
-        }
-    }
-    fn add(self, y: Self) -> Self {
-        let s = two_sum(self.hi, y.hi);
-        let t = two_sum(self.lo, y.lo);
-        let s = quick_two_sum(s.hi, s.lo + t.hi);
-        quick_two_sum(s.hi, s.lo + t.lo)
-    }
-    fn mul(self, y: Self) -> Self {
-        let p = two_prod(self.hi, y.hi);
-        quick_two_sum(p.hi, p.lo + (self.hi * y.lo + self.lo * y.hi))
-    }
-    fn div(self, y: Self) -> Self {
-        let q1 = self.hi / y.hi;
-        let r = self.add(y.mul(Dd::from(q1)).neg());
-        let q2 = r.hi / y.hi;
-        let r = r.add(y.mul(Dd::from(q2)).neg());
-        let q3 = r.hi / y.hi;
-        quick_two_sum(q1, q2).add(Dd::from(q3))
-    }
-    fn sqrt(self) -> Self {
-        let s = self.hi.sqrt();
-        if s == 0.0 || !s.is_finite() {
-            return Dd::from(s);
-        }
-        let r = self.add(two_prod(s, s).neg());
-        quick_two_sum(s, r.hi / (2.0 * s))
-    }
+/// Σ x_i² in double-double.
+fn norm2(x: &[f64]) -> Dd {
+    x.iter().fold(Dd::new(0.0), |s, &v| s.add(Dd::two_prod(v, v)))
 }
 
 /// H = ½|p|² − μ/|q| of the Kepler model ([`crate::models::kepler`]), rounded once.
@@ -82,13 +22,12 @@ impl Dd {
 /// assert_eq!(femvi::adaptive::kepler_energy(1.0, &[0.015625, 0.0], &[0.0, 11.25]), -0.71875);
 /// ```
 pub fn kepler_energy(mu: f64, q: &[f64], p: &[f64]) -> f64 {
-    let r2 = q.iter().fold(Dd::from(0.0), |s, &x| s.add(two_prod(x, x)));
-    let kinetic = p.iter().fold(Dd::from(0.0), |s, &x| s.add(two_prod(x, x)));
+    let (r2, kinetic) = (norm2(q), norm2(p));
     let kinetic = Dd {
         hi: 0.5 * kinetic.hi,
         lo: 0.5 * kinetic.lo,
     };
-    kinetic.add(Dd::from(mu).div(r2.sqrt()).neg()).hi
+    kinetic.add(Dd::new(mu).div(r2.sqrt()).neg()).hi
 }
 
 /// H = Σ|p_i|²/(2m_i) − G Σ_{i<j} m_i m_j / r_ij of the n-body model
@@ -105,19 +44,17 @@ pub fn nbody_energy(g: f64, masses: &[f64], dim: usize, q: &[f64], p: &[f64]) ->
     if dim == 0 || q.len() != n || p.len() != n {
         return f64::NAN;
     }
-    let mut h = Dd::from(0.0);
+    let mut h = Dd::new(0.0);
     for (i, &mi) in masses.iter().enumerate() {
-        let p2 = p[i * dim..(i + 1) * dim]
-            .iter()
-            .fold(Dd::from(0.0), |s, &x| s.add(two_prod(x, x)));
-        h = h.add(p2.div(Dd::from(2.0 * mi)));
+        let p2 = norm2(&p[i * dim..(i + 1) * dim]);
+        h = h.add(p2.div(Dd::new(2.0 * mi)));
         for (j, &mj) in masses.iter().enumerate().skip(i + 1) {
-            let mut r2 = Dd::from(0.0);
+            let mut r2 = Dd::new(0.0);
             for c in 0..dim {
-                let dx = two_sum(q[i * dim + c], -q[j * dim + c]);
+                let dx = Dd::two_sum(q[i * dim + c], -q[j * dim + c]);
                 r2 = r2.add(dx.mul(dx));
             }
-            let gm = two_prod(g, mi).mul(Dd::from(mj));
+            let gm = Dd::two_prod(g, mi).mul(Dd::new(mj));
             h = h.add(gm.div(r2.sqrt()).neg());
         }
     }

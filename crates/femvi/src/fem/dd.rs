@@ -1,5 +1,6 @@
 //! Double-double arithmetic (≈ 106-bit significands) for the few tables that must be correct
-//! to the last bit of f64: Gauss rules and the fixed-point tables of high-degree elements.
+//! to the last bit of f64: Gauss rules, the fixed-point tables of high-degree elements, and the
+//! energy level of adaptive runs (`adaptive/energy.rs`).
 //! Hand-written because the `twofloat` crate's division was measured to lose ~1e-16 relative;
 //! these error-free transformations (Knuth's two-sum, Dekker's two-product) are exact to
 //! ~1e-32.
@@ -78,6 +79,16 @@ impl Dd {
     }
     pub(crate) fn divf(self, f: f64) -> Dd {
         self.div(Dd::new(f))
+    }
+    /// The square root (one Newton correction of the f64 root; NaN, infinities and zero as
+    /// f64 gives them).
+    pub(crate) fn sqrt(self) -> Dd {
+        let s = self.hi.sqrt();
+        if s == 0.0 || !s.is_finite() {
+            return Dd::new(s);
+        }
+        let r = self.sub(Dd::two_prod(s, s));
+        Dd::quick(s, r.hi / (2.0 * s))
     }
     /// Rounds to the nearest f64.
     pub(crate) fn round(self) -> f64 {
