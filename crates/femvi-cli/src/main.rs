@@ -231,7 +231,13 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
             );
             return ExitCode::from(BAD_INPUT);
         }
-        Ok(Some(f)) => return forced_check(path, &problem, &f, json, out),
+        Ok(Some(f)) => {
+            if let Err(msg) = femvi_cli::adaptive::refuse(&problem, "femvi check") {
+                eprintln!("error: {}: {msg}", path.display());
+                return ExitCode::from(BAD_INPUT);
+            }
+            return forced_check(path, &problem, &f, json, out);
+        }
         Ok(None) => {}
         Err(msg) => {
             eprintln!("error: {}: {msg}", path.display());

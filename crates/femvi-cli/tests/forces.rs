@@ -211,3 +211,20 @@ fn input_errors_and_failures() {
     assert_eq!(code, 2);
     assert!(err.contains("no plots"), "{err}");
 }
+
+/// `[forces]` with `[time] mode = "adaptive"`: the adaptive integrator has no force terms, so
+/// `run` and `check` refuse the file (they used to integrate the conservative part alone).
+#[test]
+fn forces_in_adaptive_mode_are_refused() {
+    let text = DAMPED
+        .replace("FORCES", "dissipation = \"0.5*c*x_dot^2\"")
+        .replace("step = 0.1", "mode = \"adaptive\"\nmonitor = \"1 + x^2\"\nds = 0.1");
+    for cmd in ["run", "check"] {
+        let (code, err, _dir) = run_text(&[cmd], &text);
+        assert_eq!(code, 2, "{cmd}: {err}");
+        assert!(
+            err.contains("[forces] are not available with [time] mode = \"adaptive\""),
+            "{cmd}: {err}"
+        );
+    }
+}

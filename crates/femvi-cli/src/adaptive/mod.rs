@@ -36,10 +36,15 @@ pub struct AdaptiveTime {
 /// A message if the text does not parse (it did when the problem was loaded).
 pub fn settings(problem: &Problem) -> Result<Option<AdaptiveTime>, String> {
     let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
-    match file.time {
-        Some(tt) => tt.adaptive_checked(),
-        None => Ok(None),
+    let adaptive = match file.time {
+        Some(tt) => tt.adaptive_checked()?,
+        None => None,
+    };
+    if adaptive.is_some() && file.forces.is_some() {
+        // The adaptive integrator has no force terms: it would integrate the conservative part.
+        return Err("[forces] are not available with [time] mode = \"adaptive\" (yet): use mode = \"fixed\"".into());
     }
+    Ok(adaptive)
 }
 
 /// Err for a problem in adaptive mode, which only `femvi run` (and the library's
