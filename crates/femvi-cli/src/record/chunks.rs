@@ -8,10 +8,10 @@
 //! [`femvi::step::drive`] with the same recorders, bit for bit; only the moments a signal is
 //! noticed and a time-based checkpoint is written move to the chunks' ends. Energy mode, whose
 //! discrete energy is checked at every node too, goes a step at a time through
-//! [`Observer::node`].
+//! [`femvi::step::drive`].
 
 use super::Recorders;
-use femvi::step::{DriveReport, Observer};
+use femvi::step::{drive, DriveReport, Observer};
 use femvi::{Integrator, Lagrangian};
 use std::time::{Duration, Instant};
 
@@ -53,29 +53,28 @@ impl Cap {
 /// the report of [`femvi::step::drive`]: a failure of a step or of the recorders stops the
 /// run, the integrator stays at the last good node, and the recorders' `finish` still runs.
 pub fn drive_in_chunks<L: Lagrangian>(lag: &L, it: &mut Integrator<'_, L>, rec: &mut Recorders<'_>) -> DriveReport {
+    if !rec.chunked() {
+        // Energy mode: a step at a time, the library's driver with the same recorders.
+        return drive(it, &mut [rec as &mut dyn Observer<L>]);
+    }
     let mut error = Observer::node(rec, it, it.finished()).err();
     let mut steps = 0;
     let mut stopped = Observer::<L>::stop(rec);
     let mut cap = Cap::new();
     while error.is_none() && !stopped {
-        let chunked = rec.chunked();
         let mut failed = None;
-        let advanced = if chunked {
-            let n = rec.chunk(it.node().k, cap.len);
-            it.advance_observed(
-                n,
-                #[inline(always)]
-                |node| match rec.each_node(lag, node, 0.0) {
-                    Ok(()) => true,
-                    Err(e) => {
-                        failed = Some(e);
-                        false
-                    }
-                },
-            )
-        } else {
-            it.advance(1)
-        };
+        let n = rec.chunk(it.node().k, cap.len);
+        let advanced = it.advance_observed(
+            n,
+            #[inline(always)]
+            |node| match rec.each_node(lag, node, 0.0) {
+                Ok(()) => true,
+                Err(e) => {
+                    failed = Some(e);
+                    false
+                }
+            },
+        );
         match advanced {
             Ok(0) => break,
             Ok(done) => {
@@ -84,13 +83,7 @@ pub fn drive_in_chunks<L: Lagrangian>(lag: &L, it: &mut Integrator<'_, L>, rec: 
                     error = Some(e);
                     break;
                 }
-                let last = it.finished();
-                error = if chunked {
-                    rec.boundary(it, last)
-                } else {
-                    Observer::node(rec, it, last)
-                }
-                .err();
+                error = rec.boundary(it, it.finished()).err();
                 stopped = Observer::<L>::stop(rec);
                 cap.after(done);
             }

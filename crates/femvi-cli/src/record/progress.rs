@@ -1,8 +1,6 @@
 //! The progress bar of `femvi run`: on a terminal, once a run has taken a second, on stderr.
 
 use crate::problem::Problem;
-use femvi::step::Observer;
-use femvi::{Integrator, Lagrangian};
 use std::time::Instant;
 
 /// A progress bar that appears once a run has taken a second.
@@ -12,8 +10,6 @@ pub struct Progress {
     t_end: f64,
     clock: Instant,
     bar: Option<indicatif::ProgressBar>,
-    /// Nodes seen, the start node included.
-    nodes: u64,
     /// The bar is next updated at this many steps or later.
     next: u64,
 }
@@ -33,7 +29,6 @@ impl Progress {
             t_end: grid.end(),
             clock: Instant::now(),
             bar: None,
-            nodes: 0,
             next: 0,
         }
     }
@@ -63,19 +58,11 @@ impl Progress {
     }
 }
 
-impl<L: Lagrangian> Observer<L> for Progress {
-    fn node(&mut self, it: &Integrator<'_, L>, _last: bool) -> femvi::Result<()> {
-        self.nodes += 1;
-        if self.nodes > 1 {
-            self.show((self.nodes - 1) as usize, it.node().t);
-        }
-        Ok(())
-    }
-
-    fn finish(&mut self, _it: &Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+impl Progress {
+    /// Removes the bar, if it was drawn.
+    pub fn finish(&mut self) {
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
-        Ok(())
     }
 }

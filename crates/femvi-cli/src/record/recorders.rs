@@ -262,12 +262,8 @@ impl<'a> Recorders<'a> {
     }
 
     /// How many steps the next chunk of a run at node `k` may take, at most `cap`: up to the
-    /// next node the trajectory keeps and the next checkpoint due by step count (1 in energy
-    /// mode).
+    /// next node the trajectory keeps and the next checkpoint due by step count.
     pub(super) fn chunk(&self, k: usize, cap: usize) -> usize {
-        if !self.chunked {
-            return 1;
-        }
         let mut n = cap.min(self.every - k % self.every);
         if let Some(e) = self.checkpoints.as_ref().and_then(|c| c.policy.every_steps) {
             if e > 0 {
@@ -449,7 +445,7 @@ impl<L: Lagrangian> Observer<L> for Recorders<'_> {
                 first = r;
             }
         };
-        note(self.progress.finish(it, error));
+        self.progress.finish();
         note(self.energy.finish(it, error));
         if let Some(csv) = self.csv.as_mut() {
             note(csv.finish(it, error));

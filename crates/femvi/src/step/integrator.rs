@@ -208,7 +208,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         if self.energy.is_some() {
             return self.step_energy();
         }
-        if let Some(done) = self.fast_explicit(1, &mut |_| true) {
+        if let Some(done) = self.fast_explicit(1, &mut every_node) {
             return done.map(|d| d > 0);
         }
         let Some((h, t_next)) = self.grid.next(self.state.k, self.state.t) else {
@@ -267,7 +267,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn advance(&mut self, max_steps: usize) -> Result<usize> {
-        self.advance_observed(max_steps, |_| true)
+        self.advance_observed(max_steps, every_node)
     }
 
     /// As [`Integrator::advance`], showing every node reached to `at_node`, which may stop
@@ -387,4 +387,10 @@ impl<L: Lagrangian> Integrator<'static, L> {
             opts,
         )
     }
+}
+
+/// The callback of runs that look at no node: one function, so that `step` and `advance`
+/// share one instance of the generic fast loops.
+fn every_node(_: Node<'_>) -> bool {
+    true
 }
