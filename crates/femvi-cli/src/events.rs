@@ -102,7 +102,12 @@ pub fn write_events(dir: &Path, problem: &Problem, events: &[EventRecord]) -> st
 
 /// `poincare_<event>` for each event: the first coordinate against its momentum at the
 /// located events, as points.
-fn poincare(dir: &Path, problem: &Problem, events: &[EventRecord], f: crate::plot::Format) -> Result<(), String> {
+pub(crate) fn poincare(
+    dir: &Path,
+    problem: &Problem,
+    events: &[EventRecord],
+    f: crate::plot::Format,
+) -> Result<(), String> {
     let c = &problem.coordinates[0];
     for (i, e) in problem.events.iter().enumerate() {
         let points = events

@@ -151,3 +151,67 @@ fn fixed_step_commands_refuse_adaptive_problems() {
         assert!(err.contains("adaptive"), "{args:?}: {err}");
     }
 }
+
+/// `[[events]]` in adaptive mode: pericentre passages of the e = 0.99 orbit (y = 0 rising, at
+/// t = 2πk by the closed form) in events.csv and summary.json; a stopping apocentre event;
+/// and trajectory.npy equal to trajectory.csv bit for bit.
+#[test]
+fn adaptive_events_and_npy() {
+    let period = 2.0 * std::f64::consts::PI;
+    let events = "\n[[events]]\nname = \"pericentre\"\nwhen = \"y\"\ndirection = \"rising\"\n";
+    let text = std::fs::read_to_string(examples().join("kepler-eccentric.toml")).unwrap() + events;
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["run", "-", "--quiet", "--format", "csv,npy", "--set"])
+        .arg(format!("time.end={:?}", 5.5 * period))
+        .arg("--out")
+        .arg(out.path())
+        .write_stdin(text.clone())
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.path().join("events.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap(), "event,step,t,x,y,p_x,p_y");
+    let located: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
+    assert_eq!(located.len(), 5, "{csv}");
+    for (k, r) in located.iter().enumerate() {
+        let (t, x, y): (f64, f64, f64) = (r[2].parse().unwrap(), r[3].parse().unwrap(), r[4].parse().unwrap());
+        assert_eq!(r[0], "pericentre");
+        let dt = (t - (k + 1) as f64 * period).abs();
+        assert!(dt < 1e-9 && (x - 0.01).abs() < 1e-9 && y.abs() < 1e-9, "{r:?}: {dt:e}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["events_located"], 5);
+    assert!(summary["stopped_by_event"].is_null());
+    // The NPY table is the CSV's.
+    let (header, values) = rows(out.path());
+    let columns = std::fs::read_to_string(out.path().join("columns.txt")).unwrap();
+    assert_eq!(
+        columns.lines().collect::<Vec<_>>(),
+        header.split(',').collect::<Vec<_>>()
+    );
+    let bytes = std::fs::read(out.path().join("trajectory.npy")).unwrap();
+    let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+    let data: Vec<f64> = npy.into_vec().unwrap();
+    let flat: Vec<f64> = values.concat();
+    assert_eq!(data.len(), flat.len());
+    assert!(data.iter().zip(&flat).all(|(a, b)| a.to_bits() == b.to_bits()));
+    // A stopping event: the run ends in the step of the first apocentre (t = π).
+    let stop = text.replace("direction = \"rising\"", "direction = \"falling\"\nstop = true");
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["run", "-", "--quiet", "--out"])
+        .arg(out.path())
+        .write_stdin(stop)
+        .assert()
+        .success();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["stopped_by_event"], "pericentre");
+    let final_t = summary["final_t"].as_f64().unwrap();
+    assert!(
+        (std::f64::consts::PI..std::f64::consts::PI + 0.2).contains(&final_t),
+        "{final_t}"
+    );
+}

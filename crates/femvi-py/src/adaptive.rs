@@ -1,7 +1,8 @@
 //! Adaptive-mode problems (`[time] mode = "adaptive"`, the Poincaré time transformation) from
 //! Python: integrated by the command's own `femvi_cli::adaptive::solve_problem` (the same
 //! monitor, options and library call as `femvi run`), returned as a solution whose nodes carry
-//! their physical time t and, in `s`, their fictitious time.
+//! their physical time t and, in `s`, their fictitious time, and the located events (the
+//! problem file's, then Python's).
 
 use crate::solve::{Extras, Run};
 use femvi::adaptive::AdaptiveSolution;
@@ -20,21 +21,21 @@ pub fn run(
     settings: &AdaptiveTime,
 ) -> Result<(Run, Vec<f64>), String> {
     let bad = |e: &str| format!("{}: {e}", path.display());
-    if !extras.events.is_empty() || !problem.events.is_empty() {
-        return Err(bad(
-            "events are not located in [time] mode = \"adaptive\" (yet); use fixed steps",
-        ));
-    }
     if extras.dense || extras.max_steps.is_some() {
         return Err(bad(
             "dense= and max_steps= are not available in [time] mode = \"adaptive\"",
         ));
     }
     let every = extras.every.unwrap_or(problem.every);
+    // The problem file's events first (as `femvi run` locates them), then Python's.
+    let mut events: Vec<femvi::solution::Event> = problem.events.iter().map(|e| e.event()).collect();
+    let file_events = events.len();
+    events.extend(extras.events.iter().cloned());
+    let event_names = events.iter().map(|e| e.name.clone()).collect();
     let (t0, end) = (problem.grid.t0(), problem.grid.end());
     let sol = femvi_cli::with_system!(&problem.system, l => {
         let p = femvi::Problem::new(l.clone(), problem.start.clone(), t0, end);
-        femvi_cli::adaptive::solve_problem(&p, problem, settings, every, extras.saveat.clone())
+        femvi_cli::adaptive::solve_problem(&p, problem, settings, every, extras.saveat.clone(), events.clone())
     })
     .map_err(|e| bad(&e))?;
     let max_rel = femvi_cli::adaptive::max_rel_energy_error(&sol);
@@ -44,8 +45,8 @@ pub fn run(
             sol: solution(sol, settings.ds),
             max_rel_energy_error: max_rel,
             message: None,
-            event_names: vec![],
-            file_events: 0,
+            event_names,
+            file_events,
         },
         s,
     ))
@@ -62,7 +63,7 @@ fn solution(a: AdaptiveSolution, ds: f64) -> Solution {
         v: a.v,
         energy: a.energy,
         saved: a.saved,
-        events: vec![],
+        events: a.events,
         dense: None,
         steps: a.steps,
         mean_iterations: a.mean_iterations,

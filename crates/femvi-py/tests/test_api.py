@@ -156,6 +156,25 @@ def test_adaptive_runs_equal_the_command(run_cli, tmp_path):
     assert np.array_equal(again.saved.p, np.array([[float(x) for x in r[4:6]] for r in rows[1:]]))
 
 
+def test_adaptive_events_from_python():
+    # Pericentre passages of the e = 0.99 orbit (y = 0 rising) at t = 2πk by the closed form.
+    period = 2 * np.pi
+    sol = femvi.solve(EXAMPLES / "kepler-eccentric.toml", events=[femvi.Event(lambda t, q, v: q[1], direction="rising")],
+                      **{"time.end": 3.5 * period})
+    assert [e["event"] for e in sol.events] == [0, 0, 0]
+    for k, e in enumerate(sol.events, start=1):
+        assert abs(e["t"] - k * period) < 1e-9 and abs(e["q"][0] - 0.01) < 1e-9
+    stopped = femvi.solve(EXAMPLES / "kepler-eccentric.toml",
+                          events=[femvi.Event(lambda t, q, v: q[1], direction="falling", stop=True)])
+    assert stopped.stopped and np.pi <= stopped.t[-1] < np.pi + 0.2
+
+    def broken(t, q, v):
+        raise KeyError("inside g")
+
+    with pytest.raises(KeyError, match="inside g"):
+        femvi.solve(EXAMPLES / "kepler-eccentric.toml", events=[broken], **{"time.end": 1.0})
+
+
 def test_adaptive_problems_are_refused_where_fixed_steps_would_run():
     with pytest.raises(femvi.InputError, match="adaptive"):
         femvi.ensemble(EXAMPLES / "kepler-eccentric.toml", initial_states=np.array([[0.01, 0, 0, 14.1]]))

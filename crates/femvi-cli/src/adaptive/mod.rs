@@ -5,8 +5,12 @@
 //! default "kepler" for the Kepler model and "nbody" for n-body). Writes trajectory.csv with
 //! the physical time t (columns step, t, q, p, energy, s) — or, with `output_step`, rows at
 //! uniform physical times from the element polynomials (columns row, t, q, p, energy) — and
-//! summary.json; plots with `--plot` (`plots.rs`). NPY output is not written in this mode.
+//! summary.json; the same table as trajectory.npy and columns.txt when NPY output is on
+//! (`output.rs`); `[[events]]` located on the dense output in s (`femvi::adaptive`) into
+//! events.csv and, with plots, Poincaré plots as for fixed steps; plots with `--plot`
+//! (`plots.rs`).
 
+mod output;
 mod plots;
 
 use crate::problem::{Problem, ProblemFile, System};
@@ -144,11 +148,6 @@ fn run_with<L: Lagrangian>(
     command: &[String],
 ) -> std::io::Result<Outcome> {
     let clock = Instant::now();
-    if !problem.events.is_empty() {
-        return Ok(Outcome::Rejected(
-            "[[events]] are not located in [time] mode = \"adaptive\" (yet); use fixed steps".to_string(),
-        ));
-    }
     let (t0, end) = (problem.grid.t0(), problem.grid.end());
     let saveat: Vec<f64> = match settings.output_step {
         Some(h) => {
@@ -158,13 +157,27 @@ fn run_with<L: Lagrangian>(
         None => vec![],
     };
     let p = femvi::Problem::new(lag, problem.start.clone(), t0, end);
-    let sol = match solve_problem(&p, problem, settings, problem.every, saveat) {
+    let events = problem.events.iter().map(|e| e.event()).collect();
+    let sol = match solve_problem(&p, problem, settings, problem.every, saveat, events) {
         Ok(sol) => sol,
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     };
     std::fs::create_dir_all(dir)?;
-    write_csv(dir, problem, &p.lagrangian, &sol, settings)?;
+    output::write_trajectory(dir, problem, &p.lagrangian, &sol, settings, out)?;
     let mut summary = empty_summary(problem, clock, String::new(), command);
+    if !problem.events.is_empty() {
+        crate::events::write_events(dir, problem, &sol.events)?;
+        if out.plots {
+            crate::events::poincare(dir, problem, &sol.events, out.plot_format).map_err(std::io::Error::other)?;
+        }
+        summary.events_located = Some(sol.events.len());
+        let stopper = sol.events.iter().find(|r| problem.events[r.event].stop);
+        summary.stopped_by_event = Some(
+            stopper
+                .filter(|_| sol.stopped)
+                .map(|r| problem.events[r.event].name.clone()),
+        );
+    }
     let last = sol.t.len().saturating_sub(1);
     let n = sol.n;
     summary.steps = sol.steps;
@@ -185,8 +198,8 @@ fn run_with<L: Lagrangian>(
 }
 
 /// Integrates the loaded `problem` (its system as `p`) in adaptive mode with its monitor,
-/// keeping every `every`-th node and the states at the physical times `saveat`: what
-/// `femvi run` writes and the Python package returns.
+/// keeping every `every`-th node and the states at the physical times `saveat`, locating
+/// `events`: what `femvi run` writes and the Python package returns.
 ///
 /// # Errors
 /// The message of a bad monitor or of the library's refusal.
@@ -196,12 +209,14 @@ pub fn solve_problem<L: Lagrangian>(
     settings: &AdaptiveTime,
     every: usize,
     saveat: Vec<f64>,
+    events: Vec<femvi::solution::Event>,
 ) -> Result<AdaptiveSolution, String> {
     let g = monitor(problem, settings.monitor.as_deref())?;
     let options = AdaptiveOptions {
         solver: problem.options,
         every,
         saveat,
+        events,
         energy_level: energy_level(p, problem),
         ..AdaptiveOptions::step(settings.ds)
     };
@@ -229,54 +244,4 @@ fn energy_level<L: Lagrangian>(p: &femvi::Problem<L>, problem: &Problem) -> Opti
 pub fn max_rel_energy_error(sol: &AdaptiveSolution) -> f64 {
     let scale = if sol.e0 == 0.0 { 1.0 } else { sol.e0.abs() };
     sol.energy.iter().fold(0.0, |m, h| m.max((h - sol.e0).abs() / scale))
-}
-
-/// trajectory.csv: the kept nodes with their physical t and fictitious s, or (`uniform`) the
-/// rows at the requested physical times.
-fn write_csv<L: Lagrangian>(
-    dir: &Path,
-    problem: &Problem,
-    lag: &L,
-    sol: &AdaptiveSolution,
-    settings: &AdaptiveTime,
-) -> std::io::Result<()> {
-    let (n, uniform) = (sol.n, settings.output_step.is_some());
-    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
-    let mut header = vec![if uniform { "row" } else { "step" }.to_string(), "t".to_string()];
-    header.extend(problem.coordinates.iter().cloned());
-    header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
-    header.push("energy".into());
-    if !uniform {
-        header.push("s".into());
-    }
-    w.write_record(&header)?;
-    let num = |x: f64| format!("{x:?}");
-    let mut work = femvi::lagrangian::PointDerivatives::new(n);
-    let mut v = vec![0.0; n];
-    let (t, q, p) = if uniform {
-        (&sol.saved.t, &sol.saved.q, &sol.saved.p)
-    } else {
-        (&sol.t, &sol.q, &sol.p)
-    };
-    for (i, &ti) in t.iter().enumerate() {
-        let (qi, pi) = (&q[i * n..(i + 1) * n], &p[i * n..(i + 1) * n]);
-        let energy = if uniform {
-            femvi::lagrangian::hamiltonian(lag, ti, qi, pi, &mut v, &mut work).unwrap_or(f64::NAN)
-        } else {
-            sol.energy[i]
-        };
-        let mut row = vec![i.to_string(), num(ti)];
-        if !uniform {
-            // The node index: s = k ds.
-            row[0] = ((sol.s[i] / settings.ds).round() as usize).to_string();
-        }
-        row.extend(qi.iter().map(|&x| num(x)));
-        row.extend(pi.iter().map(|&x| num(x)));
-        row.push(num(energy));
-        if !uniform {
-            row.push(num(sol.s[i]));
-        }
-        w.write_record(&row)?;
-    }
-    w.flush()
 }

@@ -29,6 +29,7 @@ mod borrowed;
 mod clock;
 mod derivatives;
 mod energy;
+mod events;
 mod lagrangian;
 mod monitor;
 mod record;
@@ -40,7 +41,7 @@ pub use monitor::{ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor};
 pub use solve::{solve_adaptive, start_momentum};
 
 use crate::error::Error;
-use crate::solution::Saved;
+use crate::solution::{Event, EventRecord, Saved};
 use crate::step::SolverOptions;
 
 /// What [`solve_adaptive`] computes and keeps.
@@ -55,6 +56,9 @@ pub struct AdaptiveOptions {
     pub every: usize,
     /// Physical times at which to report the state (increasing; inside the span).
     pub saveat: Vec<f64>,
+    /// Events g(t, q, v) located on the dense output: the element polynomial in s, its
+    /// velocity divided by g(q) and the physical time t(σ) of the clock (`record.rs`).
+    pub events: Vec<Event>,
     /// Stop after this many steps (the run then ends there, `stopped`), so that a monitor
     /// that sends the physical step to zero cannot hang a run. Default 10⁸.
     pub max_steps: usize,
@@ -80,6 +84,7 @@ impl AdaptiveOptions {
             solver: SolverOptions::default(),
             every: 1,
             saveat: vec![],
+            events: vec![],
             max_steps: 100_000_000,
             hand_derivatives: true,
             energy_level: None,
@@ -109,11 +114,13 @@ pub struct AdaptiveSolution {
     pub energy: Vec<f64>,
     /// States at the `saveat` times.
     pub saved: Saved,
+    /// Located events, in time order per step (t, q, the physical v and p = ∂L/∂v).
+    pub events: Vec<EventRecord>,
     /// Steps taken.
     pub steps: usize,
     /// Mean solver iterations per step.
     pub mean_iterations: f64,
-    /// Whether the step limit stopped the run before t_end.
+    /// Whether the step limit or a stopping event stopped the run before t_end.
     pub stopped: bool,
     /// The error that stopped the run; the arrays hold everything before it.
     pub error: Option<Error>,

@@ -3,15 +3,18 @@
 //! velocity and energy H, answers requested physical times (`saveat`) from the element
 //! polynomial in s mapped through t(s), and stops the run at the first node at or past the
 //! physical end time (steps are not clipped: a shorter last step in s would be a change of
-//! the discrete Lagrangian, and nothing in s is aligned with t anyway).
+//! the discrete Lagrangian, and nothing in s is aligned with t anyway). Events are located on
+//! each step by the fixed-step detector (`events.rs`); a stopping event ends the run at the
+//! step's end node.
 
 use super::clock::Clock;
+use super::events::AdaptivePiece;
 use super::lagrangian::TimeTransformed;
 use super::monitor::Monitor;
 use crate::discrete::Element;
 use crate::error::{Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
-use crate::solution::Saved;
+use crate::solution::{Detector, EventRecord, Saved};
 use crate::step::{Integrator, Observer};
 
 pub(crate) struct Recorder<'e> {
@@ -38,6 +41,8 @@ pub(crate) struct Recorder<'e> {
     last_kept: Option<usize>,
     pub(crate) reached: bool,
     k: usize,
+    detector: Option<Detector>,
+    pub(crate) events: Vec<EventRecord>,
 }
 
 impl<'e> Recorder<'e> {
@@ -65,6 +70,8 @@ impl<'e> Recorder<'e> {
             last_kept: None,
             reached: false,
             k: 0,
+            detector: (!options.events.is_empty()).then(|| Detector::new(options.events.clone(), &element.basis, n)),
+            events: vec![],
         }
     }
 
@@ -152,6 +159,30 @@ impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_>
         if self.saveat.get(self.next_save).is_some_and(|&ts| ts <= self.t) {
             self.save_element(lg, &el, t_prev, total);
         }
+        if let Some(detector) = self.detector.as_mut() {
+            let m = (self.element.nodes() - 1).max(2);
+            let mut piece = AdaptivePiece {
+                step: node.k - 1,
+                element: self.element,
+                monitor: lg.monitor(),
+                el: &el,
+                clock: &mut self.clock,
+                t_prev,
+            };
+            let before = self.events.len();
+            detector.scan_piece(lg.inner(), &mut piece, m, &mut self.events);
+            // The last step overshoots t_end (it is not clipped): its events past t_end are
+            // outside the span, as for fixed steps.
+            let t_end = self.t_end;
+            let mut i = before;
+            while i < self.events.len() {
+                if self.events[i].t > t_end {
+                    self.events.remove(i);
+                } else {
+                    i += 1;
+                }
+            }
+        }
         self.reached = self.t >= self.t_end;
         let keep = self.reached || (self.every > 0 && node.k.is_multiple_of(self.every));
         if keep {
@@ -169,6 +200,6 @@ impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_>
     }
 
     fn stop(&self) -> bool {
-        self.reached || self.k >= self.max_steps
+        self.reached || self.k >= self.max_steps || self.detector.as_ref().is_some_and(|d| d.stop)
     }
 }

@@ -142,6 +142,7 @@ pub fn solve_adaptive<L: Lagrangian, G: Monitor>(
         v: std::mem::take(&mut recorder.v),
         energy: std::mem::take(&mut recorder.energy),
         saved: std::mem::take(&mut recorder.saved),
+        events: std::mem::take(&mut recorder.events),
         steps: report.steps,
         mean_iterations: it.mean_iterations(),
         stopped: report.stopped && !recorder.reached,

@@ -97,6 +97,18 @@ pub struct EventRecord {
     pub p: Vec<f64>,
 }
 
+/// A piece of the run on which events are sampled: a parameter x from `start` over `width`
+/// (for fixed steps x is the time t on one element; for adaptive runs the fraction σ of a
+/// step in fictitious time), mapped to the time and the state there.
+pub(crate) trait Piece {
+    /// The element's index (between nodes `step` and `step + 1`).
+    fn step(&self) -> usize;
+    /// The parameter's first value and the width of its range.
+    fn range(&self) -> (f64, f64);
+    /// q_h and q̇_h at parameter x into `q` and `v`; returns the time there.
+    fn at(&mut self, x: f64, q: &mut [f64], v: &mut [f64]) -> f64;
+}
+
 /// One element seen by the detector: [t0, t0 + h] from `base` with increments `incr`.
 pub(crate) struct Span<'e> {
     pub(crate) step: usize,
@@ -106,12 +118,34 @@ pub(crate) struct Span<'e> {
     pub(crate) incr: &'e [f64],
 }
 
+/// A fixed-step element as a [`Piece`]: x = t.
+pub(crate) struct SpanPiece<'a, 'e> {
+    pub(crate) span: &'a Span<'e>,
+    pub(crate) basis: &'a LagrangeBasis,
+    pub(crate) eval: &'a mut ElementEval,
+}
+
+impl Piece for SpanPiece<'_, '_> {
+    fn step(&self) -> usize {
+        self.span.step
+    }
+    fn range(&self) -> (f64, f64) {
+        (self.span.t0, self.span.h)
+    }
+    fn at(&mut self, t: f64, q: &mut [f64], v: &mut [f64]) -> f64 {
+        let sp = self.span;
+        self.eval.eval(self.basis, sp.t0, sp.h, sp.base, sp.incr, t, q, v);
+        t
+    }
+}
+
 /// Samples the events on each new element and locates their zeros.
 pub(crate) struct Detector {
     pub(crate) events: Vec<Event>,
     /// g of each event at the end of the last element (NaN before the first).
     last_g: Vec<f64>,
-    eval: ElementEval,
+    /// Scratch for the fixed-step elements' interpolants.
+    pub(crate) eval: ElementEval,
     q: Vec<f64>,
     v: Vec<f64>,
     work: PointDerivatives,
@@ -132,15 +166,13 @@ impl Detector {
         }
     }
 
-    /// g of event `e` at time t on the element.
-    fn g(&mut self, e: usize, basis: &LagrangeBasis, sp: &Span<'_>, t: f64) -> f64 {
-        self.eval
-            .eval(basis, sp.t0, sp.h, sp.base, sp.incr, t, &mut self.q, &mut self.v);
+    /// g of event `e` at parameter x of the piece.
+    fn g<P: Piece>(&mut self, e: usize, piece: &mut P, x: f64) -> f64 {
+        let t = piece.at(x, &mut self.q, &mut self.v);
         (self.events[e].condition)(t, &self.q, &self.v)
     }
 
-    /// Scans the element for zeros of every event; appends what it finds to `out` (in time
-    /// order per event) and sets `stop` if a stopping event occurred.
+    /// Scans a fixed-step element (see [`Detector::scan_piece`]).
     pub(crate) fn scan<L: Lagrangian>(
         &mut self,
         lag: &L,
@@ -148,19 +180,39 @@ impl Detector {
         sp: &Span<'_>,
         out: &mut Vec<EventRecord>,
     ) {
-        let m = (basis.len() - 1).max(2);
+        let mut eval = std::mem::replace(&mut self.eval, ElementEval::new(0));
+        let mut piece = SpanPiece {
+            span: sp,
+            basis,
+            eval: &mut eval,
+        };
+        self.scan_piece(lag, &mut piece, (basis.len() - 1).max(2), out);
+        self.eval = eval;
+    }
+
+    /// Scans the piece for zeros of every event, sampling its parameter at m equal
+    /// subintervals; appends what it finds to `out` (in time order per event, the momentum
+    /// from `lag`) and sets `stop` if a stopping event occurred.
+    pub(crate) fn scan_piece<L: Lagrangian, P: Piece>(
+        &mut self,
+        lag: &L,
+        piece: &mut P,
+        m: usize,
+        out: &mut Vec<EventRecord>,
+    ) {
+        let (x0, width) = piece.range();
         for e in 0..self.events.len() {
-            let (mut ta, mut ga) = (sp.t0, self.last_g[e]);
+            let (mut xa, mut ga) = (x0, self.last_g[e]);
             if ga.is_nan() {
-                ga = self.g(e, basis, sp, sp.t0);
+                ga = self.g(e, piece, x0);
             }
             for j in 1..=m {
-                let tb = if j == m {
-                    sp.t0 + sp.h
+                let xb = if j == m {
+                    x0 + width
                 } else {
-                    sp.t0 + sp.h * (j as f64 / m as f64)
+                    x0 + width * (j as f64 / m as f64)
                 };
-                let gb = self.g(e, basis, sp, tb);
+                let gb = self.g(e, piece, xb);
                 let rising = ga < 0.0 && gb >= 0.0;
                 let falling = ga > 0.0 && gb <= 0.0;
                 let wanted = match self.events[e].direction {
@@ -169,28 +221,28 @@ impl Detector {
                     Direction::Both => rising || falling,
                 };
                 if wanted {
-                    let t = self.root(e, basis, sp, (ta, ga), (tb, gb));
-                    out.push(self.record(lag, basis, sp, e, t));
+                    let x = self.root(e, piece, (xa, ga), (xb, gb));
+                    out.push(self.record(lag, piece, e, x));
                     if self.events[e].stop {
                         self.stop = true;
                     }
                 }
-                (ta, ga) = (tb, gb);
+                (xa, ga) = (xb, gb);
             }
             self.last_g[e] = ga;
         }
     }
 
-    /// The zero of g in [ta, tb] (g(ta) and g(tb) of opposite signs, or g(tb) = 0) by
+    /// The zero of g in [xa, xb] (g(xa) and g(xb) of opposite signs, or g(xb) = 0) by
     /// regula falsi with the Illinois modification.
-    fn root(&mut self, e: usize, basis: &LagrangeBasis, sp: &Span<'_>, a: (f64, f64), b: (f64, f64)) -> f64 {
+    fn root<P: Piece>(&mut self, e: usize, piece: &mut P, a: (f64, f64), b: (f64, f64)) -> f64 {
         let ((mut ta, _), (mut tb, mut gb)) = (a, b);
         if gb == 0.0 {
             return tb;
         }
         // g at ta on this element: at a node it may differ from the previous element's value
         // (q̇_h is not continuous there); a zero the new polynomial does not see is the node.
-        let mut ga = self.g(e, basis, sp, ta);
+        let mut ga = self.g(e, piece, ta);
         if ga == 0.0 || ga.signum() == gb.signum() {
             return ta;
         }
@@ -202,7 +254,7 @@ impl Detector {
             if !(tc > ta.min(tb) && tc < ta.max(tb)) {
                 tc = 0.5 * (ta + tb);
             }
-            let gc = self.g(e, basis, sp, tc);
+            let gc = self.g(e, piece, tc);
             if gc == 0.0 || !gc.is_finite() {
                 return tc;
             }
@@ -220,21 +272,13 @@ impl Detector {
         }
     }
 
-    fn record<L: Lagrangian>(
-        &mut self,
-        lag: &L,
-        basis: &LagrangeBasis,
-        sp: &Span<'_>,
-        e: usize,
-        t: f64,
-    ) -> EventRecord {
-        self.eval
-            .eval(basis, sp.t0, sp.h, sp.base, sp.incr, t, &mut self.q, &mut self.v);
+    fn record<L: Lagrangian, P: Piece>(&mut self, lag: &L, piece: &mut P, e: usize, x: f64) -> EventRecord {
+        let t = piece.at(x, &mut self.q, &mut self.v);
         let mut p = vec![0.0; self.q.len()];
         momentum(lag, t, &self.q, &self.v, &mut self.work, &mut p);
         EventRecord {
             event: e,
-            step: sp.step,
+            step: piece.step(),
             t,
             q: self.q.clone(),
             v: self.v.clone(),

@@ -31,6 +31,7 @@ pub(crate) use solve::grid;
 pub use dense::DenseOutput;
 pub use energy::{EnergyReport, EnergyTracker, NodeEnergy};
 pub use events::{Condition, Direction, Event, EventRecord};
+pub(crate) use events::{Detector, Piece};
 pub use solve::{solve, solve_with};
 
 use crate::error::Error;

@@ -1,0 +1,95 @@
+//! The trajectory of an adaptive run as a table: the kept nodes with their physical t and
+//! fictitious s (columns step, t, q, p, energy, s), or the rows at the requested uniform
+//! physical times (columns row, t, q, p, energy, with H from the inverse Legendre
+//! transform there), written as trajectory.csv (numbers in shortest round-trip form) and, when
+//! NPY output is on, as trajectory.npy (float64, the same columns) with columns.txt.
+
+use crate::problem::Problem;
+use crate::run::RunOutput;
+use femvi::adaptive::AdaptiveSolution;
+use femvi::Lagrangian;
+use std::path::Path;
+
+use super::AdaptiveTime;
+
+/// Writes trajectory.csv (if `out.csv`) and trajectory.npy with columns.txt (if `out.npy`).
+pub(super) fn write_trajectory<L: Lagrangian>(
+    dir: &Path,
+    problem: &Problem,
+    lag: &L,
+    sol: &AdaptiveSolution,
+    settings: &AdaptiveTime,
+    out: RunOutput,
+) -> std::io::Result<()> {
+    let (header, rows) = table(problem, lag, sol, settings);
+    if out.csv {
+        write_csv(dir, &header, &rows)?;
+    }
+    if out.npy {
+        crate::record::write_table(&dir.join("trajectory.npy"), &dir.join("columns.txt"), &header, &rows)?;
+    }
+    Ok(())
+}
+
+/// The column names and the row-major values (the first column, the node or row index, as a
+/// float).
+fn table<L: Lagrangian>(
+    problem: &Problem,
+    lag: &L,
+    sol: &AdaptiveSolution,
+    settings: &AdaptiveTime,
+) -> (Vec<String>, Vec<f64>) {
+    let (n, uniform) = (sol.n, settings.output_step.is_some());
+    let mut header = vec![if uniform { "row" } else { "step" }.to_string(), "t".to_string()];
+    header.extend(problem.coordinates.iter().cloned());
+    header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+    header.push("energy".into());
+    if !uniform {
+        header.push("s".into());
+    }
+    let mut work = femvi::lagrangian::PointDerivatives::new(n);
+    let mut v = vec![0.0; n];
+    let (t, q, p) = if uniform {
+        (&sol.saved.t, &sol.saved.q, &sol.saved.p)
+    } else {
+        (&sol.t, &sol.q, &sol.p)
+    };
+    let mut rows = Vec::with_capacity(t.len() * header.len());
+    for (i, &ti) in t.iter().enumerate() {
+        let (qi, pi) = (&q[i * n..(i + 1) * n], &p[i * n..(i + 1) * n]);
+        let energy = if uniform {
+            femvi::lagrangian::hamiltonian(lag, ti, qi, pi, &mut v, &mut work).unwrap_or(f64::NAN)
+        } else {
+            sol.energy[i]
+        };
+        // The node index: s = k ds.
+        let index = if uniform {
+            i as f64
+        } else {
+            (sol.s[i] / settings.ds).round()
+        };
+        rows.push(index);
+        rows.push(ti);
+        rows.extend_from_slice(qi);
+        rows.extend_from_slice(pi);
+        rows.push(energy);
+        if !uniform {
+            rows.push(sol.s[i]);
+        }
+    }
+    (header, rows)
+}
+
+fn write_csv(dir: &Path, header: &[String], rows: &[f64]) -> std::io::Result<()> {
+    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
+    w.write_record(header)?;
+    let mut record = Vec::with_capacity(header.len());
+    for row in rows.chunks_exact(header.len().max(1)) {
+        record.clear();
+        // The index column as an integer, the others in shortest round-trip form.
+        record.push(format!("{}", row[0] as u64));
+        record.extend(row[1..].iter().map(|x| format!("{x:?}")));
+        w.write_record(&record)?;
+    }
+    w.flush()
+}
