@@ -116,7 +116,7 @@ pub struct Indicators {
     pub final_p: Vec<f64>,
 }
 
-fn pick(report: &ChaosReport, wanted: &[Indicator]) -> Indicators {
+pub(crate) fn pick(report: &ChaosReport, wanted: &[Indicator]) -> Indicators {
     let has = |i| wanted.contains(&i);
     Indicators {
         megno: has(Indicator::Megno).then_some(report.last.mean_megno),
@@ -353,8 +353,6 @@ pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u
     let clock = std::time::Instant::now();
     let bad = |m: String| (m, crate::BAD_INPUT);
     crate::adaptive::refuse(problem, "femvi chaos").map_err(bad)?;
-    crate::forced::refuse(problem, "femvi chaos").map_err(bad)?;
-    crate::constrained::refuse(problem, "femvi chaos").map_err(bad)?;
     let mut wanted = args
         .indicators
         .iter()
@@ -374,9 +372,12 @@ pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u
     if points > 4_000_000 {
         return Err(bad(format!("{points} grid points: at most 4 000 000")));
     }
-    let rows =
-        crate::with_system!(&problem.system, l => compute(l, problem, &axes, &wanted, (args.threads, args.transient)))
-            .map_err(bad)?;
+    // [forces] and [constraints] (one orbit): `chaos_forced.rs`.
+    let rows = match crate::chaos_forced::compute(problem, &axes, &wanted, args.transient).map_err(bad)? {
+        Some(rows) => rows,
+        None => crate::with_system!(&problem.system, l => compute(l, problem, &axes, &wanted, (args.threads, args.transient)))
+            .map_err(bad)?,
+    };
     let failed = rows.iter().filter(|r| r.error.is_some()).count();
     let io = |e: std::io::Error| (format!("cannot write output: {e}"), crate::BAD_INPUT);
     if axes.is_empty() {
