@@ -1,6 +1,7 @@
 //! `femvi chaos` on problems with `[forces]` and `[constraints]`: one orbit's indicators as
 //! JSON equal to the library's (femvi::chaos::forced_indicators / constrained_indicators) on
-//! the same problem, summary.json with `--out`, and the refusals (`--grid`, both tables).
+//! the same problem, summary.json with `--out`, maps (`--grid`) equal to one-orbit runs, and
+//! bad input.
 
 use assert_cmd::Command;
 use femvi::chaos::{constrained_indicators, forced_indicators, ChaosOptions, ChaosReport};
@@ -144,17 +145,66 @@ fn a_constrained_orbit_as_json_equals_the_library_and_writes_a_summary() {
 }
 
 #[test]
-fn maps_and_both_tables_are_refused() {
-    let (code, _, err, _d) = chaos(SPHERE, &["--grid", "x=0:1:3"]);
-    assert_eq!(code, 2);
-    assert!(err.contains("--grid is not available with [constraints]"), "{err}");
+fn both_tables_are_refused_and_a_start_off_the_manifold_fails() {
     let both = SPHERE.replace("[initial]", "[forces]\ngeneralized = [\"0\", \"0\", \"-0.1*z_dot\"]\n[initial]");
     let (code, _, err, _d) = chaos(&both, &[]);
     assert_eq!(code, 2);
     assert!(err.contains("together are not supported"), "{err}");
-    // A start off the manifold is an input error naming the residual.
+    // A start off the manifold: the orbit fails (exit code 1, as a failed start of an
+    // unconstrained problem), its error naming the residual.
     let off = SPHERE.replace("q = [0.6, 0.0, -0.8]", "q = [0.6, 0.0, -0.9]");
-    let (code, _, err, _d) = chaos(&off, &[]);
-    assert_eq!(code, 2);
-    assert!(err.contains("violates the constraints"), "{err}");
+    let (code, out, _, _d) = chaos(&off, &[]);
+    assert_eq!(code, 1);
+    assert!(out.contains("violates the constraints"), "{out}");
+}
+
+/// The MEGNO column of chaos_map.csv.
+fn megno_column(dir: &std::path::Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(dir.join("out").join("chaos_map.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "megno").unwrap();
+    lines.map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect()
+}
+
+#[test]
+fn maps_equal_one_orbit_runs_of_the_library() {
+    // Forced: a start axis and a parameter axis (the damping c, also in the force).
+    let (code, _, err, dir) = chaos(DRIVEN, &["--grid", "x=0.1:0.5:3", "--grid", "c=0.1:0.3:2", "--threads", "2"]);
+    assert_eq!(code, 0, "{err}");
+    let got = megno_column(dir.path());
+    assert_eq!(got.len(), 6);
+    let x = vec!["x".to_string()];
+    let el = Element::with_order(4).unwrap();
+    for (i, g) in got.iter().enumerate() {
+        let (x0, c) = (0.1 + 0.2 * (i % 3) as f64, 0.1 + 0.2 * (i / 3) as f64);
+        let params = [("k", 1.0), ("c", c), ("f0", 0.5), ("w", 1.3)].map(|(k, v)| (k.to_string(), v));
+        let lag = ExprLagrangian::new("0.5*x_dot^2 - 0.5*k*x^2", &x, &params).unwrap();
+        let force = ExprForces::new(&["-c*x_dot + f0*cos(w*t)"], &x, &params).unwrap();
+        let start = Start::Velocity {
+            q: vec![x0],
+            v: vec![0.0],
+        };
+        let problem = Problem::new(lag, start, 0.0, 30.0);
+        let r = forced_indicators(&problem, &force, &el, &SolveOptions::step(0.05), &spectrum()).unwrap();
+        assert_eq!(*g, r.last.mean_megno, "point {i}");
+    }
+    // Constrained: a velocity axis.
+    let (code, _, err, dir) = chaos(SPHERE, &["--grid", "y_dot=0.5:0.9:3"]);
+    assert_eq!(code, 0, "{err}");
+    let got = megno_column(dir.path());
+    let xyz: Vec<String> = ["x", "y", "z"].iter().map(|s| s.to_string()).collect();
+    let params = [("g".to_string(), 1.0)];
+    for (i, g) in got.iter().enumerate() {
+        let lag = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2 + z_dot^2) - g*z", &xyz, &params).unwrap();
+        let sphere = ExprConstraints::new(&["x^2 + y^2 + z^2 - 1".to_string()], &xyz, &params).unwrap();
+        let start = Start::Velocity {
+            q: vec![0.6, 0.0, -0.8],
+            v: vec![0.0, 0.5 + 0.2 * i as f64, 0.0],
+        };
+        let problem = Problem::new(lag, start, 0.0, 50.0);
+        let r = constrained_indicators(&problem, &sphere, &el, &SolveOptions::step(0.1), Enforcement::default(), &spectrum())
+            .unwrap();
+        assert_eq!(*g, r.last.mean_megno, "point {i}");
+    }
 }
