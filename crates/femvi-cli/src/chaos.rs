@@ -230,7 +230,11 @@ pub fn compute<L: Lagrangian + Clone + Sync>(
     let one = |i: usize| match reload(i) {
         Ok(p) => match start_at(&p, axes, i) {
             // The point's parameters also in its forces or constraints.
-            Ok(start) => match if tables.is_none() { Ok(Tables::None) } else { Tables::of(&p) } {
+            Ok(start) => match if tables.is_none() {
+                Ok(Tables::None)
+            } else {
+                Tables::of(&p)
+            } {
                 Ok(t) => crate::with_system!(&p.system, l => one_point(l, &p, start, &t, &chaos, wanted)),
                 Err(e) => failed(&p, e),
             },

@@ -55,7 +55,13 @@ fn chaos(text: &str, extra: &[&str]) -> (i32, String, String, tempfile::TempDir)
     let path = dir.path().join("problem.toml");
     std::fs::write(&path, text).unwrap();
     let out = femvi()
-        .args(["chaos", path.to_str().unwrap(), "--json", "--indicator", "megno,lyapunov,fli,spectrum"])
+        .args([
+            "chaos",
+            path.to_str().unwrap(),
+            "--json",
+            "--indicator",
+            "megno,lyapunov,fli,spectrum",
+        ])
         .arg("--out")
         .arg(dir.path().join("out"))
         .args(extra)
@@ -146,7 +152,10 @@ fn a_constrained_orbit_as_json_equals_the_library_and_writes_a_summary() {
 
 #[test]
 fn both_tables_are_refused_and_a_start_off_the_manifold_fails() {
-    let both = SPHERE.replace("[initial]", "[forces]\ngeneralized = [\"0\", \"0\", \"-0.1*z_dot\"]\n[initial]");
+    let both = SPHERE.replace(
+        "[initial]",
+        "[forces]\ngeneralized = [\"0\", \"0\", \"-0.1*z_dot\"]\n[initial]",
+    );
     let (code, _, err, _d) = chaos(&both, &[]);
     assert_eq!(code, 2);
     assert!(err.contains("together are not supported"), "{err}");
@@ -170,7 +179,10 @@ fn megno_column(dir: &std::path::Path) -> Vec<f64> {
 #[test]
 fn maps_equal_one_orbit_runs_of_the_library() {
     // Forced: a start axis and a parameter axis (the damping c, also in the force).
-    let (code, _, err, dir) = chaos(DRIVEN, &["--grid", "x=0.1:0.5:3", "--grid", "c=0.1:0.3:2", "--threads", "2"]);
+    let (code, _, err, dir) = chaos(
+        DRIVEN,
+        &["--grid", "x=0.1:0.5:3", "--grid", "c=0.1:0.3:2", "--threads", "2"],
+    );
     assert_eq!(code, 0, "{err}");
     let got = megno_column(dir.path());
     assert_eq!(got.len(), 6);
@@ -203,8 +215,15 @@ fn maps_equal_one_orbit_runs_of_the_library() {
             v: vec![0.0, 0.5 + 0.2 * i as f64, 0.0],
         };
         let problem = Problem::new(lag, start, 0.0, 50.0);
-        let r = constrained_indicators(&problem, &sphere, &el, &SolveOptions::step(0.1), Enforcement::default(), &spectrum())
-            .unwrap();
+        let r = constrained_indicators(
+            &problem,
+            &sphere,
+            &el,
+            &SolveOptions::step(0.1),
+            Enforcement::default(),
+            &spectrum(),
+        )
+        .unwrap();
         assert_eq!(*g, r.last.mean_megno, "point {i}");
     }
 }

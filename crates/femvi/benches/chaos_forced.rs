@@ -12,7 +12,13 @@ use femvi::{models, Element, Lagrangian, Problem, SolveOptions, Start};
 use std::hint::black_box;
 
 fn group<L: Lagrangian, F: Force>(c: &mut Criterion, name: &str, problem: &Problem<L>, force: &F) {
-    let (el, options) = (Element::with_order(4).unwrap(), SolveOptions { every: 0, ..SolveOptions::step(0.02) });
+    let (el, options) = (
+        Element::with_order(4).unwrap(),
+        SolveOptions {
+            every: 0,
+            ..SolveOptions::step(0.02)
+        },
+    );
     let mut g = c.benchmark_group(name);
     g.sample_size(10);
     g.measurement_time(std::time::Duration::from_secs(3));

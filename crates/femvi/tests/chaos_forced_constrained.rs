@@ -51,7 +51,9 @@ fn fd_difference(
 
 /// The unit vectors of R^d.
 fn unit_vectors(d: usize) -> Vec<Vec<f64>> {
-    (0..d).map(|j| (0..d).map(|i| if i == j { 1.0 } else { 0.0 }).collect()).collect()
+    (0..d)
+        .map(|j| (0..d).map(|i| if i == j { 1.0 } else { 0.0 }).collect())
+        .collect()
 }
 
 fn duffing() -> (Problem<ExprLagrangian>, ExprForces) {
@@ -80,7 +82,10 @@ fn forced_tangent_maps_agree_with_finite_differences_of_whole_runs() {
     let (m, _) = forced_sensitivity(&problem, &force, &el, &options).unwrap();
     let run = |q: Vec<f64>, p: Vec<f64>| {
         let perturbed = Problem::new(problem.lagrangian.clone(), Start::Momentum { q, p }, 0.0, 20.0);
-        let opts = SolveOptions { every: 0, ..options.clone() };
+        let opts = SolveOptions {
+            every: 0,
+            ..options.clone()
+        };
         last_state(&solve_forced(&perturbed, &force, &el, &opts).unwrap().solution)
     };
     // The difference is the central difference's own O(eps²) error: 1.6e-8 at eps = 1e-5,
@@ -124,8 +129,16 @@ fn constrained_fd<L: Lagrangian + Clone, C: femvi::constraints::Constraints>(
     };
     let (m, _) = constrained_sensitivity(problem, con, el, options, Enforcement::default()).unwrap();
     let run = |q: Vec<f64>, p: Vec<f64>| {
-        let perturbed = Problem::new(problem.lagrangian.clone(), Start::Momentum { q, p }, problem.t0, problem.t_end);
-        let opts = SolveOptions { every: 0, ..options.clone() };
+        let perturbed = Problem::new(
+            problem.lagrangian.clone(),
+            Start::Momentum { q, p },
+            problem.t0,
+            problem.t_end,
+        );
+        let opts = SolveOptions {
+            every: 0,
+            ..options.clone()
+        };
         last_state(&solve_constrained(&perturbed, con, el, &opts).unwrap().solution)
     };
     fd_difference(&m, (&q, &p), &manifold_directions(dq), 1e-6, run)
@@ -141,14 +154,26 @@ fn constrained_tangent_maps_agree_with_finite_differences_of_whole_runs() {
     };
     let problem = Problem::new(lag, start, 0.0, 50.0);
     let dq = [vec![0.0, 1.0, 0.0], vec![0.8, 0.0, 0.6]];
-    let rel = constrained_fd(&problem, &sphere, &Element::with_order(4).unwrap(), &SolveOptions::step(0.05), &dq);
+    let rel = constrained_fd(
+        &problem,
+        &sphere,
+        &Element::with_order(4).unwrap(),
+        &SolveOptions::step(0.05),
+        &dq,
+    );
     eprintln!("spherical pendulum: relative difference {rel:.2e}");
     assert!(rel <= 1e-7, "{rel:e}");
     // The double pendulum in Cartesian coordinates (regular, small swings), 1000 steps.
     let (lag, rods) = models::chain(2, 2, 1.0, 1.0, 1.0).unwrap();
     let (q, dq) = double_pendulum(0.3, -0.2);
     let problem = Problem::new(lag, Start::Momentum { q, p: vec![0.0; 4] }, 0.0, 20.0);
-    let rel = constrained_fd(&problem, &rods, &Element::with_order(4).unwrap(), &SolveOptions::step(0.02), &dq);
+    let rel = constrained_fd(
+        &problem,
+        &rods,
+        &Element::with_order(4).unwrap(),
+        &SolveOptions::step(0.02),
+        &dq,
+    );
     eprintln!("double pendulum: relative difference {rel:.2e}");
     assert!(rel <= 1e-7, "{rel:e}");
 }
@@ -180,8 +205,14 @@ fn manifold_defect(th1: f64, th2: f64) -> (f64, f64) {
     let (q, dq) = double_pendulum(th1, th2);
     let problem = Problem::new(lag, Start::Momentum { q, p: vec![0.0; 4] }, 0.0, 100.0);
     let options = SolveOptions::step(0.01);
-    let (m, _) = constrained_sensitivity(&problem, &rods, &Element::with_order(4).unwrap(), &options, Enforcement::default())
-        .unwrap();
+    let (m, _) = constrained_sensitivity(
+        &problem,
+        &rods,
+        &Element::with_order(4).unwrap(),
+        &options,
+        Enforcement::default(),
+    )
+    .unwrap();
     let mut dirs: Vec<Vec<f64>> = dq.iter().map(|v| [v.clone(), vec![0.0; 4]].concat()).collect();
     dirs.extend(dq.iter().map(|v| [vec![0.0; 4], v.clone()].concat()));
     let image: Vec<Vec<f64>> = dirs
@@ -201,7 +232,10 @@ fn manifold_defect(th1: f64, th2: f64) -> (f64, f64) {
 fn chaotic_double_pendulum(t_end: f64) -> (Problem<femvi::Mechanical<models::UniformGravity>>, models::Chain) {
     let (lag, rods) = models::chain(2, 2, 1.0, 1.0, 1.0).unwrap();
     let (q, _) = double_pendulum(2.0, 2.5);
-    (Problem::new(lag, Start::Momentum { q, p: vec![0.0; 4] }, 0.0, t_end), rods)
+    (
+        Problem::new(lag, Start::Momentum { q, p: vec![0.0; 4] }, 0.0, t_end),
+        rods,
+    )
 }
 
 #[test]
@@ -215,11 +249,22 @@ fn a_constrained_conservative_spectrum_comes_in_plus_minus_pairs_and_megno_grows
         record_every: 100,
         ..ChaosOptions::default()
     };
-    let r = constrained_indicators(&problem, &rods, &Element::with_order(4).unwrap(), &SolveOptions::step(0.02), Enforcement::default(), &chaos)
-        .unwrap();
+    let r = constrained_indicators(
+        &problem,
+        &rods,
+        &Element::with_order(4).unwrap(),
+        &SolveOptions::step(0.02),
+        Enforcement::default(),
+        &chaos,
+    )
+    .unwrap();
     assert!(r.error.is_none(), "{:?}", r.error);
     let s = r.spectrum.unwrap();
-    eprintln!("double pendulum spectrum {s:?}, pair sums {:.2e} {:.2e}", s[0] + s[3], s[1] + s[2]);
+    eprintln!(
+        "double pendulum spectrum {s:?}, pair sums {:.2e} {:.2e}",
+        s[0] + s[3],
+        s[1] + s[2]
+    );
     assert_eq!(s.len(), 4);
     assert!(s[0] > 0.1, "not chaotic: {s:?}");
     assert!((s[0] + s[3]).abs() <= 1e-6 && (s[1] + s[2]).abs() <= 1e-6, "{s:?}");
@@ -227,7 +272,11 @@ fn a_constrained_conservative_spectrum_comes_in_plus_minus_pairs_and_megno_grows
     let half: Vec<_> = r.series.iter().filter(|x| x.t >= 1000.0).collect();
     let (t, y): (Vec<f64>, Vec<f64>) = half.iter().map(|x| (x.t, x.mean_megno)).unzip();
     let k = slope(&t, &y);
-    eprintln!("double pendulum: lambda (QR) {:.5}, 2 x MEGNO slope {:.5}", s[0], 2.0 * k);
+    eprintln!(
+        "double pendulum: lambda (QR) {:.5}, 2 x MEGNO slope {:.5}",
+        s[0],
+        2.0 * k
+    );
     assert!((2.0 * k / s[0] - 1.0).abs() <= 0.05, "{} against {}", 2.0 * k, s[0]);
 }
 
@@ -248,9 +297,19 @@ fn megno_tends_to_two_on_the_regular_spherical_pendulum() {
         p: vec![0.0, 0.7, 0.0],
     };
     let problem = Problem::new(lag, start, 0.0, 2e4);
-    let r = constrained_indicators(&problem, &sphere, &Element::with_order(4).unwrap(), &SolveOptions::step(0.2), Enforcement::default(), &ChaosOptions::default())
-        .unwrap();
-    eprintln!("spherical pendulum: <Y> = {:.5}, lambda = {:.2e}", r.last.mean_megno, r.last.lyapunov);
+    let r = constrained_indicators(
+        &problem,
+        &sphere,
+        &Element::with_order(4).unwrap(),
+        &SolveOptions::step(0.2),
+        Enforcement::default(),
+        &ChaosOptions::default(),
+    )
+    .unwrap();
+    eprintln!(
+        "spherical pendulum: <Y> = {:.5}, lambda = {:.2e}",
+        r.last.mean_megno, r.last.lyapunov
+    );
     assert!(r.error.is_none());
     assert!((r.last.mean_megno - 2.0).abs() <= 0.02, "{}", r.last.mean_megno);
 }
@@ -272,14 +331,29 @@ fn the_damped_oscillator_spectrum_is_the_closed_form() {
             spectrum_transient: 50.0,
             ..ChaosOptions::default()
         };
-        let r = forced_indicators(&problem, &LinearForce::damping(1, c), &el, &SolveOptions::step(0.02), &chaos).unwrap();
+        let r = forced_indicators(
+            &problem,
+            &LinearForce::damping(1, c),
+            &el,
+            &SolveOptions::step(0.02),
+            &chaos,
+        )
+        .unwrap();
         let s = r.spectrum.unwrap();
         let (a, disc) = (-c / (2.0 * m), (c / (2.0 * m)).powi(2) - k / m);
         let root = disc.max(0.0).sqrt();
         let sum = s[0] + s[1];
-        eprintln!("damped m {m} k {k} c {c}: spectrum {s:?} (closed form {} {}), sum error {:.2e}", a + root, a - root, sum + c / m);
+        eprintln!(
+            "damped m {m} k {k} c {c}: spectrum {s:?} (closed form {} {}), sum error {:.2e}",
+            a + root,
+            a - root,
+            sum + c / m
+        );
         assert!((sum + c / m).abs() <= 1e-6, "{s:?}");
         // Each exponent: the frame's transient and, underdamped, the rotation bias them by O(1/T).
-        assert!((s[0] - (a + root)).abs() <= 1e-2 && (s[1] - (a - root)).abs() <= 1e-2, "{s:?}");
+        assert!(
+            (s[0] - (a + root)).abs() <= 1e-2 && (s[1] - (a - root)).abs() <= 1e-2,
+            "{s:?}"
+        );
     }
 }

@@ -64,7 +64,7 @@ pub fn constrained_indicators<L: Lagrangian, C: Constraints>(
         .copied()
         .collect();
     let len = super::accumulate::norm(&u);
-    if !(len > 1e-12) {
+    if len.is_nan() || len <= 1e-12 {
         return Err(invalid(
             "initial tangent vector",
             "has no component along the constraint manifold's phase space",

@@ -79,8 +79,15 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
             return Ok(false);
         }
         let ends = (self.k, self.t, h, t1);
-        self.stepper
-            .step(self.lag, self.con, self.element, ends, &mut self.q, &mut self.p, &mut self.v)?;
+        self.stepper.step(
+            self.lag,
+            self.con,
+            self.element,
+            ends,
+            &mut self.q,
+            &mut self.p,
+            &mut self.v,
+        )?;
         self.last = Some((self.t, h));
         self.t = t1;
         self.k += 1;

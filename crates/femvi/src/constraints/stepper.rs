@@ -119,7 +119,17 @@ impl Stepper {
         }
         let mu = self
             .projector
-            .project(lag, &self.sys.end, t1, q1, p_tilde, v, p1, self.tol, self.max_iterations)
+            .project(
+                lag,
+                &self.sys.end,
+                t1,
+                q1,
+                p_tilde,
+                v,
+                p1,
+                self.tol,
+                self.max_iterations,
+            )
             .map_err(|f| step_error(k, t, f))?;
         self.mu.copy_from_slice(mu);
         std::mem::swap(q, &mut self.q_prev);

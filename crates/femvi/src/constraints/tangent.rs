@@ -11,10 +11,10 @@
 //! null space of those 2m rows). The defect is max |(ΦB)ᵀJ(ΦB) − BᵀJB| with
 //! ω(a, b) = a_q·b_p − a_p·b_q, the canonical form restricted to T*N.
 
+use super::chart::tangent_rows;
 use super::jet::ConstraintJet;
 use super::layout::Enforcement;
 use super::solve::{run_constrained, ConstrainedSolution};
-use super::chart::tangent_rows;
 use super::step::StepSystem;
 use super::Constraints;
 use crate::discrete::Element;

@@ -56,7 +56,12 @@ impl<'a, L: Lagrangian, F: Force> ForcedTangentRun<'a, L, F> {
     ///
     /// # Errors
     /// As [`super::solve_forced`].
-    pub(crate) fn new(problem: &'a Problem<L>, force: &'a F, element: &'a Element, options: &SolveOptions) -> Result<Self> {
+    pub(crate) fn new(
+        problem: &'a Problem<L>,
+        force: &'a F,
+        element: &'a Element,
+        options: &SolveOptions,
+    ) -> Result<Self> {
         let lag = &problem.lagrangian;
         let n = lag.dim();
         check_options(options)?;
@@ -138,8 +143,16 @@ impl<'a, L: Lagrangian, F: Force> ForcedTangentRun<'a, L, F> {
         let (dim, wn) = (s * n, (s + 1) * n);
         let incr = self.stepper.increments();
         let q = &self.q_prev;
-        self.element
-            .hessian_in_place(self.lag, t0, h, q, incr, &mut self.ework, &mut self.grad, &mut self.hess);
+        self.element.hessian_in_place(
+            self.lag,
+            t0,
+            h,
+            q,
+            incr,
+            &mut self.ework,
+            &mut self.grad,
+            &mut self.hess,
+        );
         element_forces_jacobian(self.element, self.force, t0, h, q, incr, &mut self.fd, &mut self.fjac);
         let (hess, fjac) = (&self.hess, &self.fjac);
         let a = |r: usize, c: usize| hess[r * wn + c] + fjac[r * wn + c];
