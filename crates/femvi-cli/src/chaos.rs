@@ -4,7 +4,9 @@
 //! mu=0.1:0.3:50`), run in parallel on all cores and written as a map (`chaos_map.csv`,
 //! `chaos_map.npy` with `chaos_columns.txt`). An axis that is not a coordinate, `p_<q>` or
 //! `<q>_dot` is a parameter of `[system] parameters`, set at each point as `--set` would.
+//! Problems with `[forces]` or `[constraints]` go through `chaos_forced.rs` at each point.
 
+use crate::chaos_forced::Tables;
 use crate::problem::Problem;
 use femvi::chaos::{indicators_on, ChaosOptions, ChaosReport};
 use femvi::{Integrator, Lagrangian, Start};
@@ -186,7 +188,7 @@ fn start_at(problem: &Problem, axes: &[Axis], idx: usize) -> Result<Start, Strin
 }
 
 /// Runs the indicators at every grid point (one point without axes), on `threads` threads.
-pub fn compute<L: Lagrangian + Sync>(
+pub fn compute<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     axes: &[Axis],
@@ -199,6 +201,8 @@ pub fn compute<L: Lagrangian + Sync>(
     if problem.energy.is_some() && !lag.is_autonomous() {
         return Err("femvi chaos in energy mode needs an autonomous Lagrangian (use [time] mode = \"fixed\")".into());
     }
+    // [forces] or [constraints]: `chaos_forced.rs`.
+    let tables = Tables::of(problem)?;
     let points: usize = axes.iter().map(|a| a.n).product();
     let starts = (0..points)
         .map(|i| start_at(problem, axes, i))
@@ -214,7 +218,7 @@ pub fn compute<L: Lagrangian + Sync>(
         .map_err(|e| e.to_string())?;
     let parametric = axes.iter().any(|a| !is_start_axis(problem, &a.name));
     if !parametric {
-        let one = |start: &Start| one_point(lag, problem, start.clone(), &chaos, wanted);
+        let one = |start: &Start| one_point(lag, problem, start.clone(), &tables, &chaos, wanted);
         return Ok(pool.install(|| starts.par_iter().map(one).collect()));
     }
     // Parameter axes: each point's problem is the file again with its parameter values set
@@ -225,7 +229,15 @@ pub fn compute<L: Lagrangian + Sync>(
     reload(0).map_err(|e| e.to_string())?;
     let one = |i: usize| match reload(i) {
         Ok(p) => match start_at(&p, axes, i) {
-            Ok(start) => crate::with_system!(&p.system, l => one_point(l, &p, start, &chaos, wanted)),
+            // The point's parameters also in its forces or constraints.
+            Ok(start) => match if tables.is_none() {
+                Ok(Tables::None)
+            } else {
+                Tables::of(&p)
+            } {
+                Ok(t) => crate::with_system!(&p.system, l => one_point(l, &p, start, &t, &chaos, wanted)),
+                Err(e) => failed(&p, e),
+            },
             Err(e) => failed(&p, e),
         },
         Err(e) => failed(problem, e.to_string()),
@@ -234,13 +246,17 @@ pub fn compute<L: Lagrangian + Sync>(
 }
 
 /// The indicators of one start of `problem` with the Lagrangian `lag`.
-fn one_point<L: Lagrangian>(
+fn one_point<L: Lagrangian + Clone>(
     lag: &L,
     problem: &Problem,
     start: Start,
+    tables: &Tables,
     chaos: &ChaosOptions,
     wanted: &[Indicator],
 ) -> Indicators {
+    if let Some(r) = tables.indicators(lag, problem, &start, chaos) {
+        return r.map_or_else(|e| failed(problem, e.to_string()), |r| pick(&r, wanted));
+    }
     let grid = problem.grid.clone();
     let made = match problem.energy {
         Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
@@ -353,8 +369,6 @@ pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u
     let clock = std::time::Instant::now();
     let bad = |m: String| (m, crate::BAD_INPUT);
     crate::adaptive::refuse(problem, "femvi chaos").map_err(bad)?;
-    crate::forced::refuse(problem, "femvi chaos").map_err(bad)?;
-    crate::constrained::refuse(problem, "femvi chaos").map_err(bad)?;
     let mut wanted = args
         .indicators
         .iter()

@@ -194,9 +194,6 @@ fn input_errors_and_failures() {
     );
     assert_eq!(code, 2);
     assert!(err.contains("does not support [forces]"), "{err}");
-    let (code, err, _d) = run_text(&["chaos"], &DAMPED.replace("FORCES", "generalized = [\"-c*x_dot\"]"));
-    assert_eq!(code, 2);
-    assert!(err.contains("does not support [forces]"), "{err}");
     // Energy mode and plots are refused with a message.
     let energy = DAMPED
         .replace("FORCES", "generalized = [\"-c*x_dot\"]")

@@ -41,7 +41,7 @@ pub fn settings(problem: &Problem) -> Result<Option<(ExprConstraints, Enforcemen
 pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
     match settings(problem)? {
         Some(_) => Err(format!(
-            "{what} does not support [constraints] (only `femvi run`, `femvi check` and the library's femvi::constraints do)"
+            "{what} does not support [constraints] (only `femvi run`, `femvi check`, `femvi chaos` and the library's femvi::constraints do)"
         )),
         None => Ok(()),
     }

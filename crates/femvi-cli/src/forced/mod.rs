@@ -37,7 +37,7 @@ pub fn force_of(problem: &Problem) -> Result<Option<ProblemForce>, String> {
 pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
     match force_of(problem)? {
         Some(_) => Err(format!(
-            "{what} does not support [forces] (non-conservative forces); `femvi run`, `femvi check` and `femvi bvp` do"
+            "{what} does not support [forces] (non-conservative forces); `femvi run`, `femvi check`, `femvi bvp` and `femvi chaos` do"
         )),
         None => Ok(()),
     }

@@ -3,16 +3,23 @@
 //! equations, `Integrator::tangent_map`; symplectic because the step is), and the chaos
 //! indicators built on them — MEGNO, FLI, the largest Lyapunov exponent and the whole
 //! spectrum (`accumulate.rs`) — and the sensitivity of the final state to the initial one
-//! and to a parameter of the Lagrangian (`parameter.rs`).
+//! and to a parameter of the Lagrangian (`parameter.rs`). Forced runs ([`crate::forces`],
+//! `forced.rs`) and constrained runs on their manifold ([`crate::constraints`],
+//! `constrained.rs`) have the same indicators, through the loop of `drive.rs`.
 //!
 //! Cost: one element Hessian by automatic differentiation and one LU of the s·n step
 //! Jacobian per step, on top of the step itself.
 
 mod accumulate;
+mod constrained;
+mod drive;
+mod forced;
 mod map;
 mod parameter;
 mod step_map;
 
+pub use constrained::{constrained_indicators, constrained_sensitivity};
+pub use forced::{forced_indicators, forced_sensitivity};
 pub use map::map;
 pub use parameter::{parameter_sensitivity, Frozen};
 
@@ -21,7 +28,8 @@ use crate::error::{invalid, Error, Result};
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, SolveOptions, Steps};
 use crate::step::Integrator;
-use accumulate::{apply, norm, orthonormalise, Growth};
+use accumulate::{apply, norm};
+use drive::{drive, TangentRun};
 use step_map::{step_map, ExtendedProduct};
 
 /// What to compute besides MEGNO, FLI and the largest exponent.
@@ -129,73 +137,39 @@ pub fn indicators<L: Lagrangian>(
 /// An initial vector of the wrong length or zero.
 pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOptions) -> Result<ChaosReport> {
     let d = 2 * it.lagrangian().dim();
-    let mut u = initial_vector(chaos, d)?;
-    let k = if chaos.spectrum { d } else { 0 };
-    // The spectrum's vectors start as the identity (column-major).
-    let mut w: Vec<f64> = (0..k * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
-    let (mut logs, mut sums, mut tmp) = (vec![0.0; k], vec![0.0; k], vec![0.0; d]);
-    let (t0, mut growth) = (it.node().t, Growth::new());
-    // The spectrum counts growth from here (after the transient).
-    let mut counted_from = t0;
-    let (mut steps, mut series, mut error) = (0, vec![], None);
-    let sample = |g: &Growth, t: f64| ChaosSample {
-        t,
-        megno: g.megno,
-        mean_megno: g.mean_megno,
-        fli: g.fli,
-        lyapunov: g.log_norm / (t - t0),
-    };
-    loop {
-        match it.step() {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => {
-                error = Some(e);
-                break;
-            }
-        }
-        let m = match step_map(it) {
-            Ok(m) => m,
-            Err(e) => {
-                error = Some(e);
-                break;
-            }
-        };
-        steps += 1;
-        let (t, h) = (it.node().t, it.last_element().map_or(0.0, |e| e.h));
-        apply(&m, d, &mut u, &mut tmp);
-        let len = norm(&u);
-        u.iter_mut().for_each(|x| *x /= len);
-        growth.step(len.ln(), h, t - t0);
-        if k > 0 {
-            apply(&m, d, &mut w, &mut tmp);
-            if steps % chaos.renormalize_every.max(1) == 0 {
-                orthonormalise(&mut w, d, &mut logs);
-                if t - t0 > chaos.spectrum_transient {
-                    sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
-                } else {
-                    counted_from = t;
-                }
-            }
-        }
-        if chaos.record_every > 0 && steps % chaos.record_every == 0 {
-            series.push(sample(&growth, t));
-        }
+    let u = initial_vector(chaos, d)?;
+    Ok(drive(&mut PlainRun { it, tmp: vec![0.0; d] }, u, chaos))
+}
+
+/// An integrator's run, its vectors carried by [`step_map`].
+struct PlainRun<'r, 'a, L: Lagrangian> {
+    it: &'r mut Integrator<'a, L>,
+    tmp: Vec<f64>,
+}
+
+impl<L: Lagrangian> TangentRun for PlainRun<'_, '_, L> {
+    fn advance(&mut self) -> Result<bool> {
+        self.it.step()
     }
-    let t = it.node().t;
-    if k > 0 && steps % chaos.renormalize_every.max(1) != 0 {
-        orthonormalise(&mut w, d, &mut logs);
-        sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
+    fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()> {
+        let m = step_map(self.it)?;
+        let d = self.tmp.len();
+        apply(&m, d, u, &mut self.tmp);
+        if !w.is_empty() {
+            apply(&m, d, w, &mut self.tmp);
+        }
+        Ok(())
     }
-    let node = it.node();
-    Ok(ChaosReport {
-        steps,
-        last: sample(&growth, t),
-        spectrum: (k > 0).then(|| sums.iter().map(|s| s / (t - counted_from)).collect()),
-        series,
-        error,
-        final_node: (node.t, node.q.to_vec(), node.p.to_vec()),
-    })
+    fn time(&self) -> f64 {
+        self.it.node().t
+    }
+    fn last_step(&self) -> f64 {
+        self.it.last_element().map_or(0.0, |e| e.h)
+    }
+    fn node(&self) -> FinalNode {
+        let node = self.it.node();
+        (node.t, node.q.to_vec(), node.p.to_vec())
+    }
 }
 
 /// The last node of a run: (t, q, p).

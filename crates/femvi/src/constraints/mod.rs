@@ -50,17 +50,23 @@
 //!
 //! Files: `expr.rs` (constraints from expressions), `jet.rs` (g, G, ∇²g by AD), `layout.rs`
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
-//! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `tangent.rs`
-//! (symplecticity on the manifold). Constrained boundary value problems are not available yet.
+//! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `stepper.rs` (one step),
+//! `tangent.rs` (the step's tangent map, symplecticity on the manifold), `chart.rs`
+//! (symplectic coordinates on the tangent space of T*N) and `chaos_run.rs` (a run carrying
+//! tangent vectors, for [`crate::chaos::constrained_indicators`]). Constrained boundary value problems are not available yet.
 
+mod chaos_run;
+mod chart;
 mod expr;
 mod jet;
 mod layout;
 mod project;
 mod solve;
 mod step;
+mod stepper;
 mod tangent;
 
+pub(crate) use chaos_run::ManifoldRun;
 pub use expr::ExprConstraints;
 pub use layout::Enforcement;
 pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};

@@ -6,14 +6,14 @@
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
 use super::project::{state_multiplier, Projector};
-use super::step::StepSystem;
-use super::tangent::{step_defect, StepEnds};
+use super::stepper::Stepper;
+use super::tangent::step_defect;
 use super::Constraints;
 use crate::discrete::Element;
-use crate::error::{check_len, invalid, Error, Result, StepError, StepFailure};
+use crate::error::{check_len, invalid, Error, Result, StepError};
 use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
 use crate::solution::{Problem, Solution, SolveOptions, Steps};
-use crate::solve::{newton_dense, DenseNewtonWork, NewtonFailure};
+use crate::solve::NewtonFailure;
 use crate::step::Start;
 
 /// A start is accepted if ‖g(q0)‖∞ ≤ `START_TOLERANCE` · max(1, ‖q0‖∞²).
@@ -25,7 +25,7 @@ pub const START_TOLERANCE: f64 = 1e-10;
 pub const MAX_COORDINATES: usize = 200;
 
 /// Below this ratio of the smallest to the largest singular value, G(q) counts as singular.
-const RANK_TOLERANCE: f64 = 1e-12;
+pub(super) const RANK_TOLERANCE: f64 = 1e-12;
 
 /// The result of [`solve_constrained`]: the usual [`Solution`] plus, per kept node, the
 /// multipliers and the residuals of the constraints.
@@ -122,6 +122,39 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
 ) -> Result<(ConstrainedSolution, Option<f64>)> {
     let lag = &problem.lagrangian;
     let (n, m) = (lag.dim(), constraints.count());
+    let start = begin(problem, constraints, element, options, enforcement)?;
+    let mut run = Run::new(element, start.layout, n, m, enforcement, options);
+    run.defect = tangent.then_some(0.0);
+    run.out.start_projection = start.projection;
+    let (q0, p, v) = (start.q, start.p, start.v);
+    run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v)?;
+    run.march(problem, constraints, element, &start.grid, q0, p, v)?;
+    Ok((run.out, run.defect))
+}
+
+/// A checked start of a constrained run.
+pub(super) struct Begun {
+    pub layout: Layout,
+    pub grid: crate::step::TimeGrid,
+    pub q: Vec<f64>,
+    /// The start momentum projected onto T*N.
+    pub p: Vec<f64>,
+    pub v: Vec<f64>,
+    /// ‖p0 − p̃0‖∞.
+    pub projection: f64,
+}
+
+/// Checks a constrained problem (sizes, options, the start on the manifold, G(q0) regular)
+/// and projects its start momentum onto T*N.
+pub(super) fn begin<L: Lagrangian, C: Constraints>(
+    problem: &Problem<L>,
+    constraints: &C,
+    element: &Element,
+    options: &SolveOptions,
+    enforcement: Enforcement,
+) -> Result<Begun> {
+    let lag = &problem.lagrangian;
+    let (n, m) = (lag.dim(), constraints.count());
     check_len("constraints' coordinates", n, constraints.dim())?;
     if n > MAX_COORDINATES || m >= n.max(1) {
         return Err(invalid(
@@ -151,10 +184,8 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
     if jet.conditioning() <= RANK_TOLERANCE {
         return Err(singular(0, problem.t0, &jet));
     }
-    let mut run = Run::new(element, layout, n, m, enforcement, options);
-    run.defect = tangent.then_some(0.0);
     let mut p = vec![0.0; n];
-    run.projector
+    Projector::new(n, m)
         .project(
             lag,
             &jet,
@@ -167,10 +198,15 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
             options.solver.max_iterations,
         )
         .map_err(|f| step_error(0, problem.t0, f))?;
-    run.out.start_projection = p.iter().zip(&p_tilde).fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
-    run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v)?;
-    run.march(problem, constraints, element, &grid, q0, p, v)?;
-    Ok((run.out, run.defect))
+    let projection = p.iter().zip(&p_tilde).fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+    Ok(Begun {
+        layout,
+        grid,
+        q: q0,
+        p,
+        v,
+        projection,
+    })
 }
 
 fn check_options(options: &SolveOptions) -> Result<()> {
@@ -214,7 +250,7 @@ fn start_state<L: Lagrangian>(lag: &L, start: &Start, t0: f64, n: usize) -> Resu
     }
 }
 
-fn singular(step: usize, t: f64, jet: &ConstraintJet) -> Error {
+pub(super) fn singular(step: usize, t: f64, jet: &ConstraintJet) -> Error {
     Error::SingularConstraints {
         step,
         t,
@@ -222,7 +258,7 @@ fn singular(step: usize, t: f64, jet: &ConstraintJet) -> Error {
     }
 }
 
-fn step_error(step: usize, t: f64, f: NewtonFailure) -> Error {
+pub(super) fn step_error(step: usize, t: f64, f: NewtonFailure) -> Error {
     Error::Step(StepError {
         step,
         t,
@@ -234,14 +270,10 @@ fn step_error(step: usize, t: f64, f: NewtonFailure) -> Error {
 
 /// The state of a run: scratch and the solution being filled.
 struct Run {
-    sys: StepSystem,
-    projector: Projector,
-    newton: DenseNewtonWork,
+    stepper: Stepper,
     kept_jet: ConstraintJet,
     every: usize,
     max_steps: Option<usize>,
-    tol: f64,
-    max_iterations: usize,
     iterations: usize,
     defect: Option<f64>,
     out: ConstrainedSolution,
@@ -256,18 +288,12 @@ impl Run {
         enforcement: Enforcement,
         options: &SolveOptions,
     ) -> Self {
-        let sys = StepSystem::new(element, layout, n, m);
-        let newton = DenseNewtonWork::new(sys.unknowns());
         let solution = Solution::empty(n);
         Self {
-            sys,
-            projector: Projector::new(n, m),
-            newton,
+            stepper: Stepper::new(element, layout, n, m, options.solver),
             kept_jet: ConstraintJet::new(m, n),
             every: options.every,
             max_steps: options.max_steps,
-            tol: options.solver.tolerance,
-            max_iterations: options.solver.max_iterations,
             iterations: 0,
             defect: None,
             out: ConstrainedSolution {
@@ -328,10 +354,6 @@ impl Run {
         mut v: Vec<f64>,
     ) -> Result<()> {
         let lag = &problem.lagrangian;
-        let (n, s) = (q.len(), element.degree());
-        let mut x = vec![0.0; self.sys.unknowns()];
-        let mut comp = vec![0.0; n];
-        let (mut q1, mut p1) = (vec![0.0; n], vec![0.0; n]);
         let (mut t, mut k) = (problem.t0, 0usize);
         let mut last_kept = 0usize;
         while let Some((h, t1)) = grid.next(k, t) {
@@ -339,89 +361,20 @@ impl Run {
                 self.out.solution.stopped = true;
                 break;
             }
-            // Guess: straight line with the node velocity; multipliers from the last step.
-            for j in 1..=s {
-                let tau = element.basis.nodes[j];
-                for c in 0..n {
-                    x[(j - 1) * n + c] = tau * h * v[c];
-                }
-            }
-            self.sys.start.eval(con, &q, true);
-            let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
-            let sys = &mut self.sys;
-            let solved = newton_dense(
-                &mut x,
-                self.tol,
-                self.max_iterations,
-                |_| scale,
-                &mut self.newton,
-                |xx, r, jac| {
-                    sys.eval(element, lag, con, t, h, &q, &p, xx, jac.is_some());
-                    sys.newton_residual(r);
-                    if let Some(jac) = jac {
-                        sys.newton_jacobian(jac);
-                    }
-                },
-            );
-            let report = match solved {
-                Ok(rep) => rep,
-                Err(f) => {
-                    let err = if f.failure == StepFailure::Singular && self.sys.start.conditioning() <= RANK_TOLERANCE {
-                        singular(k, t, &self.sys.start)
-                    } else {
-                        step_error(k, t, f)
-                    };
-                    self.out.solution.error = Some(err);
-                    break;
-                }
-            };
-            self.iterations += report.iterations;
-            // q_{k+1} = q_k + ΔQ^s with compensated summation.
-            for c in 0..n {
-                let y = x[(s - 1) * n + c] + comp[c];
-                let sum = q[c] + y;
-                comp[c] = y - (sum - q[c]);
-                q1[c] = sum;
-            }
-            let p_tilde = self.sys.momentum_before_projection();
-            if self.sys.end.conditioning() <= RANK_TOLERANCE {
-                self.out.solution.error = Some(singular(k + 1, t1, &self.sys.end));
+            if let Err(e) = self
+                .stepper
+                .step(lag, con, element, (k, t, h, t1), &mut q, &mut p, &mut v)
+            {
+                self.out.solution.error = Some(e);
                 break;
             }
-            let projected = self.projector.project(
-                lag,
-                &self.sys.end,
-                t1,
-                &q1,
-                p_tilde,
-                &mut v,
-                &mut p1,
-                self.tol,
-                self.max_iterations,
-            );
-            let mu = match projected {
-                Ok(mu) => mu,
-                Err(f) => {
-                    self.out.solution.error = Some(step_error(k, t, f));
-                    break;
-                }
-            };
+            self.iterations += self.stepper.iterations;
             if let Some(worst) = self.defect {
-                self.sys.eval(element, lag, con, t, h, &q, &p, &x, true);
-                let ends = StepEnds {
-                    t0: t,
-                    q0: &q,
-                    p0: &p,
-                    t1,
-                    q1: &q1,
-                    v1: &v,
-                    mu,
-                };
-                self.defect = Some(worst.max(step_defect(lag, con, &self.sys, &ends)));
+                let phi = self.stepper.tangent_map(lag, con, element, (t, h, t1), &q, &v);
+                let (q0, p0) = self.stepper.previous();
+                self.defect = Some(worst.max(step_defect(lag, con, phi, (t, q0, p0))));
             }
-            std::mem::swap(&mut q, &mut q1);
-            std::mem::swap(&mut p, &mut p1);
-            self.out.max_residual = self.out.max_residual.max(self.sys.end.residual());
+            self.out.max_residual = self.out.max_residual.max(self.stepper.sys.end.residual());
             k += 1;
             t = t1;
             self.out.solution.steps = k;

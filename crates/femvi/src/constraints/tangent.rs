@@ -11,6 +11,7 @@
 //! null space of those 2m rows). The defect is max |(ΦB)ᵀJ(ΦB) − BᵀJB| with
 //! ω(a, b) = a_q·b_p − a_p·b_q, the canonical form restricted to T*N.
 
+use super::chart::tangent_rows;
 use super::jet::ConstraintJet;
 use super::layout::Enforcement;
 use super::solve::{run_constrained, ConstrainedSolution};
@@ -74,22 +75,22 @@ pub fn manifold_symplecticity<L: Lagrangian, C: Constraints>(
 /// What the tangent map of one step needs besides the step system (evaluated with its
 /// Jacobian at the converged unknowns).
 pub(crate) struct StepEnds<'a> {
-    pub t0: f64,
-    pub q0: &'a [f64],
-    pub p0: &'a [f64],
     pub t1: f64,
     pub q1: &'a [f64],
     pub v1: &'a [f64],
     pub mu: &'a [f64],
 }
 
-/// The defect of one step (module doc).
-pub(crate) fn step_defect<L: Lagrangian, C: Constraints>(
+/// The tangent map Φ of one step in ambient coordinates (row-major 2n square acting on
+/// (δq_k, δp_k); module doc), from the step system evaluated with its Jacobian at the
+/// converged unknowns; None if a linear system is singular. On the tangent space of T*N it is
+/// the derivative of the step; it maps every vector into the tangent space at the new node.
+pub(crate) fn step_map<L: Lagrangian, C: Constraints>(
     lag: &L,
     con: &C,
     sys: &StepSystem,
     ends: &StepEnds<'_>,
-) -> f64 {
+) -> Option<DMatrix<f64>> {
     let (n, m, s, f) = (sys.n, sys.m, sys.s, sys.full);
     let k = sys.unknowns();
     let ju = DMatrix::from_fn(k, k, |i, j| sys.jac[sys.newton_row(i) * f + j + n]);
@@ -104,9 +105,7 @@ pub(crate) fn step_defect<L: Lagrangian, C: Constraints>(
             0.0
         }
     });
-    let Some(du) = ju.lu().solve(&rhs) else {
-        return f64::NAN;
-    };
+    let du = ju.lu().solve(&rhs)?;
     // δZ = (δq_k, δU); δq_{k+1} = δQ^s; δp̃ = node-s rows · δZ.
     let dz = |r: usize, c: usize| {
         if r < n {
@@ -151,15 +150,24 @@ pub(crate) fn step_defect<L: Lagrangian, C: Constraints>(
     let mut prhs = DMatrix::zeros(n + m, 2 * n);
     prhs.view_mut((0, 0), (n, 2 * n)).copy_from(&top);
     prhs.view_mut((n, 0), (m, 2 * n)).copy_from(&bottom);
-    let Some(sol) = kkt.lu().solve(&prhs) else {
-        return f64::NAN;
-    };
+    let sol = kkt.lu().solve(&prhs)?;
     let dmu = sol.rows(n, m).into_owned();
     let dp1 = &dpt - g1.transpose() * dmu - &mu_hess * &dq1;
     let mut phi = DMatrix::zeros(2 * n, 2 * n);
     phi.view_mut((0, 0), (n, 2 * n)).copy_from(&dq1);
     phi.view_mut((n, 0), (n, 2 * n)).copy_from(&dp1);
-    let Some(basis) = tangent_basis(lag, con, ends.t0, ends.q0, ends.p0) else {
+    Some(phi)
+}
+
+/// The defect of one step with tangent map `phi` from (t0, q0, p0) (module doc).
+pub(crate) fn step_defect<L: Lagrangian, C: Constraints>(
+    lag: &L,
+    con: &C,
+    phi: Option<DMatrix<f64>>,
+    (t0, q0, p0): (f64, &[f64], &[f64]),
+) -> f64 {
+    let n = q0.len();
+    let (Some(phi), Some(basis)) = (phi, tangent_basis(lag, con, t0, q0, p0)) else {
         return f64::NAN;
     };
     let image = &phi * &basis;
@@ -184,21 +192,7 @@ fn tangent_basis<L: Lagrangian, C: Constraints>(
     p: &[f64],
 ) -> Option<DMatrix<f64>> {
     let (n, m) = (q.len(), con.count());
-    let mut v = vec![0.0; n];
-    let mut pd = PointDerivatives::new(n);
-    crate::lagrangian::velocity_from_momentum(lag, t, q, p, &mut v, &mut pd).ok()?;
-    lag.second_derivatives(t, q, &v, false, &mut pd);
-    let mut jet = ConstraintJet::new(m, n);
-    jet.eval(con, q, true);
-    let g = DMatrix::from_row_slice(m, n, &jet.jac);
-    let a = DMatrix::from_fn(n, n, |i, j| pd.h(1 + n + i, 1 + n + j));
-    let lvq = DMatrix::from_fn(n, n, |i, j| pd.h(1 + n + i, 1 + j));
-    let gv = DMatrix::from_fn(m, n, |l, i| (0..n).map(|j| jet.hess[(l * n + i) * n + j] * v[j]).sum());
-    let g_ainv = a.lu().solve(&g.transpose())?.transpose();
-    let mut c = DMatrix::zeros(2 * m, 2 * n);
-    c.view_mut((0, 0), (m, n)).copy_from(&g);
-    c.view_mut((m, 0), (m, n)).copy_from(&(gv - &g_ainv * lvq));
-    c.view_mut((m, n), (m, n)).copy_from(&g_ainv);
+    let c = tangent_rows(lag, con, t, q, p)?;
     let eig = (c.transpose() * &c).symmetric_eigen();
     let mut order: Vec<usize> = (0..2 * n).collect();
     order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));

@@ -43,7 +43,8 @@
 //! from expressions ([`ExprForces`]), `rayleigh.rs` a Rayleigh dissipation function
 //! ([`Rayleigh`], F = −∂R/∂v), `sum.rs` the sum of two forces, `linear.rs` a linear damping and
 //! harmonic drive for the models; `element.rs` the discrete forces of an element, `step.rs`
-//! the Newton step, `solve.rs` the run ([`solve_forced`]) and `bvp.rs` boundary value problems
+//! the Newton step, `solve.rs` the run ([`solve_forced`]), `tangent.rs` the step's tangent map (for
+//! [`crate::chaos::forced_indicators`]) and `bvp.rs` boundary value problems
 //! with forces ([`solve_forced_bvp`]).
 
 mod bvp;
@@ -54,6 +55,7 @@ mod rayleigh;
 mod solve;
 mod step;
 mod sum;
+mod tangent;
 
 pub use bvp::solve_forced_bvp;
 pub use element::{element_forces, element_forces_jacobian};
@@ -62,6 +64,7 @@ pub use linear::LinearForce;
 pub use rayleigh::Rayleigh;
 pub use solve::{solve_forced, EnergyBalance, ForcedSolution};
 pub use sum::Sum;
+pub(crate) use tangent::ForcedTangentRun;
 
 use crate::lagrangian::Scalar;
 

@@ -113,7 +113,7 @@ pub fn solve_forced<L: Lagrangian, F: Force>(
 }
 
 /// Rejects the options a forced run does not support.
-fn check_options(options: &SolveOptions) -> Result<()> {
+pub(super) fn check_options(options: &SolveOptions) -> Result<()> {
     let unsupported = |what: &str| {
         Err(invalid(
             what,
@@ -136,7 +136,7 @@ fn check_options(options: &SolveOptions) -> Result<()> {
 }
 
 /// (q0, p0, v0) from the start.
-fn start<L: Lagrangian>(lag: &L, start: &Start, t0: f64) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+pub(super) fn start<L: Lagrangian>(lag: &L, start: &Start, t0: f64) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
     let n = lag.dim();
     if n == 0 {
         return Err(invalid("dimension", "the system has no coordinates (dimension 0)"));
@@ -165,18 +165,18 @@ fn start<L: Lagrangian>(lag: &L, start: &Start, t0: f64) -> Result<(Vec<f64>, Ve
 }
 
 /// The current node with the compensation terms of its sums.
-struct Node {
-    k: usize,
-    t: f64,
-    q: Vec<f64>,
-    p: Vec<f64>,
-    cq: Vec<f64>,
-    cp: Vec<f64>,
-    work: f64,
+pub(super) struct Node {
+    pub(super) k: usize,
+    pub(super) t: f64,
+    pub(super) q: Vec<f64>,
+    pub(super) p: Vec<f64>,
+    pub(super) cq: Vec<f64>,
+    pub(super) cp: Vec<f64>,
+    pub(super) work: f64,
 }
 
 impl Node {
-    fn advance(&mut self, taken: &Taken, t_next: f64) {
+    pub(super) fn advance(&mut self, taken: &Taken, t_next: f64) {
         compensated(&mut self.q, &mut self.cq, &taken.dq);
         compensated(&mut self.p, &mut self.cp, &taken.dp);
         self.work += taken.work + taken.time_work;

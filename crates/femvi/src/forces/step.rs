@@ -194,6 +194,12 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
         Ok(())
     }
 
+    /// The last solved element's node increments Q^j − q_k (j = 0 … s, the first block zero),
+    /// for the step's tangent map (`tangent.rs`).
+    pub(super) fn increments(&self) -> &[f64] {
+        &self.incr
+    }
+
     /// The node update from the converged unknowns (evaluated once more, with ∂L/∂t).
     fn finish(&mut self, t0: f64, h: f64, q: &[f64], iterations: usize, out: &mut Taken) {
         let (n, s) = (self.n, self.element.degree());

@@ -1,0 +1,72 @@
+//! `femvi chaos` for problems with `[forces]` (the library's
+//! [`femvi::chaos::forced_indicators`]) or `[constraints]`
+//! ([`femvi::chaos::constrained_indicators`]: tangent vectors on the constraint manifold,
+//! 2(n − m) of them, the initial vector projected onto its phase space's tangent space): the
+//! indicators of one orbit (printed, `--json`, `--out`'s chaos.json and summary.json) or of a
+//! map (`--grid`), as for an unconstrained problem (`chaos.rs` calls [`Tables::of`] once and
+//! [`Tables::indicators`] per point).
+
+use crate::problem::forces::ProblemForce;
+use crate::problem::Problem;
+use femvi::chaos::{constrained_indicators, forced_indicators, ChaosOptions, ChaosReport};
+use femvi::constraints::{Enforcement, ExprConstraints};
+use femvi::{Lagrangian, Start};
+
+/// The `[forces]` or `[constraints]` table of a problem, if any.
+pub enum Tables {
+    /// Neither: the unconstrained indicators.
+    None,
+    /// `[forces]`.
+    Forces(ProblemForce),
+    /// `[constraints]` and where they are enforced.
+    Constraints(Box<(ExprConstraints, Enforcement)>),
+}
+
+impl Tables {
+    /// The tables of `problem` (its parameters as loaded).
+    ///
+    /// # Errors
+    /// A message (bad input, exit code 2): both tables, or either in energy mode.
+    pub fn of(problem: &Problem) -> Result<Self, String> {
+        let force = crate::forced::force_of(problem)?;
+        let constraints = crate::constrained::settings(problem)?;
+        let tables = match (force, constraints) {
+            (None, None) => return Ok(Tables::None),
+            (Some(_), Some(_)) => return Err("[forces] and [constraints] together are not supported (yet)".into()),
+            (Some(f), None) => Tables::Forces(f),
+            (None, Some(c)) => Tables::Constraints(Box::new(c)),
+        };
+        if problem.energy.is_some() {
+            return Err(
+                "[time] mode = \"energy\" is not available with [forces] or [constraints]: use mode = \"fixed\"".into(),
+            );
+        }
+        Ok(tables)
+    }
+
+    /// Whether the problem has neither table.
+    pub fn is_none(&self) -> bool {
+        matches!(self, Tables::None)
+    }
+
+    /// The indicators of `problem` (its system as `lag`) from `start` under these tables; None
+    /// for [`Tables::None`].
+    pub fn indicators<L: Lagrangian + Clone>(
+        &self,
+        lag: &L,
+        problem: &Problem,
+        start: &Start,
+        chaos: &ChaosOptions,
+    ) -> Option<femvi::Result<ChaosReport>> {
+        if self.is_none() {
+            return None;
+        }
+        let library = || femvi::Problem::new(lag.clone(), start.clone(), problem.grid.t0(), problem.grid.end());
+        let (element, options) = (&problem.element, problem.solve_options(0));
+        match self {
+            Tables::None => None,
+            Tables::Forces(f) => Some(forced_indicators(&library(), f, element, &options, chaos)),
+            Tables::Constraints(c) => Some(constrained_indicators(&library(), &c.0, element, &options, c.1, chaos)),
+        }
+    }
+}

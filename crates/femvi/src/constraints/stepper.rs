@@ -1,0 +1,167 @@
+//! One constrained step at a time: the Newton solve of the step equations (`step.rs`), the new
+//! node q_{k+1} by compensated summation and its momentum projected onto T*N (`project.rs`).
+//! The run of `solve.rs` and the chaos run on the manifold ([`crate::chaos`]) take their
+//! steps here, so both follow the same nodes.
+
+use super::layout::Layout;
+use super::project::Projector;
+use super::solve::{singular, step_error, RANK_TOLERANCE};
+use super::step::StepSystem;
+use super::tangent::{step_map, StepEnds};
+use super::Constraints;
+use crate::discrete::Element;
+use crate::error::{Error, StepFailure};
+use crate::lagrangian::Lagrangian;
+use crate::solve::{newton_dense, DenseNewtonWork};
+use crate::step::SolverOptions;
+use nalgebra::DMatrix;
+
+/// The scratch of the constrained step and the node before the last step.
+pub(crate) struct Stepper {
+    pub sys: StepSystem,
+    pub projector: Projector,
+    newton: DenseNewtonWork,
+    tol: f64,
+    max_iterations: usize,
+    /// The Newton unknowns of the last step.
+    x: Vec<f64>,
+    comp: Vec<f64>,
+    /// After a step: the node before it (q_k, p_k).
+    q_prev: Vec<f64>,
+    p_prev: Vec<f64>,
+    /// μ̂_k of the last step.
+    pub mu: Vec<f64>,
+    /// Newton iterations of the last step.
+    pub iterations: usize,
+}
+
+impl Stepper {
+    pub fn new(element: &Element, layout: Layout, n: usize, m: usize, solver: SolverOptions) -> Self {
+        let sys = StepSystem::new(element, layout, n, m);
+        let newton = DenseNewtonWork::new(sys.unknowns());
+        Self {
+            x: vec![0.0; sys.unknowns()],
+            sys,
+            projector: Projector::new(n, m),
+            newton,
+            tol: solver.tolerance,
+            max_iterations: solver.max_iterations,
+            comp: vec![0.0; n],
+            q_prev: vec![0.0; n],
+            p_prev: vec![0.0; n],
+            mu: vec![0.0; m],
+            iterations: 0,
+        }
+    }
+
+    /// Step k from (t, q, p, v) to t1 = t + h: on success (q, p, v) hold node k + 1 and the
+    /// node before is kept for [`Stepper::tangent_map`].
+    ///
+    /// # Errors
+    /// A failed Newton solve or projection ([`Error::Step`]), a singular constraint Jacobian
+    /// ([`Error::SingularConstraints`]); (q, p, v) are then those of node k.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step<L: Lagrangian, C: Constraints>(
+        &mut self,
+        lag: &L,
+        con: &C,
+        element: &Element,
+        (k, t, h, t1): (usize, f64, f64, f64),
+        q: &mut Vec<f64>,
+        p: &mut Vec<f64>,
+        v: &mut [f64],
+    ) -> Result<(), Error> {
+        let (n, s) = (q.len(), element.degree());
+        let x = &mut self.x;
+        // Guess: straight line with the node velocity; multipliers from the last step.
+        for j in 1..=s {
+            let tau = element.basis.nodes[j];
+            for c in 0..n {
+                x[(j - 1) * n + c] = tau * h * v[c];
+            }
+        }
+        self.sys.start.eval(con, q, true);
+        let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
+        let sys = &mut self.sys;
+        let solved = newton_dense(
+            x,
+            self.tol,
+            self.max_iterations,
+            |_| scale,
+            &mut self.newton,
+            |xx, r, jac| {
+                sys.eval(element, lag, con, t, h, q, p, xx, jac.is_some());
+                sys.newton_residual(r);
+                if let Some(jac) = jac {
+                    sys.newton_jacobian(jac);
+                }
+            },
+        );
+        let report = solved.map_err(|f| {
+            if f.failure == StepFailure::Singular && self.sys.start.conditioning() <= RANK_TOLERANCE {
+                singular(k, t, &self.sys.start)
+            } else {
+                step_error(k, t, f)
+            }
+        })?;
+        self.iterations = report.iterations;
+        // q_{k+1} = q_k + ΔQ^s with compensated summation (into q_prev, swapped below).
+        let (q1, p1) = (&mut self.q_prev, &mut self.p_prev);
+        for c in 0..n {
+            let y = x[(s - 1) * n + c] + self.comp[c];
+            let sum = q[c] + y;
+            self.comp[c] = y - (sum - q[c]);
+            q1[c] = sum;
+        }
+        let p_tilde = self.sys.momentum_before_projection();
+        if self.sys.end.conditioning() <= RANK_TOLERANCE {
+            return Err(singular(k + 1, t1, &self.sys.end));
+        }
+        let mu = self
+            .projector
+            .project(
+                lag,
+                &self.sys.end,
+                t1,
+                q1,
+                p_tilde,
+                v,
+                p1,
+                self.tol,
+                self.max_iterations,
+            )
+            .map_err(|f| step_error(k, t, f))?;
+        self.mu.copy_from_slice(mu);
+        std::mem::swap(q, &mut self.q_prev);
+        std::mem::swap(p, &mut self.p_prev);
+        Ok(())
+    }
+
+    /// The node before the last step, (q_k, p_k).
+    pub fn previous(&self) -> (&[f64], &[f64]) {
+        (&self.q_prev, &self.p_prev)
+    }
+
+    /// The ambient tangent map Φ (2n square, `tangent.rs`) of the last step from (t, q_k, p_k)
+    /// with step h to node (t1, q, v); None if singular.
+    #[allow(clippy::too_many_arguments)]
+    pub fn tangent_map<L: Lagrangian, C: Constraints>(
+        &mut self,
+        lag: &L,
+        con: &C,
+        element: &Element,
+        (t, h, t1): (f64, f64, f64),
+        q: &[f64],
+        v: &[f64],
+    ) -> Option<DMatrix<f64>> {
+        self.sys
+            .eval(element, lag, con, t, h, &self.q_prev, &self.p_prev, &self.x, true);
+        let ends = StepEnds {
+            t1,
+            q1: q,
+            v1: v,
+            mu: &self.mu,
+        };
+        step_map(lag, con, &self.sys, &ends)
+    }
+}
