@@ -113,7 +113,8 @@ impl Stepper {
             self.comp[c] = y - (sum - q[c]);
             q1[c] = sum;
         }
-        let p_tilde = self.sys.momentum_before_projection();
+        self.sys.momentum_by_sums(element, p, h);
+        let p_tilde = self.sys.summed_momentum();
         if self.sys.end.conditioning() <= RANK_TOLERANCE {
             return Err(singular(k + 1, t1, &self.sys.end));
         }
