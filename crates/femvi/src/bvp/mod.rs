@@ -167,7 +167,8 @@ pub struct BvpSolution {
     /// of max|Q| and the time span): the relative change of the unknowns that would explain
     /// the residual, independent of the number of elements. Round-off makes `residual_norm`
     /// grow like N (about ε·max|Q|·‖J‖, and ‖J‖ grows like 1/h); η stays near ε. Newton's
-    /// method stops at η ≤ `tolerance` once its corrections stop shrinking.
+    /// method on the fixed mesh stops at η ≤ `tolerance` once its corrections stop shrinking
+    /// (on a moving mesh η is reported only).
     pub scaled_residual: f64,
     /// Newton iterations (Jacobian factorisations).
     pub newton_iterations: usize,
@@ -225,6 +226,7 @@ pub(crate) fn solve_with_term<L: Lagrangian>(
         options,
         |x, dx| inf_norm(dx) / qscale(bv, x),
         |x| qscale(bv, x),
+        true,
     )?;
     let (mut iterations, mut scale) = (fixed.iterations, fixed.jacobian_norm * qscale(bv, &x));
     if options.moving_mesh && bv.elements > 1 {

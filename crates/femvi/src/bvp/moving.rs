@@ -14,7 +14,8 @@ use crate::lagrangian::Lagrangian;
 /// Solves the moving-mesh problem from the fixed mesh's unknowns `x` (numbered by the fixed
 /// layout of `asm`) on the `uniform` times, and leaves `asm` with the moving layout. Returns
 /// the unknowns (numbered by the moving layout) and how the Newton iteration ended (the scaled
-/// residual measures the unknowns, times and nodal values, by the larger of their scales).
+/// residual, reported only, measures the unknowns, times and nodal values, by the larger of
+/// their scales; it does not stop the iteration here, see `newton.rs`).
 pub(super) fn solve_moving<L: Lagrangian>(
     asm: &mut Assembly<'_, L>,
     x: &[f64],
@@ -62,6 +63,6 @@ pub(super) fn solve_moving<L: Lagrangian>(
             .map(|(d, &t)| d.abs() / if t { tscale } else { qs })
             .fold(0.0f64, |m, v| if v.is_nan() { f64::NAN } else { m.max(v) })
     };
-    let done = newton(asm, &mut y, options, rel, |x| qs(x).max(tscale))?;
+    let done = newton(asm, &mut y, options, rel, |x| qs(x).max(tscale), false)?;
     Ok((y, done))
 }
