@@ -28,6 +28,10 @@ pub struct BvpSummary {
     pub action: Option<f64>,
     /// max |∂S/∂Q| over the unknowns at the solution (or where Newton's method stopped).
     pub residual_norm: Option<f64>,
+    /// The residual scaled by the size of the Hessian of the action and of the nodal values,
+    /// max|∂S/∂Q| / (‖J‖∞ · max|Q|), independent of the number of elements
+    /// ([`femvi::bvp::BvpSolution::scaled_residual`]); none if the solve failed.
+    pub scaled_residual: Option<f64>,
     /// Newton iterations taken.
     pub newton_iterations: usize,
     /// Run time.
@@ -166,6 +170,7 @@ fn run_with<L: Lagrangian>(
         time_mode: if problem.moving_mesh { "energy" } else { "fixed" },
         action: None,
         residual_norm: None,
+        scaled_residual: None,
         newton_iterations: 0,
         wall_seconds: 0.0,
         error: None,
@@ -198,6 +203,7 @@ fn run_with<L: Lagrangian>(
             }
             summary.action = Some(sol.action);
             summary.residual_norm = Some(sol.residual_norm);
+            summary.scaled_residual = Some(sol.scaled_residual);
             summary.newton_iterations = sol.newton_iterations;
         }
         Err(femvi::Error::Step(e)) => {

@@ -195,12 +195,13 @@ fn cmd_bvp(
         Ok(s) => {
             if !quiet {
                 println!(
-                    "{}: {} elements ({}), action {:.15e}, residual {:.2e}, {} Newton iterations, {:.3} s",
+                    "{}: {} elements ({}), action {:.15e}, residual {:.2e} (scaled {:.2e}), {} Newton iterations, {:.3} s",
                     s.name,
                     s.elements,
                     s.scheme,
                     s.action.unwrap_or(f64::NAN),
                     s.residual_norm.unwrap_or(f64::NAN),
+                    s.scaled_residual.unwrap_or(f64::NAN),
                     s.newton_iterations,
                     s.wall_seconds
                 );

@@ -162,6 +162,14 @@ pub struct BvpSolution {
     pub action: f64,
     /// max |∂S/∂Q| over the unknowns at the solution.
     pub residual_norm: f64,
+    /// The scaled residual η = max|∂S/∂Q| / (‖J‖∞ · max|Q|) at the solution, with J the
+    /// Hessian of the action last assembled (on a moving mesh the unknowns' scale is the larger
+    /// of max|Q| and the time span): the relative change of the unknowns that would explain
+    /// the residual, independent of the number of elements. Round-off makes `residual_norm`
+    /// grow like N (about ε·max|Q|·‖J‖, and ‖J‖ grows like 1/h); η stays near ε. Newton's
+    /// method on the fixed mesh stops at η ≤ `tolerance` once its corrections stop shrinking
+    /// (on a moving mesh η is reported only).
+    pub scaled_residual: f64,
     /// Newton iterations (Jacobian factorisations).
     pub newton_iterations: usize,
 }
@@ -212,14 +220,24 @@ pub(crate) fn solve_with_term<L: Lagrangian>(
     let mut x: Vec<f64> = nodes[n..nodes.len() - n].to_vec();
     let mut asm = Assembly::new(lag, element, bv, nodes, uniform.clone(), term);
     // The fixed uniform mesh first.
-    let mut iterations = newton(&mut asm, &mut x, options, |x, dx| inf_norm(dx) / qscale(bv, x))?;
+    let fixed = newton(
+        &mut asm,
+        &mut x,
+        options,
+        |x, dx| inf_norm(dx) / qscale(bv, x),
+        |x| qscale(bv, x),
+        true,
+    )?;
+    let (mut iterations, mut scale) = (fixed.iterations, fixed.jacobian_norm * qscale(bv, &x));
     if options.moving_mesh && bv.elements > 1 {
         // Then the moving mesh, from that solution.
         let (y, more) = moving::solve_moving(&mut asm, &x, &uniform, options)?;
-        iterations += more;
+        iterations += more.iterations;
+        let tscale = bv.t0.abs().max(bv.t1.abs()).max(bv.t1 - bv.t0);
+        scale = more.jacobian_norm * qscale(bv, &y).max(tscale);
         x = y;
     }
-    finish(&mut asm, &x, iterations)
+    finish(&mut asm, &x, iterations, scale)
 }
 
 /// Checks that the problem's Jacobian (on the moving mesh too, if asked for) fits
@@ -280,8 +298,9 @@ fn qscale(bv: &BoundaryValues, x: &[f64]) -> f64 {
         .max(f64::MIN_POSITIVE)
 }
 
-/// The solution at the unknowns `x`: action, residual and the values at the element ends.
-fn finish<L: Lagrangian>(asm: &mut Assembly<'_, L>, x: &[f64], iterations: usize) -> Result<BvpSolution> {
+/// The solution at the unknowns `x`: action, residual (also divided by `scale`, ‖J‖∞ times
+/// the unknowns' scale) and the values at the element ends.
+fn finish<L: Lagrangian>(asm: &mut Assembly<'_, L>, x: &[f64], iterations: usize, scale: f64) -> Result<BvpSolution> {
     let mut r = vec![0.0; asm.layout.len()];
     let action = match asm.eval(x, &mut r, None) {
         Ok(a) => a,
@@ -306,6 +325,7 @@ fn finish<L: Lagrangian>(asm: &mut Assembly<'_, L>, x: &[f64], iterations: usize
         nodes,
         action,
         residual_norm,
+        scaled_residual: residual_norm / scale,
         newton_iterations: iterations,
     })
 }

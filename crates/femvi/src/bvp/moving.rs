@@ -6,20 +6,22 @@
 
 use super::eval::Assembly;
 use super::layout::Layout;
-use super::newton::newton;
+use super::newton::{newton, Converged};
 use super::{qscale, BvpOptions};
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
 
 /// Solves the moving-mesh problem from the fixed mesh's unknowns `x` (numbered by the fixed
 /// layout of `asm`) on the `uniform` times, and leaves `asm` with the moving layout. Returns
-/// the unknowns (numbered by the moving layout) and the Newton iterations.
+/// the unknowns (numbered by the moving layout) and how the Newton iteration ended (the scaled
+/// residual, reported only, measures the unknowns, times and nodal values, by the larger of
+/// their scales; it does not stop the iteration here, see `newton.rs`).
 pub(super) fn solve_moving<L: Lagrangian>(
     asm: &mut Assembly<'_, L>,
     x: &[f64],
     uniform: &[f64],
     options: BvpOptions,
-) -> Result<(Vec<f64>, usize)> {
+) -> Result<(Vec<f64>, Converged)> {
     let (n, s, big_n, bv) = (asm.n, asm.element.degree(), asm.bv.elements, asm.bv);
     let moving = Layout {
         moving: true,
@@ -43,8 +45,8 @@ pub(super) fn solve_moving<L: Lagrangian>(
     }
     asm.layout = moving;
     let tscale = bv.t0.abs().max(bv.t1.abs()).max(bv.t1 - bv.t0);
-    let rel = |x: &[f64], dx: &[f64]| {
-        // The nodal values' scale, as for the fixed mesh, over the entries that are not times.
+    // The nodal values' scale, as for the fixed mesh, over the entries that are not times.
+    let qs = |x: &[f64]| {
         let qmax = x.iter().zip(&is_time).filter(|(_, t)| !**t).fold(0.0f64, |m, (v, _)| {
             if v.is_nan() {
                 f64::NAN
@@ -52,12 +54,15 @@ pub(super) fn solve_moving<L: Lagrangian>(
                 m.max(v.abs())
             }
         });
-        let qs = qscale(bv, &[qmax]);
+        qscale(bv, &[qmax])
+    };
+    let rel = |x: &[f64], dx: &[f64]| {
+        let qs = qs(x);
         dx.iter()
             .zip(&is_time)
             .map(|(d, &t)| d.abs() / if t { tscale } else { qs })
             .fold(0.0f64, |m, v| if v.is_nan() { f64::NAN } else { m.max(v) })
     };
-    let iterations = newton(asm, &mut y, options, rel)?;
-    Ok((y, iterations))
+    let done = newton(asm, &mut y, options, rel, |x| qs(x).max(tscale), false)?;
+    Ok((y, done))
 }

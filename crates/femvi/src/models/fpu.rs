@@ -4,7 +4,7 @@
 //! d_i = q_{i+1} − q_i (the α-chain for β = 0, the β-chain for α = 0), so that
 //! q̈_i = V'(d_i) − V'(d_{i−1}) with V'(d) = d + α d² + β d³. The dimension n is a parameter.
 
-use super::finite;
+use super::{finite, MAX_FPU_MASSES};
 use crate::error::{invalid, Result};
 use crate::lagrangian::{Mechanical, Potential, Scalar};
 
@@ -24,10 +24,16 @@ impl FpuPotential {
     /// The chain of n masses with coefficients α and β.
     ///
     /// # Errors
-    /// n = 0, or α or β not finite.
+    /// n = 0 or n > [`MAX_FPU_MASSES`], or α or β not finite.
     pub fn new(n: usize, alpha: f64, beta: f64) -> Result<Self> {
         if n == 0 {
             return Err(invalid("fpu", "the chain needs at least one mass (n >= 1)"));
+        }
+        if n > MAX_FPU_MASSES {
+            return Err(invalid(
+                "fpu",
+                format!("n = {n}: the chain is limited to {MAX_FPU_MASSES} masses"),
+            ));
         }
         finite("fpu", &[("alpha", alpha), ("beta", beta)])?;
         Ok(Self { n, alpha, beta })
@@ -72,14 +78,15 @@ impl Potential for FpuPotential {
 /// diagonal).
 ///
 /// # Errors
-/// n = 0, or α or β not finite ([`crate::Error::Invalid`]).
+/// n = 0 or n > [`MAX_FPU_MASSES`], or α or β not finite ([`crate::Error::Invalid`]).
 ///
 /// # Example
 ///
 /// ```
-/// use femvi::models::fpu;
+/// use femvi::models::{fpu, MAX_FPU_MASSES};
 /// assert!(fpu(8, 0.25, 0.0).is_ok());
 /// assert!(fpu(0, 0.25, 0.0).is_err());
+/// assert!(fpu(MAX_FPU_MASSES + 1, 0.25, 0.0).is_err() && fpu(usize::MAX, 0.25, 0.0).is_err());
 /// assert!(fpu(8, f64::NAN, 0.0).is_err() && fpu(8, 0.0, f64::NEG_INFINITY).is_err());
 /// ```
 pub fn fpu(n: usize, alpha: f64, beta: f64) -> Result<Mechanical<FpuPotential>> {

@@ -30,8 +30,14 @@ impl<L: Lagrangian> Integrator<'_, L> {
                 finite("initial q", &q)?;
                 finite("initial v", &v)?;
                 check_regular(&*self.lag, t0, &q, &v)?;
-                self.lag.first_derivatives(t0, &q, &v, false, &mut work);
-                self.state.p.copy_from_slice(work.l_v());
+                if let Some(mass) = self.lag.mass_matrix() {
+                    // p = Mv, as first_derivatives computes it, without its force and
+                    // potential (O(N²) each for n bodies: a step's cost at set-up).
+                    mass.apply(&v, &mut self.state.p);
+                } else {
+                    self.lag.first_derivatives(t0, &q, &v, false, &mut work);
+                    self.state.p.copy_from_slice(work.l_v());
+                }
                 self.state.q = q;
                 self.state.v0 = v;
             }
