@@ -8,6 +8,7 @@
 pub mod adaptive;
 pub mod bvp;
 pub mod chaos;
+pub mod chaos_command;
 pub mod chaos_forced;
 pub mod chaos_plot;
 pub mod check;
