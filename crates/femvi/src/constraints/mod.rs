@@ -51,8 +51,12 @@
 //! Files: `expr.rs` (constraints from expressions), `jet.rs` (g, G, ∇²g by AD), `layout.rs`
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `tangent.rs`
-//! (symplecticity on the manifold). Constrained boundary value problems are not available yet.
+//! (symplecticity on the manifold); `bvp.rs` (constrained two-point boundary value problems,
+//! [`solve_constrained_bvp`], with `bvp_assembly.rs` and `bvp_newton.rs`).
 
+mod bvp;
+mod bvp_assembly;
+mod bvp_newton;
 mod expr;
 mod jet;
 mod layout;
@@ -61,6 +65,7 @@ mod solve;
 mod step;
 mod tangent;
 
+pub use bvp::{solve_constrained_bvp, solve_constrained_bvp_with, ConstrainedBvpSolution};
 pub use expr::ExprConstraints;
 pub use layout::Enforcement;
 pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};

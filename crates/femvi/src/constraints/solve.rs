@@ -25,7 +25,7 @@ pub const START_TOLERANCE: f64 = 1e-10;
 pub const MAX_COORDINATES: usize = 200;
 
 /// Below this ratio of the smallest to the largest singular value, G(q) counts as singular.
-const RANK_TOLERANCE: f64 = 1e-12;
+pub(super) const RANK_TOLERANCE: f64 = 1e-12;
 
 /// The result of [`solve_constrained`]: the usual [`Solution`] plus, per kept node, the
 /// multipliers and the residuals of the constraints.
