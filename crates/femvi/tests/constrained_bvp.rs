@@ -187,10 +187,12 @@ fn spherical_pendulum_bvp_converges_with_order_2s() {
 }
 
 /// Constraints for the hostile cases: `Count(k)` repeats the sphere k times; `Squared` is
-/// (|q|² − 1)², whose Jacobian vanishes on the sphere.
+/// (|q|² − 1)², whose Jacobian vanishes on the sphere; `Root` is the sphere plus 0·√x, NaN for
+/// x < 0.
 enum Odd {
     Count(usize),
     Squared,
+    Root,
 }
 
 impl Constraints for Odd {
@@ -200,7 +202,7 @@ impl Constraints for Odd {
     fn count(&self) -> usize {
         match self {
             Odd::Count(k) => *k,
-            Odd::Squared => 1,
+            Odd::Squared | Odd::Root => 1,
         }
     }
     fn value<D: Scalar>(&self, q: &[D], out: &mut [D]) {
@@ -208,6 +210,7 @@ impl Constraints for Odd {
         match self {
             Odd::Count(_) => out.iter_mut().for_each(|o| *o = r),
             Odd::Squared => out[0] = r * r,
+            Odd::Root => out[0] = r + q[0].sqrt() * 0.0,
         }
     }
 }
@@ -270,6 +273,16 @@ fn hostile_input_gives_typed_errors() {
     // Antipodal ends from the straight line: its middle node is the origin, where G = 0.
     let r = solve(&sph, &bvp(&a, &[-0.6, 0.0, 0.8], 1.0, 4));
     assert!(matches!(r, Err(Error::SingularConstraints { step: 2, .. })), "{r:?}");
+    // Constraints that are NaN at the guess's interior nodes.
+    let right = bvp(&a, &[0.48, 0.6, -0.64], 1.0, 4);
+    let mut guess = line_guess(&right, &el);
+    let last = guess.len() - 3;
+    guess[3..last].chunks_exact_mut(3).for_each(|q| q[0] = -0.6);
+    let r = solve_constrained_bvp(&lag, &Odd::Root, &el, &right, &guess, opts);
+    assert!(
+        matches!(&r, Err(Error::Step(e)) if e.failure == StepFailure::NonFinite),
+        "{r:?}"
+    );
     // The iteration cap; a moving mesh; far too many elements (refused before allocating).
     let capped = BvpOptions {
         max_iterations: 1,
