@@ -186,6 +186,52 @@ fn spherical_pendulum_bvp_converges_with_order_2s() {
     }
 }
 
+/// No constraints: the unconstrained boundary value solver's solution (a second, independent
+/// assembly), also with a single element (degree 1: nothing to solve).
+struct Free;
+
+impl Constraints for Free {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn count(&self) -> usize {
+        0
+    }
+    fn value<D: Scalar>(&self, _q: &[D], _out: &mut [D]) {}
+}
+
+#[test]
+fn without_constraints_it_is_the_unconstrained_solution() {
+    let (lag, _) = models::chain(3, 1, 1.0, G, 1.0).unwrap();
+    for (order, elements) in [(2, 1), (4, 1), (2, 10), (6, 10)] {
+        let el = Element::with_order(order).unwrap();
+        let bv = bvp(&[0.6, 0.0, -0.8], &[0.0, 0.8, -0.6], 1.0, elements);
+        let guess = line_guess(&bv, &el);
+        let plain = femvi::bvp::solve(&lag, &el, &bv, &guess, BvpOptions::default()).unwrap();
+        let sol = solve_constrained_bvp(&lag, &Free, &el, &bv, &guess, BvpOptions::default()).unwrap();
+        let (nodes, p) = (
+            max_diff(&sol.solution.nodes, &plain.nodes),
+            max_diff(&sol.solution.p, &plain.p),
+        );
+        assert!(
+            nodes <= 1e-14 && p <= 1e-13,
+            "order {order}, {elements} elements: {nodes:e}, {p:e}"
+        );
+        assert!((sol.solution.action - plain.action).abs() <= 1e-14 * plain.action.abs());
+        assert!(sol.multipliers.is_empty() && sol.impulses.is_empty());
+    }
+    // The initial value run without constraints too (it panicked in the multipliers).
+    let problem = Problem::new(lag, pendulum_start(), 0.0, 0.5);
+    let run = solve_constrained(
+        &problem,
+        &Free,
+        &Element::with_order(4).unwrap(),
+        &SolveOptions::step(0.1),
+    )
+    .unwrap();
+    assert!(run.solution.error.is_none() && run.multipliers.is_empty());
+}
+
 /// Constraints for the hostile cases: `Count(k)` repeats the sphere k times; `Squared` is
 /// (|q|² − 1)², whose Jacobian vanishes on the sphere; `Root` is the sphere plus 0·√x, NaN for
 /// x < 0.
