@@ -1,6 +1,7 @@
 //! `femvi bvp` with `[constraints]`: the geodesic example against the great circle (closed
-//! form), the multiplier and residual columns, a guess file, and the refusals (ends off the
-//! manifold, a moving mesh, `[forces]` with `[constraints]`) with exit code 2.
+//! form), the multiplier and residual columns, a guess file, `[forces]` with `[constraints]`
+//! (gravity as a force is gravity in the Lagrangian), and the refusals (ends off the manifold,
+//! a moving mesh) with exit code 2.
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
@@ -114,12 +115,52 @@ fn bad_constrained_boundary_problems_are_refused() {
             .arg(out.path()),
         "moving mesh",
     );
-    let text = std::fs::read_to_string(example()).unwrap()
-        + "\n[forces]\ngeneralized = [\"-0.1*x_dot\", \"-0.1*y_dot\", \"-0.1*z_dot\"]\n";
-    let path = out.path().join("both.toml");
-    std::fs::write(&path, text).unwrap();
-    refused(
-        femvi().args(["bvp", "--quiet"]).arg(&path).arg("--out").arg(out.path()),
-        "[forces] and [constraints] together is not supported",
+}
+
+/// `[forces]` with `[constraints]`: gravity as a generalized force on the geodesic example
+/// gives the nodes of the same file with gravity in the Lagrangian (the spherical pendulum),
+/// and dissipation on top solves with residual ≤ 1e-12.
+#[test]
+fn forces_with_constraints_are_solved() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(example()).unwrap();
+    let solve = |name: &str, text: String| {
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.path().join(name);
+        femvi()
+            .args(["bvp", "--quiet"])
+            .arg(&path)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success();
+        let summary = json(&out.join("summary.json"));
+        assert!(summary["residual_norm"].as_f64().unwrap() <= 1e-12, "{name}: {summary}");
+        rows(&out).1
+    };
+    let pendulum = solve(
+        "pendulum",
+        base.replace(
+            "lagrangian = \"0.5*(x_dot^2 + y_dot^2 + z_dot^2)\"",
+            "lagrangian = \"0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z\"",
+        ),
     );
+    let forced = solve(
+        "forced",
+        base.clone() + "\n[forces]\ngeneralized = [\"0\", \"0\", \"-9.81\"]\n",
+    );
+    let damped = solve(
+        "damped",
+        base + "\n[forces]\ndissipation = \"0.05*(x_dot^2 + y_dot^2 + z_dot^2)\"\n",
+    );
+    let (mut same, mut moved) = (0.0f64, 0.0f64);
+    for ((p, f), d) in pendulum.iter().zip(&forced).zip(&damped) {
+        for c in 2..5 {
+            same = same.max((p[c] - f[c]).abs());
+            moved = moved.max((p[c] - d[c]).abs());
+        }
+        assert!(d[10] <= 1e-13 && f[10] <= 1e-13);
+    }
+    assert!(same <= 1e-13 && moved > 1e-3, "{same:e} {moved:e}");
 }

@@ -4,8 +4,12 @@
 //! reference, and the typed errors on hostile input.
 
 use femvi::bvp::{line_guess, BoundaryValues, BvpOptions};
-use femvi::constraints::{solve_constrained, solve_constrained_bvp, ConstrainedBvpSolution, Constraints};
+use femvi::constraints::{
+    solve_constrained, solve_constrained_bvp, solve_constrained_forced_bvp, ConstrainedBvpSolution, Constraints,
+    Enforcement,
+};
 use femvi::diagnostics::fit_order;
+use femvi::forces::LinearForce;
 use femvi::{models, Element, Error, NodeFamily, Problem, QuadratureKind, Scalar, SolveOptions, Start, StepFailure};
 
 const G: f64 = 9.81;
@@ -230,6 +234,60 @@ fn without_constraints_it_is_the_unconstrained_solution() {
     )
     .unwrap();
     assert!(run.solution.error.is_none() && run.multipliers.is_empty());
+}
+
+/// With forces: gravity as a force on the free particle is gravity in the Lagrangian (the
+/// discrete force of a potential's gradient is the gradient of its discrete potential term),
+/// and damping forward in time is anti-damping backward (the elements are symmetric, so the
+/// discrete equations map onto each other under t → T − t).
+#[test]
+fn forced_constrained_bvp_meets_two_identities() {
+    let (free, sphere) = models::chain(3, 1, 1.0, 0.0, 1.0).unwrap();
+    let (a, b) = ([0.6, 0.0, -0.8], [0.0, 0.6, -0.8]);
+    let opts = BvpOptions::default();
+    for order in [2, 4, 6] {
+        let el = Element::with_order(order).unwrap();
+        let bv = bvp(&a, &b, 0.7, 12);
+        let guess = line_guess(&bv, &el);
+        let pendulum = on_sphere(G, &el, &bv).unwrap();
+        let gravity = LinearForce::drive(vec![0.0, 0.0, -G], 0.0);
+        let weak = Enforcement::Weak;
+        let forced = solve_constrained_forced_bvp(&free, &gravity, &sphere, &el, &bv, &guess, opts, weak).unwrap();
+        let (dq, dp) = (
+            max_diff(&forced.solution.nodes, &pendulum.solution.nodes),
+            max_diff(&forced.solution.p, &pendulum.solution.p),
+        );
+        assert!(dq <= 1e-13 && dp <= 1e-12, "order {order}: {dq:e} {dp:e}");
+        let (lag, _) = models::chain(3, 1, 1.0, G, 1.0).unwrap();
+        let damped = LinearForce::damping(3, 0.4);
+        let anti = LinearForce::damping(3, -0.4);
+        let fwd = solve_constrained_forced_bvp(&lag, &damped, &sphere, &el, &bv, &guess, opts, weak).unwrap();
+        let back_bv = bvp(&b, &a, 0.7, 12);
+        let back = solve_constrained_forced_bvp(
+            &lag,
+            &anti,
+            &sphere,
+            &el,
+            &back_bv,
+            &line_guess(&back_bv, &el),
+            opts,
+            weak,
+        )
+        .unwrap();
+        for sol in [&fwd, &back] {
+            assert!(sol.solution.residual_norm <= 1e-12 && sol.max_residual <= 1e-13);
+        }
+        let reversed: Vec<f64> = back.solution.q.chunks_exact(3).rev().flatten().copied().collect();
+        let moved = max_diff(&fwd.solution.q, &pendulum.solution.q);
+        let dr = max_diff(&fwd.solution.q, &reversed);
+        println!(
+            "order {order}: gravity as a force {dq:.1e}, reversal {dr:.1e}, damping moved the nodes by {moved:.1e}"
+        );
+        assert!(dr <= 1e-13 && moved > 1e-3, "order {order}: {dr:e}, {moved:e}");
+        // p at t_0 forward is −p at T backward.
+        let p_end = &back.solution.p[back.solution.p.len() - 3..];
+        assert!(max_diff(&fwd.solution.p[..3], &p_end.iter().map(|x| -x).collect::<Vec<_>>()) <= 1e-12);
+    }
 }
 
 /// Constraints for the hostile cases: `Count(k)` repeats the sphere k times; `Squared` is

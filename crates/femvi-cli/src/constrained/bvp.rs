@@ -5,14 +5,17 @@
 //! the element ends (those of the exact flow at the node state, as `femvi run` writes them)
 //! and `residual` (max |g(q)|), summary.json as for an unconstrained problem, constraints.json
 //! (the largest constraint and hidden-constraint residuals, the enforcement) and, with
-//! `--plot`, coordinates.svg. `[forces]` together with `[constraints]` is refused when the
-//! file is loaded.
+//! `--plot`, coordinates.svg. With `[forces]` too, the forced constrained problem
+//! ([`femvi::constraints::solve_constrained_forced_bvp`]).
 
 use crate::bvp::{guess_from_file, plots, BvpSummary};
 use crate::plot::Format;
+use crate::problem::forces::of_source;
 use crate::problem::{BvpProblem, ProblemFile};
 use femvi::bvp::{line_guess, node_times, BvpOptions};
-use femvi::constraints::{solve_constrained_bvp_with, ConstrainedBvpSolution, Enforcement, ExprConstraints};
+use femvi::constraints::{
+    solve_constrained_bvp_with, solve_constrained_forced_bvp, ConstrainedBvpSolution, Enforcement, ExprConstraints,
+};
 use femvi::lagrangian::{hamiltonian, PointDerivatives};
 use femvi::Lagrangian;
 use std::path::Path;
@@ -86,7 +89,12 @@ fn run_with<L: Lagrangian>(
         command_line: std::env::args().collect(),
         problem: problem.source.clone(),
     };
-    match solve_constrained_bvp_with(lag, &constraints.0, el, bv, &guess, opts, constraints.1) {
+    let force = of_source(&problem.source, &problem.coordinates).map_err(|e| (e, 2))?;
+    let solved = match &force {
+        Some(f) => solve_constrained_forced_bvp(lag, f, &constraints.0, el, bv, &guess, opts, constraints.1),
+        None => solve_constrained_bvp_with(lag, &constraints.0, el, bv, &guess, opts, constraints.1),
+    };
+    match solved {
         Ok(sol) => {
             write_csv(lag, dir, problem, &sol).map_err(io)?;
             write_json(dir, &sol).map_err(io)?;

@@ -31,7 +31,7 @@ use super::layout::{Enforcement, Layout};
 use super::project::{state_multiplier, Projector};
 use super::solve::{MAX_COORDINATES, RANK_TOLERANCE, START_TOLERANCE};
 use super::Constraints;
-use crate::bvp::{BoundaryValues, BvpOptions, BvpSolution, MAX_JACOBIAN_ENTRIES};
+use crate::bvp::{BoundaryValues, BvpOptions, BvpSolution, ElementTerm, MAX_JACOBIAN_ENTRIES};
 use crate::discrete::{Element, ElementWork};
 use crate::error::{check_len, invalid, Error, Result, StepError};
 use crate::lagrangian::Lagrangian;
@@ -128,6 +128,34 @@ pub fn solve_constrained_bvp_with<L: Lagrangian, C: Constraints>(
     options: BvpOptions,
     enforcement: Enforcement,
 ) -> Result<ConstrainedBvpSolution> {
+    let problem = BvpParts {
+        lag,
+        con: constraints,
+        element,
+        bv,
+        term: None,
+    };
+    solve_parts(&problem, guess, options, enforcement)
+}
+
+/// The data of a constrained boundary value problem, with the terms (discrete forces) added
+/// to each element's node rows.
+pub(super) struct BvpParts<'a, L, C> {
+    pub lag: &'a L,
+    pub con: &'a C,
+    pub element: &'a Element,
+    pub bv: &'a BoundaryValues,
+    pub term: Option<&'a dyn ElementTerm>,
+}
+
+/// [`solve_constrained_bvp_with`] on `problem`.
+pub(super) fn solve_parts<L: Lagrangian, C: Constraints>(
+    problem: &BvpParts<'_, L, C>,
+    guess: &[f64],
+    options: BvpOptions,
+    enforcement: Enforcement,
+) -> Result<ConstrainedBvpSolution> {
+    let (lag, constraints, element, bv) = (problem.lag, problem.con, problem.element, problem.bv);
     let (n, m) = (lag.dim(), constraints.count());
     check_len("constraints' coordinates", n, constraints.dim())?;
     if n > MAX_COORDINATES || m >= n.max(1) {
@@ -167,6 +195,7 @@ pub fn solve_constrained_bvp_with<L: Lagrangian, C: Constraints>(
     }
     let floor = inf_norm(&bv.q0).max(inf_norm(&bv.q1));
     let mut asm = Assembly::new(lag, constraints, element, bv, sites, nodes);
+    asm.term = problem.term;
     let mut band = BandMatrix::zeros(len.max(1), bw, bw)?;
     let iterations = newton(
         &mut asm,

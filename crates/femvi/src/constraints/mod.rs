@@ -52,10 +52,12 @@
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `tangent.rs`
 //! (symplecticity on the manifold); `bvp.rs` (constrained two-point boundary value problems,
-//! [`solve_constrained_bvp`], with `bvp_assembly.rs` and `bvp_newton.rs`).
+//! [`solve_constrained_bvp`], with `bvp_assembly.rs` and `bvp_newton.rs`; with forces
+//! `bvp_forced.rs`).
 
 mod bvp;
 mod bvp_assembly;
+mod bvp_forced;
 mod bvp_newton;
 mod expr;
 mod jet;
@@ -66,6 +68,7 @@ mod step;
 mod tangent;
 
 pub use bvp::{solve_constrained_bvp, solve_constrained_bvp_with, ConstrainedBvpSolution};
+pub use bvp_forced::solve_constrained_forced_bvp;
 pub use expr::ExprConstraints;
 pub use layout::Enforcement;
 pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};
