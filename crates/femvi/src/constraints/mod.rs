@@ -52,11 +52,12 @@
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `tangent.rs`
 //! (symplecticity on the manifold); `bvp.rs` (constrained two-point boundary value problems,
-//! [`solve_constrained_bvp`], with `bvp_assembly.rs` and `bvp_newton.rs`; with forces
-//! `bvp_forced.rs`).
+//! [`solve_constrained_bvp`], with `bvp_assembly.rs`, `bvp_newton.rs` and `bvp_finish.rs`;
+//! with forces `bvp_forced.rs`).
 
 mod bvp;
 mod bvp_assembly;
+mod bvp_finish;
 mod bvp_forced;
 mod bvp_newton;
 mod expr;
