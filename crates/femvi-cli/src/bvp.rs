@@ -1,8 +1,9 @@
 //! `femvi bvp`: solves a two-point boundary value problem by the discrete variational
 //! principle (the library's [`femvi::bvp::solve`]; with `[forces]`,
-//! [`femvi::forces::solve_forced_bvp`]), from the straight line or from a
-//! trajectory file interpolated onto the mesh; writes trajectory.csv and summary.json and,
-//! with plots on, coordinates.svg (coordinates against t) and, with a moving mesh, steps.svg.
+//! [`femvi::forces::solve_forced_bvp`]; with `[constraints]`, `crate::constrained::bvp`),
+//! from the straight line or from a trajectory file interpolated onto the mesh; writes
+//! trajectory.csv and summary.json and, with plots on, coordinates.svg (coordinates against
+//! t) and, with a moving mesh, steps.svg.
 
 use crate::plot::{file, lines, Format, Series};
 use crate::problem::BvpProblem;
@@ -54,11 +55,14 @@ pub fn run(problem: &BvpProblem, dir: &Path) -> Result<BvpSummary, (String, u8)>
 
 /// [`run`], drawing the plots in format `plot` if given.
 pub fn run_plotted(problem: &BvpProblem, dir: &Path, plot: Option<Format>) -> Result<BvpSummary, (String, u8)> {
+    if let Some(c) = crate::constrained::bvp::settings(problem).map_err(|e| (e, 2))? {
+        return crate::constrained::bvp::run(problem, &c, dir, plot);
+    }
     crate::with_system!(&problem.system, l => run_with(l, problem, dir, plot))
 }
 
 /// coordinates.svg and, with a moving mesh, steps.svg of a solution at the element ends.
-fn plots(problem: &BvpProblem, dir: &Path, f: Format, times: &[f64], q: &[f64]) -> Result<(), String> {
+pub(crate) fn plots(problem: &BvpProblem, dir: &Path, f: Format, times: &[f64], q: &[f64]) -> Result<(), String> {
     let n = problem.coordinates.len();
     let h = (problem.boundary.t1 - problem.boundary.t0) / problem.boundary.elements as f64;
     let what = format!(
@@ -91,7 +95,7 @@ fn plots(problem: &BvpProblem, dir: &Path, f: Format, times: &[f64], q: &[f64]) 
 }
 
 /// Reads a trajectory.csv and interpolates q linearly at `times` (constant beyond its ends).
-fn guess_from_file(path: &Path, names: &[String], times: &[f64]) -> Result<Vec<f64>, String> {
+pub(crate) fn guess_from_file(path: &Path, names: &[String], times: &[f64]) -> Result<Vec<f64>, String> {
     let mut rdr = csv::Reader::from_path(path).map_err(|e| format!("cannot read the guess {}: {e}", path.display()))?;
     let header = rdr.headers().map_err(|e| format!("{}: {e}", path.display()))?.clone();
     let col = |name: &str| {

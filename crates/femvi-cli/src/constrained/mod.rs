@@ -4,9 +4,11 @@
 //! constraint force) and `residual` (max |g(q)|), summary.json, and constraints.json (the
 //! largest constraint and hidden-constraint residuals, how much the start momentum was
 //! projected onto the manifold's cotangent space, the enforcement); `femvi check` measures
-//! symplecticity on the manifold (`check.rs`). Commands and modes that cannot handle
-//! constraints refuse them ([`refuse`], exit code 2).
+//! symplecticity on the manifold (`check.rs`); `femvi bvp` solves constrained boundary value
+//! problems (`bvp.rs`). Commands and modes that cannot handle constraints refuse them
+//! ([`refuse`], exit code 2).
 
+pub mod bvp;
 pub mod check;
 
 use crate::problem::{Problem, ProblemFile};
@@ -41,7 +43,7 @@ pub fn settings(problem: &Problem) -> Result<Option<(ExprConstraints, Enforcemen
 pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
     match settings(problem)? {
         Some(_) => Err(format!(
-            "{what} does not support [constraints] (only `femvi run`, `femvi check`, `femvi chaos` and the library's femvi::constraints do)"
+            "{what} does not support [constraints] (only `femvi run`, `femvi check`, `femvi chaos`, `femvi bvp` and the library's femvi::constraints do)"
         )),
         None => Ok(()),
     }

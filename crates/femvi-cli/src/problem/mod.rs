@@ -331,9 +331,6 @@ fn build_bvp(src: &Source, file: &ProblemFile, c: Common) -> Result<BvpProblem, 
     if !file.events.is_empty() {
         return Err(src.error("[[events]] apply to initial value problems (`femvi run`), not to `femvi bvp`"));
     }
-    if file.constraints.is_some() {
-        return Err(src.error("`femvi bvp` does not support [constraints] (yet); `femvi run` and `femvi check` do"));
-    }
     let b = file
         .boundary
         .as_ref()

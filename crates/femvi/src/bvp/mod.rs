@@ -20,6 +20,8 @@ mod layout;
 mod moving;
 mod newton;
 
+pub(crate) use newton::band_inf_norm;
+
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;

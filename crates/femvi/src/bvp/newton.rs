@@ -37,7 +37,7 @@ pub(super) fn inf_norm(x: &[f64]) -> f64 {
 }
 
 /// max_i Σ_j |J_ij| of a banded matrix before factorisation, NaN if an entry is NaN.
-fn band_inf_norm(band: &BandMatrix, bw: usize) -> f64 {
+pub(crate) fn band_inf_norm(band: &BandMatrix, bw: usize) -> f64 {
     (0..band.size())
         .map(|i| {
             let j1 = (i + bw).min(band.size() - 1);

@@ -52,9 +52,16 @@
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `stepper.rs` (one step),
 //! `tangent.rs` (the step's tangent map, symplecticity on the manifold), `chart.rs`
-//! (symplectic coordinates on the tangent space of T*N) and `chaos_run.rs` (a run carrying
-//! tangent vectors, for [`crate::chaos::constrained_indicators`]). Constrained boundary value problems are not available yet.
+//! (symplectic coordinates on the tangent space of T*N), `chaos_run.rs` (a run carrying
+//! tangent vectors, for [`crate::chaos::constrained_indicators`]); `bvp.rs` (constrained
+//! two-point boundary value problems, [`solve_constrained_bvp`], with `bvp_assembly.rs`,
+//! `bvp_newton.rs` and `bvp_finish.rs`; with forces `bvp_forced.rs`).
 
+mod bvp;
+mod bvp_assembly;
+mod bvp_finish;
+mod bvp_forced;
+mod bvp_newton;
 mod chaos_run;
 mod chart;
 mod expr;
@@ -66,6 +73,8 @@ mod step;
 mod stepper;
 mod tangent;
 
+pub use bvp::{solve_constrained_bvp, solve_constrained_bvp_with, ConstrainedBvpSolution};
+pub use bvp_forced::solve_constrained_forced_bvp;
 pub(crate) use chaos_run::ManifoldRun;
 pub use expr::ExprConstraints;
 pub use layout::Enforcement;

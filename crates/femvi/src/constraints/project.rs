@@ -112,6 +112,9 @@ impl Projector {
 /// jet of g at q with second derivatives; NaN if the system is singular.
 pub(crate) fn state_multiplier<L: Lagrangian>(lag: &L, jet: &ConstraintJet, t: f64, q: &[f64], v: &[f64]) -> Vec<f64> {
     let (n, m) = (jet.n, jet.m);
+    if m == 0 {
+        return vec![];
+    }
     let mut pd = PointDerivatives::new(n);
     lag.second_derivatives(t, q, v, true, &mut pd);
     let a = DMatrix::from_fn(n, n, |i, j| pd.h(1 + n + i, 1 + n + j));

@@ -259,7 +259,6 @@ impl StepSystem {
     }
 
     /// p̃ = ∂L_d^aug/∂Q^s without the end multiplier (node row s of the last evaluation).
-    #[allow(dead_code)] // the constrained boundary value solver's end momentum (being merged)
     pub fn momentum_before_projection(&self) -> &[f64] {
         &self.res[self.s * self.n..(self.s + 1) * self.n]
     }

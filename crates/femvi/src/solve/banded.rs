@@ -58,7 +58,18 @@ impl BandMatrix {
         })
     }
 
-    /// Size.
+    /// The lower and upper bandwidths (kl, ku) it was made with.
+    ///
+    /// ```
+    /// let band = femvi::solve::BandMatrix::zeros(5, 1, 2)?;
+    /// assert_eq!((band.size(), band.bandwidths()), (5, (1, 2)));
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn bandwidths(&self) -> (usize, usize) {
+        (self.kl, self.ku)
+    }
+
+    /// The size m.
     pub fn size(&self) -> usize {
         self.m
     }

@@ -1,0 +1,95 @@
+//! Constrained boundary value problems with non-conservative forces: the discrete
+//! Lagrange–d'Alembert principle on the augmented action (Marsden–West 2001, §3.2 and §3.5),
+//! i.e. the equations of `bvp.rs` with the discrete forces F_d^j of each element
+//! ([`crate::forces::element_forces`]) added to its node rows, and their exact Jacobian
+//! ([`crate::forces::element_forces_jacobian`]) to Newton's. The end momenta are the forced
+//! constrained discrete Legendre transforms, projected onto T*N.
+
+use super::bvp::{solve_parts, BvpParts, ConstrainedBvpSolution};
+use super::layout::Enforcement;
+use super::Constraints;
+use crate::bvp::{BoundaryValues, BvpOptions, ElementTerm};
+use crate::discrete::Element;
+use crate::error::{check_len, Result};
+use crate::forces::{element_forces, element_forces_jacobian, Force};
+use crate::lagrangian::Lagrangian;
+use std::cell::RefCell;
+
+/// The discrete forces of `force` as an element term, with scratch for F_d and its Jacobian.
+struct Forces<'a, F> {
+    force: &'a F,
+    element: &'a Element,
+    scratch: RefCell<(Vec<f64>, Vec<f64>)>,
+}
+
+impl<F: Force> ElementTerm for Forces<'_, F> {
+    fn add(&self, t0: f64, h: f64, base: &[f64], incr: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) {
+        let mut scratch = self.scratch.borrow_mut();
+        let (fd, jac) = &mut *scratch;
+        match hess {
+            Some(hess) => {
+                element_forces_jacobian(self.element, self.force, t0, h, base, incr, fd, jac);
+                hess.iter_mut().zip(jac.iter()).for_each(|(a, b)| *a += b);
+            }
+            None => {
+                element_forces(self.element, self.force, t0, h, base, incr, fd);
+            }
+        }
+        grad.iter_mut().zip(fd.iter()).for_each(|(g, f)| *g += f);
+    }
+}
+
+/// Solves the constrained boundary value problem of `lag` under the non-conservative `force`
+/// (see [`super::solve_constrained_bvp_with`] for the rest). The action reported is the
+/// discrete action S (not stationary with forces); the residual includes the forces.
+///
+/// # Errors
+/// As [`super::solve_constrained_bvp_with`]; also a force whose dimension is not the
+/// Lagrangian's.
+///
+/// # Example
+///
+/// A damped spherical pendulum between two points of the sphere:
+///
+/// ```
+/// use femvi::bvp::{line_guess, BoundaryValues, BvpOptions};
+/// use femvi::constraints::{solve_constrained_forced_bvp, Enforcement};
+/// use femvi::forces::LinearForce;
+/// use femvi::{models, Element};
+///
+/// let (lag, sphere) = models::chain(3, 1, 1.0, 9.81, 1.0)?;
+/// let bv = BoundaryValues { t0: 0.0, q0: vec![0.6, 0.0, -0.8], t1: 0.5, q1: vec![0.0, 0.6, -0.8], elements: 20 };
+/// let element = Element::with_order(4)?;
+/// let damping = LinearForce::damping(3, 0.3);
+/// let sol = solve_constrained_forced_bvp(&lag, &damping, &sphere, &element, &bv, &line_guess(&bv, &element), BvpOptions::default(), Enforcement::default())?;
+/// assert!(sol.solution.residual_norm < 1e-12 && sol.max_residual < 1e-13);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+#[allow(clippy::too_many_arguments)]
+pub fn solve_constrained_forced_bvp<L: Lagrangian, F: Force, C: Constraints>(
+    lag: &L,
+    force: &F,
+    constraints: &C,
+    element: &Element,
+    bv: &BoundaryValues,
+    guess: &[f64],
+    options: BvpOptions,
+    enforcement: Enforcement,
+) -> Result<ConstrainedBvpSolution> {
+    let n = lag.dim();
+    check_len("force", n, force.dim())?;
+    let w = element.nodes().saturating_mul(n);
+    let term = Forces {
+        force,
+        element,
+        scratch: RefCell::new((vec![0.0; w], vec![0.0; w.saturating_mul(w)])),
+    };
+    let problem = BvpParts {
+        lag,
+        con: constraints,
+        element,
+        bv,
+        term: Some(&term),
+    };
+    solve_parts(&problem, guess, options, enforcement)
+}
