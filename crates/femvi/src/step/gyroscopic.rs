@@ -31,7 +31,8 @@ struct Tables {
     /// γ_mi and β_mi, row-major s×r.
     gamma: Vec<Dd>,
     beta: Vec<Dd>,
-    /// ℓ_m(c_l) and ℓ_m'(c_l) for m = 1 … s, row-major r×s.
+    /// ℓ_m(c_l) and ℓ_m'(c_l) for m = 1 … s, column-major r×s (entry (l, m) at m r + l,
+    /// as [`affine`] takes them).
     pos: Vec<f64>,
     vel: Vec<Dd>,
 }
@@ -68,8 +69,8 @@ impl Tables {
                 beta[m * r + i] = b.neg();
             }
         }
-        let pos = (0..r * s).map(|k| phi[(k / s) * w + k % s + 1].round()).collect();
-        let vel = (0..r * s).map(|k| dphi[(k / s) * w + k % s + 1]).collect();
+        let pos = (0..r * s).map(|k| phi[(k % r) * w + k / r + 1].round()).collect();
+        let vel = (0..r * s).map(|k| dphi[(k % r) * w + k / r + 1]).collect();
         Ok(Self {
             alpha,
             gamma,
@@ -86,10 +87,15 @@ struct Scaled {
     h_bits: u64,
     /// h α_m.
     ha: Vec<f64>,
-    /// Column-major 2r × s (column i contiguous): h γ_·i for i < r, then h² β_·i.
+    /// Column-major 2r × s (column j contiguous): h γ_·i in column 2i, h² β_·i in column
+    /// 2i + 1, so that the gyroscopic terms (A_i, g_i by point) are its right-hand side as
+    /// they come.
     mat: Vec<f64>,
-    /// ℓ_m'(c_l)/h, row-major r×s.
+    /// ℓ_m'(c_l)/h, column-major as `Tables::vel`.
     vel: Vec<f64>,
+    /// Ones (the stage positions are q_k + Σ_m ℓ_m(c_l) ΔQ^m) and zeros (velocities).
+    ones: Vec<f64>,
+    zeros: Vec<f64>,
     /// h b_i and its rounding error.
     hw: Vec<f64>,
     hw_lo: Vec<f64>,
@@ -103,8 +109,8 @@ impl Scaled {
         for m in 0..s {
             self.ha[m] = hd.mul(tab.alpha[m]).round();
             for i in 0..r {
-                self.mat[i * s + m] = hd.mul(tab.gamma[m * r + i]).round();
-                self.mat[(r + i) * s + m] = h2.mul(tab.beta[m * r + i]).round();
+                self.mat[2 * i * s + m] = hd.mul(tab.gamma[m * r + i]).round();
+                self.mat[(2 * i + 1) * s + m] = h2.mul(tab.beta[m * r + i]).round();
             }
         }
         for (v, d) in self.vel.iter_mut().zip(&tab.vel) {
@@ -132,7 +138,7 @@ pub(crate) struct GyroscopicStep {
     stage_q: Vec<f64>,
     stage_v: Vec<f64>,
     stage_t: Vec<f64>,
-    /// A_i and g_i by point (r × 2n), and M⁻¹A_i then M⁻¹g_i (2r × n).
+    /// A_i and g_i by point (r × 2n), and M⁻¹ applied to each (unused for unit masses).
     terms: Vec<f64>,
     weighted: Vec<f64>,
 }
@@ -150,6 +156,8 @@ impl GyroscopicStep {
                 ha: vec![0.0; s],
                 mat: vec![0.0; 2 * r * s],
                 vel: vec![0.0; r * s],
+                ones: vec![1.0; r],
+                zeros: vec![0.0; r],
                 hw: vec![0.0; r],
                 hw_lo: vec![0.0; r],
             },
@@ -258,30 +266,23 @@ impl GyroscopicStep {
     fn sweep<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, state: &RunState) -> (f64, f64) {
         let (n, s, r) = (state.n, cx.element.degree(), cx.element.points());
         let sc = &self.scaled;
-        for l in 0..r {
-            let (p, v) = (&self.tab.pos[l * s..(l + 1) * s], &sc.vel[l * s..(l + 1) * s]);
-            for c in 0..n {
-                let (mut y, mut w) = (0.0, 0.0);
-                for m in 0..s {
-                    let x = self.x[m * n + c];
-                    y += p[m] * x;
-                    w += v[m] * x;
-                }
-                self.stage_q[l * n + c] = state.q[c] + y;
-                self.stage_v[l * n + c] = w;
-            }
-        }
+        affine(r, n, &sc.ones, &state.q, &self.tab.pos, s, &self.x, &mut self.stage_q, false);
+        affine(r, n, &sc.zeros, &state.q, &sc.vel, s, &self.x, &mut self.stage_v, false);
         cx.lag
             .gyroscopic_terms(&self.stage_t, &self.stage_q, &self.stage_v, &mut self.terms);
         let Some(mass) = cx.lag.gyroscopic_mass() else {
             return (f64::NAN, f64::NAN);
         };
-        let (wa, wg) = self.weighted.split_at_mut(r * n);
-        for (i, t) in self.terms.chunks_exact(2 * n).enumerate().take(r) {
-            mass.solve(&t[..n], &mut wa[i * n..(i + 1) * n]);
-            mass.solve(&t[n..], &mut wg[i * n..(i + 1) * n]);
-        }
-        let (delta, xmax, probe) = affine(s, n, &sc.ha, &self.u, &sc.mat, 2 * r, &self.weighted, &mut self.x, true);
+        // The right-hand side: rows (A_0, g_0, A_1, g_1, …) times M⁻¹.
+        let rhs: &[f64] = if mass.is_identity() {
+            &self.terms
+        } else {
+            for (t, w) in self.terms.chunks_exact(n).zip(self.weighted.chunks_exact_mut(n)) {
+                mass.solve(t, w);
+            }
+            &self.weighted
+        };
+        let (delta, xmax, probe) = affine(s, n, &sc.ha, &self.u, &sc.mat, 2 * r, rhs, &mut self.x, true);
         if probe.is_nan() {
             return (f64::NAN, f64::NAN);
         }
