@@ -152,7 +152,8 @@ impl<L: Lagrangian> Integrator<'_, L> {
         match &self.solver {
             Solver::Explicit(e) => e.save_state(&mut w),
             Solver::FixedPoint(f) => f.save(&mut w),
-            Solver::Newton(_) | Solver::Gyroscopic(_) => {}
+            Solver::Gyroscopic(g) => g.save(&mut w),
+            Solver::Newton(_) => {}
         }
         if let Some(e) = &self.energy {
             e.save(&mut w);
@@ -219,7 +220,8 @@ impl<L: Lagrangian> Integrator<'_, L> {
         match &mut solver {
             Solver::Explicit(e) => e.load_state(&mut r)?,
             Solver::FixedPoint(f) => f.load(&mut r)?,
-            Solver::Newton(_) | Solver::Gyroscopic(_) => {}
+            Solver::Gyroscopic(g) => g.load(&mut r)?,
+            Solver::Newton(_) => {}
         }
         if let Some(e) = energy.as_mut() {
             e.load(&mut r)?;

@@ -14,6 +14,7 @@
 //! The iteration starts from the last element's polynomial (step/guess.rs) and stops as the
 //! mechanical one does (converged, then polished while the increments still decrease).
 
+use super::checkpoint::{Reader, Words};
 use super::fixed_point::{affine, basis_dd, invert};
 use super::guess::Guess;
 use super::solver::StepContext;
@@ -22,6 +23,12 @@ use crate::discrete::Element;
 use crate::error::{invalid, Error, Result, StepError, StepFailure};
 use crate::fem::dd::Dd;
 use crate::lagrangian::Lagrangian;
+
+/// Whether steps start from the last step's terms extrapolated in time (else from the last
+/// element's polynomial, as Newton does). Measured on the Arenstorf expression (h = T/10⁴,
+/// uniform): 4.02 → 4.01 sweeps per step at degree 2, 2.26 → 2.04 at degree 4; 4 % and 6 %
+/// less time (medians of 7 alternating runs).
+const START_FROM_TERMS: bool = true;
 
 /// The h-independent tables (double-double, rounded when scaled by h).
 #[derive(Debug, Clone)]
@@ -141,6 +148,13 @@ pub(crate) struct GyroscopicStep {
     /// A_i and g_i by point (r × 2n), and M⁻¹ applied to each (unused for unit masses).
     terms: Vec<f64>,
     weighted: Vec<f64>,
+    /// The last accepted step's terms and whether they are valid (they start the next step).
+    last_terms: Vec<f64>,
+    have_last: bool,
+    /// Extrapolation of the last step's terms to the new stages, row-major r×r, for the
+    /// step ratio `rho`.
+    extrap: Vec<f64>,
+    rho: f64,
 }
 
 impl GyroscopicStep {
@@ -169,6 +183,10 @@ impl GyroscopicStep {
             stage_t: vec![0.0; r],
             terms: vec![0.0; 2 * r * n],
             weighted: vec![0.0; 2 * r * n],
+            last_terms: vec![0.0; 2 * r * n],
+            have_last: false,
+            extrap: vec![0.0; r * r],
+            rho: f64::NAN,
         })
     }
 
@@ -193,8 +211,13 @@ impl GyroscopicStep {
             *st = state.t + c * h;
         }
         mass.solve(&state.p, &mut self.u);
-        self.guess.predict(element, last, &state.v0, h);
-        self.x.copy_from_slice(&self.guess.x[..s * n]);
+        let rho = h / last.h;
+        if START_FROM_TERMS && self.have_last && last.valid && (0.5..=2.0).contains(&rho) {
+            self.start_from_terms(cx, state, rho);
+        } else {
+            self.guess.predict(element, last, &state.v0, h);
+            self.x.copy_from_slice(&self.guess.x[..s * n]);
+        }
         let iterations = self.iterate(cx, state)?;
         // The update from the last sweep's forces g_i (the ΔQ they gave is in x).
         out.incr[..n].iter_mut().for_each(|x| *x = 0.0);
@@ -211,6 +234,60 @@ impl GyroscopicStep {
             out.dp[c] = hi + lo;
         }
         Ok(iterations)
+    }
+
+    /// Starting increments from the last step's terms extrapolated in time to the new stages
+    /// (the polynomial through the r old stages, at 1 + ρ c_l in the old step's units).
+    fn start_from_terms<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, state: &RunState, rho: f64) {
+        let (n, s, c) = (state.n, cx.element.degree(), &cx.element.rule.nodes);
+        let r = c.len();
+        if rho != self.rho {
+            self.rho = rho;
+            for l in 0..r {
+                let x = 1.0 + rho * c[l];
+                for i in 0..r {
+                    self.extrap[l * r + i] = (0..r).filter(|&j| j != i).map(|j| (x - c[j]) / (c[i] - c[j])).product();
+                }
+            }
+        }
+        let w = 2 * n;
+        for l in 0..r {
+            for k in 0..w {
+                self.terms[l * w + k] = (0..r)
+                    .map(|i| self.extrap[l * r + i] * self.last_terms[i * w + k])
+                    .sum();
+            }
+        }
+        let Some(mass) = cx.lag.gyroscopic_mass() else {
+            return;
+        };
+        let rhs: &[f64] = if mass.is_identity() {
+            &self.terms
+        } else {
+            for (t, w) in self.terms.chunks_exact(n).zip(self.weighted.chunks_exact_mut(n)) {
+                mass.solve(t, w);
+            }
+            &self.weighted
+        };
+        let sc = &self.scaled;
+        affine(s, n, &sc.ha, &self.u, &sc.mat, 2 * r, rhs, &mut self.x, false);
+    }
+
+    /// The step was accepted: its terms start the next one.
+    pub(crate) fn accepted(&mut self) {
+        self.last_terms.copy_from_slice(&self.terms);
+        self.have_last = true;
+    }
+
+    /// The data the next step's start depends on (checkpoints).
+    pub(crate) fn save(&self, w: &mut Words) {
+        w.b(self.have_last);
+        w.fs(&self.last_terms);
+    }
+
+    pub(crate) fn load(&mut self, r: &mut Reader<'_>) -> Result<()> {
+        self.have_last = r.b()?;
+        r.fs(&mut self.last_terms)
     }
 
     /// Sweeps until the increments stop changing; returns the number of sweeps.
@@ -266,7 +343,17 @@ impl GyroscopicStep {
     fn sweep<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, state: &RunState) -> (f64, f64) {
         let (n, s, r) = (state.n, cx.element.degree(), cx.element.points());
         let sc = &self.scaled;
-        affine(r, n, &sc.ones, &state.q, &self.tab.pos, s, &self.x, &mut self.stage_q, false);
+        affine(
+            r,
+            n,
+            &sc.ones,
+            &state.q,
+            &self.tab.pos,
+            s,
+            &self.x,
+            &mut self.stage_q,
+            false,
+        );
         affine(r, n, &sc.zeros, &state.q, &sc.vel, s, &self.x, &mut self.stage_v, false);
         cx.lag
             .gyroscopic_terms(&self.stage_t, &self.stage_q, &self.stage_v, &mut self.terms);

@@ -120,9 +120,13 @@ impl Solver {
 
     /// The solved step was accepted (called before the state moves).
     pub(crate) fn accepted<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, n: usize) {
-        if let Solver::FixedPoint(f) = self {
-            let identity = cx.lag.mass_matrix().is_some_and(|m| m.is_identity());
-            f.accepted(identity, cx.element.points(), n);
+        match self {
+            Solver::FixedPoint(f) => {
+                let identity = cx.lag.mass_matrix().is_some_and(|m| m.is_identity());
+                f.accepted(identity, cx.element.points(), n);
+            }
+            Solver::Gyroscopic(g) => g.accepted(),
+            _ => {}
         }
     }
 }
