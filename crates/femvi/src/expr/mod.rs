@@ -156,9 +156,11 @@ impl Lagrangian for ExprLagrangian {
 
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
         if let Some(tape) = &self.fast.force {
-            // One lane, registers on the stack: 27 → ns per call on Kepler against the
-            // general single-point evaluation (thread-local registers and an output closure).
-            return tape.eval_point(t, q, out);
+            return tape.eval(t, q, &[], |i, x| {
+                if let Some(o) = out.get_mut(i) {
+                    *o = x;
+                }
+            });
         }
         let n = self.dim();
         let mut d = PointDerivatives::new(n);

@@ -76,7 +76,6 @@ thread_local! {
     /// The same for [`Tape::eval_points`].
     static LANE_REGISTERS: RefCell<Vec<[f64; LANES]>> = const { RefCell::new(Vec::new()) };
     static FEW_LANE_REGISTERS: RefCell<Vec<[f64; FEW_LANES]>> = const { RefCell::new(Vec::new()) };
-    static ONE_LANE_REGISTERS: RefCell<Vec<[f64; 1]>> = const { RefCell::new(Vec::new()) };
 }
 
 impl Tape {
@@ -181,14 +180,6 @@ impl Tape {
         } else {
             self.eval_points_with::<LANES>(&LANE_REGISTERS, t, q, v, out);
         }
-    }
-
-    /// [`Tape::eval_points`] at the single point (t, q) with no velocities (one lane), the
-    /// outputs into `out`; the same operations, so the same bits, as any lane of
-    /// [`Tape::eval_points`].
-    #[inline]
-    pub(super) fn eval_point(&self, t: f64, q: &[f64], out: &mut [f64]) {
-        self.eval_points_with::<1>(&ONE_LANE_REGISTERS, &[t], q, &[], out);
     }
 
     /// Registers on the stack for small tapes, else the thread's.
