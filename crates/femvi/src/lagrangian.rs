@@ -70,6 +70,30 @@ pub trait Lagrangian {
     /// the steps by fixed-point iteration on [`Lagrangian::gyroscopic_terms`]
     /// (`step/gyroscopic.rs`) instead of Newton. Default: None. A Lagrangian that returns M
     /// here must have exactly this form (the solver never looks at [`Lagrangian::value`]).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::{Element, Integrator, Lagrangian, MassMatrix, Scalar, SolverOptions, Start, TimeGrid};
+    /// // A charge in a uniform magnetic field b = 1: L = ½|v|² + ½(x v_y − y v_x).
+    /// struct Charge(MassMatrix);
+    /// impl Lagrangian for Charge {
+    ///     fn dim(&self) -> usize { 2 }
+    ///     fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
+    ///         (v[0] * v[0] + v[1] * v[1]) * 0.5 + (q[0] * v[1] - q[1] * v[0]) * 0.5
+    ///     }
+    ///     fn gyroscopic_mass(&self) -> Option<&MassMatrix> { Some(&self.0) }
+    /// }
+    /// let (lag, el) = (Charge(MassMatrix::identity(2)), Element::with_order(4)?);
+    /// let start = Start::Velocity { q: vec![1.0, 0.0], v: vec![0.0, -1.0] };
+    /// let grid = TimeGrid::uniform(0.0, 0.01, 1.0)?;
+    /// let mut it = Integrator::new(&lag, &el, grid, start, SolverOptions::default())?;
+    /// while it.step()? {}
+    /// // The unit circle at unit angular speed: q(t) = (cos t, −sin t).
+    /// let q = it.node().q;
+    /// assert!((q[0] - 1f64.cos()).abs() < 1e-8 && (q[1] + 1f64.sin()).abs() < 1e-8);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     fn gyroscopic_mass(&self) -> Option<&MassMatrix> {
         None
     }

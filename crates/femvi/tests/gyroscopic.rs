@@ -188,7 +188,7 @@ fn the_gyroscopic_fixed_point_agrees_with_newton() {
     let are = arenstorf();
     let are_start = || Start::Velocity {
         q: vec![0.994, 0.0],
-        v: vec![0.0, -2.00158510637908252240537862224],
+        v: vec![0.0, -2.001_585_106_379_082_4],
     };
     let charge_start = || Start::Velocity {
         q: vec![1.0, 0.0],
@@ -278,7 +278,7 @@ fn a_restored_gyroscopic_run_continues_bit_for_bit() {
     let new = || {
         let start = Start::Velocity {
             q: vec![0.994, 0.0],
-            v: vec![0.0, -2.00158510637908252240537862224],
+            v: vec![0.0, -2.001_585_106_379_082_4],
         };
         let grid = TimeGrid::uniform(0.0, 1e-3, 0.3).unwrap();
         Integrator::new(&are, &el, grid, start, SolverOptions::default()).unwrap()
