@@ -272,7 +272,7 @@ fn the_gyroscopic_fixed_point_keeps_order_2s() {
 
 #[test]
 fn a_restored_gyroscopic_run_continues_bit_for_bit() {
-    // The start of each step depends on the last step's terms: a checkpoint carries them.
+    // The start of each step depends on the last steps' terms: a checkpoint carries them.
     let are = arenstorf();
     let el = Element::with_order(6).unwrap();
     let new = || {
@@ -281,7 +281,13 @@ fn a_restored_gyroscopic_run_continues_bit_for_bit() {
             v: vec![0.0, -2.001_585_106_379_082_4],
         };
         let grid = TimeGrid::uniform(0.0, 1e-3, 0.3).unwrap();
-        Integrator::new(&are, &el, grid, start, SolverOptions::default()).unwrap()
+        // Stopped at a loose tolerance, the result depends on where the iteration started.
+        let opts = SolverOptions {
+            tolerance: 1e-9,
+            polish: false,
+            ..Default::default()
+        };
+        Integrator::new(&are, &el, grid, start, opts).unwrap()
     };
     let mut whole = new();
     while whole.step().unwrap() {}
