@@ -65,6 +65,67 @@ pub trait Lagrangian {
         }
     }
 
+    /// If L = ½vᵀMv + A(t, q)·v − V(t, q) with a constant positive definite mass matrix M
+    /// (gyroscopic: magnetic fields, rotating frames), that matrix; then `Method::Auto` solves
+    /// the steps by fixed-point iteration on [`Lagrangian::gyroscopic_terms`]
+    /// (`step/gyroscopic.rs`) instead of Newton. Default: None. A Lagrangian that returns M
+    /// here must have exactly this form (the solver never looks at [`Lagrangian::value`]).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::{Element, Integrator, Lagrangian, MassMatrix, Scalar, SolverOptions, Start, TimeGrid};
+    /// // A charge in a uniform magnetic field b = 1: L = ½|v|² + ½(x v_y − y v_x).
+    /// struct Charge(MassMatrix);
+    /// impl Lagrangian for Charge {
+    ///     fn dim(&self) -> usize { 2 }
+    ///     fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
+    ///         (v[0] * v[0] + v[1] * v[1]) * 0.5 + (q[0] * v[1] - q[1] * v[0]) * 0.5
+    ///     }
+    ///     fn gyroscopic_mass(&self) -> Option<&MassMatrix> { Some(&self.0) }
+    /// }
+    /// let (lag, el) = (Charge(MassMatrix::identity(2)), Element::with_order(4)?);
+    /// let start = Start::Velocity { q: vec![1.0, 0.0], v: vec![0.0, -1.0] };
+    /// let grid = TimeGrid::uniform(0.0, 0.01, 1.0)?;
+    /// let mut it = Integrator::new(&lag, &el, grid, start, SolverOptions::default())?;
+    /// while it.step()? {}
+    /// // The unit circle at unit angular speed: q(t) = (cos t, −sin t).
+    /// let q = it.node().q;
+    /// assert!((q[0] - 1f64.cos()).abs() < 1e-8 && (q[1] + 1f64.sin()).abs() < 1e-8);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    fn gyroscopic_mass(&self) -> Option<&MassMatrix> {
+        None
+    }
+
+    /// The parts of a gyroscopic Lagrangian at several points: for point i, with 2n numbers
+    /// per point, `out[2n i..2n i + n]` is A(t_i, q_i) and `out[2n i + n..2n (i + 1)]` is
+    /// ∂L/∂q = (∂A/∂q)ᵀ v_i − ∇V(t_i, q_i), at `(t[i], q[i n..(i + 1) n], v[i n..(i + 1) n])`.
+    /// Default: from [`Lagrangian::first_derivatives`] (A = ∂L/∂v − Mv); override it with
+    /// hand-coded parts for speed.
+    fn gyroscopic_terms(&self, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+        let n = self.dim();
+        if n == 0 {
+            return;
+        }
+        let mut d = PointDerivatives::new(n);
+        let mut mv = vec![0.0; n];
+        let points = q.chunks_exact(n).zip(v.chunks_exact(n));
+        for ((&ti, (qi, vi)), oi) in t.iter().zip(points).zip(out.chunks_exact_mut(2 * n)) {
+            self.first_derivatives(ti, qi, vi, false, &mut d);
+            match self.gyroscopic_mass() {
+                Some(m) => m.apply(vi, &mut mv),
+                None => mv.iter_mut().for_each(|x| *x = 0.0),
+            }
+            let (a, g) = oi.split_at_mut(n);
+            a.iter_mut()
+                .zip(d.l_v())
+                .zip(&mv)
+                .for_each(|((a, lv), mv)| *a = lv - mv);
+            g.copy_from_slice(d.l_q());
+        }
+    }
+
     /// Value and gradient of L with respect to (q, v), and ∂L/∂t if `with_t`, into `out`.
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         out.first_by_ad(self, t, q, v, with_t);

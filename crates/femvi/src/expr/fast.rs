@@ -2,7 +2,9 @@
 //! gradient (reverse mode over the expression graph) and Hessian (forward mode over the
 //! gradient graph) as flat f64 tapes, and, when the expression is mechanical
 //! (L = ½vᵀMv − V(t, q) with constant M, found by [`structure::expand`]), the mass matrix and a
-//! tape of the force −∂V/∂q, so that the fixed-point and explicit solvers apply.
+//! tape of the force −∂V/∂q, so that the fixed-point and explicit solvers apply; when it is
+//! gyroscopic (L = ½vᵀMv + A(t, q)·v − V(t, q)), M and a tape of A and ∂L/∂q for the
+//! gyroscopic fixed point (step/gyroscopic.rs).
 //!
 //! Every part is optional: an expression whose graph outgrows the node budget, or whose
 //! Hessian would cost more than [`HESSIAN_WORK`] node visits to build, keeps automatic
@@ -26,6 +28,11 @@ pub(super) struct Fast {
     pub(super) mass: Option<MassMatrix>,
     /// ∂L/∂q at v = 0 (the force −∂V/∂q), n outputs; only with `mass`.
     pub(super) force: Option<Tape>,
+    /// M, when L = ½vᵀMv + A(t, q)·v − V(t, q) with A ≠ 0 and M constant and positive
+    /// definite (gyroscopic).
+    pub(super) gyro_mass: Option<MassMatrix>,
+    /// A (n outputs) then ∂L/∂q (n outputs) over (t, q, v); only with `gyro_mass`.
+    pub(super) gyro: Option<Tape>,
     /// L and ∂L/∂z for z = (t, q, v): 1 + (2n + 1) outputs.
     pub(super) first: Option<Tape>,
     /// L, ∂L/∂z and ∂²L/∂z_a∂z_b for a ≤ b (row by row): 1 + m + m(m + 1)/2 outputs.
@@ -42,14 +49,13 @@ impl Fast {
         };
         let m = 2 * n + 1;
         if let Some(exp) = structure::expand(&mut dag, root, n) {
+            let mass = exp.mass(n).and_then(|(diag, off)| mass_matrix(n, diag, &off));
             if exp.c1.is_empty() {
-                fast.mass = exp.mass(n).and_then(|(diag, off)| mass_matrix(n, diag, &off));
-            }
-            if fast.mass.is_some() {
-                fast.force = force_tape(&mut dag, exp.c0, n);
-                if fast.force.is_none() {
-                    fast.mass = None;
-                }
+                fast.force = mass.as_ref().and_then(|_| force_tape(&mut dag, exp.c0, n));
+                fast.mass = mass.filter(|_| fast.force.is_some());
+            } else {
+                fast.gyro = mass.as_ref().and_then(|_| gyro_tape(&mut dag, root, &exp.c1, n));
+                fast.gyro_mass = mass.filter(|_| fast.gyro.is_some());
             }
         }
         let Some(grad) = dag.gradient(root, m) else {
@@ -105,4 +111,14 @@ fn force_tape(dag: &mut Dag, c0: Option<Id>, n: usize) -> Option<Tape> {
         None => vec![dag.constant(0.0); 1 + n],
     };
     Some(Tape::new(dag, grad.get(1..)?, n))
+}
+
+/// The tape of A (the coefficients `c1` of the velocities, 0 where absent) and ∂L/∂q of the
+/// whole Lagrangian `root` (= (∂A/∂q)ᵀv + ∂c0/∂q when the quadratic part is constant).
+fn gyro_tape(dag: &mut Dag, root: Id, c1: &std::collections::BTreeMap<usize, Id>, n: usize) -> Option<Tape> {
+    let grad = dag.gradient(root, 1 + n)?;
+    let zero = dag.constant(0.0);
+    let mut outs: Vec<Id> = (0..n).map(|i| c1.get(&i).copied().unwrap_or(zero)).collect();
+    outs.extend(grad.get(1..)?);
+    Some(Tape::new(dag, &outs, n))
 }

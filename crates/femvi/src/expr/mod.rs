@@ -170,7 +170,7 @@ impl Lagrangian for ExprLagrangian {
 
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         match &self.fast.force {
-            Some(tape) => tape.eval_points(t, q, out),
+            Some(tape) => tape.eval_points(t, q, &[], out),
             None => {
                 let n = self.dim();
                 if n == 0 {
@@ -178,6 +178,29 @@ impl Lagrangian for ExprLagrangian {
                 }
                 for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
                     self.force(ti, qi, oi);
+                }
+            }
+        }
+    }
+
+    fn gyroscopic_mass(&self) -> Option<&MassMatrix> {
+        self.fast.gyro_mass.as_ref()
+    }
+
+    fn gyroscopic_terms(&self, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+        match &self.fast.gyro {
+            Some(tape) => tape.eval_points(t, q, v, out),
+            None => {
+                let n = self.dim();
+                if n == 0 {
+                    return;
+                }
+                let mut d = PointDerivatives::new(n);
+                let points = q.chunks_exact(n).zip(v.chunks_exact(n));
+                for ((&ti, (qi, vi)), oi) in t.iter().zip(points).zip(out.chunks_exact_mut(2 * n)) {
+                    self.first_derivatives(ti, qi, vi, false, &mut d);
+                    oi[..n].copy_from_slice(d.l_v());
+                    oi[n..].copy_from_slice(d.l_q());
                 }
             }
         }

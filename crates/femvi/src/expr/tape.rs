@@ -170,14 +170,15 @@ impl Tape {
         }
     }
 
-    /// Evaluates a tape over (t, q) only (no velocities) at several points: point j is
-    /// (t[j], q[j n..(j + 1) n]), and its outputs go to `out[j k..(j + 1) k]` for k outputs.
-    /// Points are taken [`LANES`] at a time, each instruction decoded once per group.
-    pub(super) fn eval_points(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
+    /// Evaluates the tape at several points: point j is (t[j], q[j n..(j + 1) n],
+    /// v[j n..(j + 1) n]) (velocities beyond `v`, e.g. all of them when it is empty, read
+    /// NaN), and its outputs go to `out[j k..(j + 1) k]` for k outputs. Points are taken
+    /// [`LANES`] at a time, each instruction decoded once per group.
+    pub(super) fn eval_points(&self, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
         if t.len() <= FEW_LANES {
-            self.eval_points_with::<FEW_LANES>(&FEW_LANE_REGISTERS, t, q, out);
+            self.eval_points_with::<FEW_LANES>(&FEW_LANE_REGISTERS, t, q, v, out);
         } else {
-            self.eval_points_with::<LANES>(&LANE_REGISTERS, t, q, out);
+            self.eval_points_with::<LANES>(&LANE_REGISTERS, t, q, v, out);
         }
     }
 
@@ -188,29 +189,30 @@ impl Tape {
         key: &'static std::thread::LocalKey<RefCell<Vec<[f64; W]>>>,
         t: &[f64],
         q: &[f64],
+        v: &[f64],
         out: &mut [f64],
     ) {
         if self.registers <= TINY {
             let mut regs = [[0.0; W]; TINY];
-            return self.eval_points_in(&mut regs, t, q, out);
+            return self.eval_points_in(&mut regs, t, q, v, out);
         }
         if self.registers <= SMALL {
             let mut regs = [[0.0; W]; SMALL];
-            return self.eval_points_in(&mut regs, t, q, out);
+            return self.eval_points_in(&mut regs, t, q, v, out);
         }
         key.with(|cell| match cell.try_borrow_mut() {
             Ok(mut regs) => {
                 if regs.len() < self.registers {
                     regs.resize(self.registers, [0.0; W]);
                 }
-                self.eval_points_in(&mut regs, t, q, out)
+                self.eval_points_in(&mut regs, t, q, v, out)
             }
-            Err(_) => self.eval_points_in(&mut vec![[0.0; W]; self.registers], t, q, out),
+            Err(_) => self.eval_points_in(&mut vec![[0.0; W]; self.registers], t, q, v, out),
         });
     }
 
     /// `regs` has at least `self.registers` entries.
-    fn eval_points_in<const W: usize>(&self, regs: &mut [[f64; W]], t: &[f64], q: &[f64], out: &mut [f64]) {
+    fn eval_points_in<const W: usize>(&self, regs: &mut [[f64; W]], t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
         let (n, k) = (self.n, self.outputs.len());
         if n == 0 || k == 0 || regs.len() < self.registers {
             return;
@@ -229,9 +231,10 @@ impl Tape {
                 let i = i as usize;
                 regs[r as usize] = if i == 0 {
                     point.map(|j| t[j])
+                } else if i <= n {
+                    point.map(|j| q.get(j * n + i - 1).copied().unwrap_or(f64::NAN))
                 } else {
-                    // Velocities do not occur in tapes evaluated here; they read NaN.
-                    point.map(|j| q.get(j * n + i - 1).copied().filter(|_| i <= n).unwrap_or(f64::NAN))
+                    point.map(|j| v.get(j * n + i - 1 - n).copied().unwrap_or(f64::NAN))
                 };
             }
             for (kk, ins) in self.code.iter().enumerate() {

@@ -152,6 +152,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
         match &self.solver {
             Solver::Explicit(e) => e.save_state(&mut w),
             Solver::FixedPoint(f) => f.save(&mut w),
+            Solver::Gyroscopic(g) => g.save(&mut w),
             Solver::Newton(_) => {}
         }
         if let Some(e) = &self.energy {
@@ -219,6 +220,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
         match &mut solver {
             Solver::Explicit(e) => e.load_state(&mut r)?,
             Solver::FixedPoint(f) => f.load(&mut r)?,
+            Solver::Gyroscopic(g) => g.load(&mut r)?,
             Solver::Newton(_) => {}
         }
         if let Some(e) = energy.as_mut() {

@@ -300,7 +300,7 @@ fn affine_any(
 }
 
 /// Lagrange basis values ℓ_j(c_i) and derivatives ℓ_j'(c_i) on nodes `tau`, row-major by point.
-fn basis_dd(tau: &[Dd], c: &[f64]) -> (Vec<Dd>, Vec<Dd>) {
+pub(crate) fn basis_dd(tau: &[Dd], c: &[f64]) -> (Vec<Dd>, Vec<Dd>) {
     let w = tau.len();
     let mut phi = vec![Dd::new(0.0); c.len() * w];
     let mut dphi = vec![Dd::new(0.0); c.len() * w];
@@ -331,7 +331,7 @@ fn basis_dd(tau: &[Dd], c: &[f64]) -> (Vec<Dd>, Vec<Dd>) {
 }
 
 /// Gauss–Jordan inverse with partial pivoting of a row-major n×n matrix, in double-double.
-fn invert(n: usize, mut a: Vec<Dd>) -> Option<Vec<Dd>> {
+pub(crate) fn invert(n: usize, mut a: Vec<Dd>) -> Option<Vec<Dd>> {
     let mut inv = vec![Dd::new(0.0); n * n];
     for i in 0..n {
         inv[i * n + i] = Dd::new(1.0);

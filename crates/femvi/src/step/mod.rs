@@ -15,7 +15,8 @@
 //! 5. `solver.rs`: `choose` resolves the method; `Solver` dispatches statically to one of
 //!    `explicit.rs` (Störmer–Verlet, with a fixed-size fast loop), `fixed_point_step.rs`
 //!    (iteration on forces, tables from [`fixed_point`], start from `start.rs`) or
-//!    `newton_step.rs` (any Lagrangian, starting values from `guess.rs`). A solver owns only
+//!    `newton_step.rs` (any Lagrangian, starting values from `guess.rs`), or `gyroscopic.rs`
+//!    (L = ½vᵀMv + A·v − V, fixed point on the vector potential and ∂L/∂q). A solver owns only
 //!    its workspace and caches; it reads the state and the last element and writes the
 //!    solved element's increments (`Increments`).
 //! 6. `state.rs` again: the increments are committed to the node with compensated sums.
@@ -52,6 +53,7 @@ pub mod fixed_point;
 mod fixed_point_step;
 pub mod grid;
 mod guess;
+mod gyroscopic;
 pub mod integrator;
 mod newton_step;
 pub mod options;

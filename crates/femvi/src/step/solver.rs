@@ -7,6 +7,7 @@
 use super::element_work::ElementBuffers;
 use super::explicit::ExplicitStep;
 use super::fixed_point_step::FixedPointStep;
+use super::gyroscopic::GyroscopicStep;
 use super::newton_step::NewtonStep;
 use super::options::{Method, SolverOptions};
 use super::state::{Increments, LastElement, RunState};
@@ -28,18 +29,22 @@ pub(crate) enum Kind {
     Newton,
     FixedPoint,
     Explicit,
+    Gyroscopic,
 }
 
 /// Resolves `method` for `lag` and `element`: explicit for degree 1 with the trapezoid rule on
-/// a mechanical Lagrangian, fixed point for other mechanical Lagrangians, Newton otherwise.
+/// a mechanical Lagrangian, fixed point for other mechanical Lagrangians, the gyroscopic fixed
+/// point for gyroscopic ones (`Lagrangian::gyroscopic_mass`), Newton otherwise.
 ///
 /// Errors: a method that does not fit the Lagrangian or the element.
 pub(crate) fn choose<L: Lagrangian>(method: Method, lag: &L, element: &Element) -> Result<Kind> {
     let mechanical = lag.mass_matrix().is_some();
+    let gyroscopic = !mechanical && lag.gyroscopic_mass().is_some();
     let explicit_fits = element.degree() == 1 && element.rule.kind == QuadratureKind::Trapezoid;
     Ok(match method {
         Method::Auto if mechanical && explicit_fits => Kind::Explicit,
         Method::Auto if mechanical => Kind::FixedPoint,
+        Method::Auto | Method::FixedPoint if gyroscopic => Kind::Gyroscopic,
         Method::Auto | Method::Newton => Kind::Newton,
         Method::FixedPoint if mechanical => Kind::FixedPoint,
         Method::Explicit if mechanical && explicit_fits => Kind::Explicit,
@@ -64,6 +69,7 @@ pub(crate) enum Solver {
     Explicit(ExplicitStep),
     FixedPoint(Box<FixedPointStep>),
     Newton(NewtonStep),
+    Gyroscopic(Box<GyroscopicStep>),
 }
 
 impl Solver {
@@ -73,6 +79,7 @@ impl Solver {
             Kind::Explicit => Solver::Explicit(ExplicitStep::new(n)),
             Kind::FixedPoint => Solver::FixedPoint(Box::new(FixedPointStep::new(element, n)?)),
             Kind::Newton => Solver::Newton(NewtonStep::new(element, n)?),
+            Kind::Gyroscopic => Solver::Gyroscopic(Box::new(GyroscopicStep::new(element, n)?)),
         })
     }
 
@@ -82,6 +89,7 @@ impl Solver {
             Solver::Explicit(_) => Kind::Explicit,
             Solver::FixedPoint(_) => Kind::FixedPoint,
             Solver::Newton(_) => Kind::Newton,
+            Solver::Gyroscopic(_) => Kind::Gyroscopic,
         }
     }
 
@@ -106,14 +114,19 @@ impl Solver {
             }
             Solver::FixedPoint(f) => f.solve(cx, state, last, h, out),
             Solver::Newton(nw) => nw.solve(cx, state, last, bufs, h, out),
+            Solver::Gyroscopic(g) => g.solve(cx, state, last, h, out),
         }
     }
 
     /// The solved step was accepted (called before the state moves).
     pub(crate) fn accepted<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, n: usize) {
-        if let Solver::FixedPoint(f) = self {
-            let identity = cx.lag.mass_matrix().is_some_and(|m| m.is_identity());
-            f.accepted(identity, cx.element.points(), n);
+        match self {
+            Solver::FixedPoint(f) => {
+                let identity = cx.lag.mass_matrix().is_some_and(|m| m.is_identity());
+                f.accepted(identity, cx.element.points(), n);
+            }
+            Solver::Gyroscopic(g) => g.accepted(),
+            _ => {}
         }
     }
 }
