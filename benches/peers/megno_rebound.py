@@ -12,7 +12,7 @@ ORDER (default 4: degree 2, 2-point Gauss-Legendre; 2: degree 1 trapezoid, Storm
 with its tangent-map MEGNO, through the example planetary_megno.
 
     cargo build --release -p femvi --example planetary_megno
-    python megno_rebound.py ../../target/release/examples/planetary_megno [N] [ORBITS] [ORDER]
+    python megno_rebound.py ../../target/release/examples/planetary_megno [N] [ORBITS] [ORDER] [STEPS_PER_ORBIT]
 
 Prints the verdicts (regular: <Y> < THRESHOLD) and how often they agree, the relative
 difference of <Y> where both say regular, and the CPU time of each (process time for
@@ -32,7 +32,7 @@ BIN = sys.argv[1]
 N = int(sys.argv[2]) if len(sys.argv) > 2 else 10
 ORBITS = float(sys.argv[3]) if len(sys.argv) > 3 else 1000.0
 ORDER = int(sys.argv[4]) if len(sys.argv) > 4 else 4
-STEPS_PER_ORBIT = 50
+STEPS_PER_ORBIT = int(sys.argv[5]) if len(sys.argv) > 5 else 50
 THRESHOLD = 2.5
 A2 = np.linspace(1.35, 1.9, N)
 E2 = np.linspace(0.0, 0.3, N)
@@ -87,7 +87,8 @@ for (a, e), yr, (yf, fli, steps, failed) in zip(grid, ours_rebound, femvi):
     if regular_r and regular_f:
         rel.append(abs(yf - yr) / yr)
     rows.append(f"{a},{e},{yr},{yf},{int(failed)}")
-with open(f"megno_rebound_order{ORDER}_{ORBITS:g}orbits_3d.csv", "w") as f:
+suffix = "" if STEPS_PER_ORBIT == 50 else f"_h{STEPS_PER_ORBIT}"
+with open(f"megno_rebound_order{ORDER}_{ORBITS:g}orbits_3d{suffix}.csv", "w") as f:
     f.write("a2,e2,megno_rebound,megno_femvi,femvi_failed\n" + "\n".join(rows) + "\n")
 both_regular = len(rel)
 print(f"{len(grid)} points, {ORBITS:g} inner orbits, h = P1/{STEPS_PER_ORBIT}, femvi order {ORDER}: verdicts agree on {agree}/{len(grid)}; "
