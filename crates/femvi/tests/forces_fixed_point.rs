@@ -253,3 +253,17 @@ fn failed_fixed_point_step_is_reported() {
     assert_eq!(r.step, [0]);
     assert_eq!(sol.work, [0.0]);
 }
+
+/// Degree 1 with the trapezoid rule (Störmer–Verlet without forces): `Method::Explicit` takes
+/// the fixed point too (there is no explicit forced step), equal to Newton.
+#[test]
+fn trapezoid_explicit_request_takes_the_fixed_point() {
+    use femvi::{NodeFamily, QuadratureKind};
+    let problem = Problem::new(models::harmonic(1.0, 1.0).unwrap(), start(), 0.0, 20.0);
+    let force = LinearForce::drive(vec![F0], W);
+    let element = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    compare(&problem, &force, &element, 0.05, 1e-13);
+    let explicit = solve_forced(&problem, &force, &element, &options(0.05, Method::Explicit)).unwrap();
+    let fixed = solve_forced(&problem, &force, &element, &options(0.05, Method::FixedPoint)).unwrap();
+    assert!(identical(&explicit, &fixed));
+}
