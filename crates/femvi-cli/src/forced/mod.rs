@@ -1,6 +1,7 @@
 //! Problems with a `[forces]` table (issue 19): `femvi run` integrates them with the
 //! library's [`femvi::forces::solve_forced`] (discrete Lagrange–d'Alembert, Newton with exact
-//! Jacobians) and writes trajectory.csv with a `work` column (the accumulated discrete work W
+//! Jacobians, or the fixed point for a mechanical system under forces independent of v) and
+//! writes trajectory.csv with a `work` column (the accumulated discrete work W
 //! of the forces, so that `energy` − energy₀ − `work` is the balance error) and summary.json
 //! with `final_work` and, as `max_rel_energy_balance_error`, the largest
 //! |H − H₀ − W| / |H₀| over every node. `femvi bvp` solves them with

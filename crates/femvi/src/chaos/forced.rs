@@ -16,7 +16,8 @@ use crate::solution::{Problem, SolveOptions};
 /// [`super::indicators`] for `problem` under the non-conservative force `force`: MEGNO, FLI,
 /// the largest Lyapunov exponent and, if asked, the spectrum of the forced discrete flow.
 ///
-/// The steps are those of [`crate::forces::solve_forced`]; each
+/// The steps are those of [`crate::forces::solve_forced`] with `Method::Newton` (for a force
+/// independent of v, `solve_forced` by default takes the fixed point, equal to round-off); each
 /// step's tangent map comes from one more element Hessian, force Jacobian and LU of the s n
 /// Newton matrix at the converged step (`forces/tangent.rs`).
 ///

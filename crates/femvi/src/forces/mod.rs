@@ -43,13 +43,15 @@
 //! from expressions ([`ExprForces`]), `rayleigh.rs` a Rayleigh dissipation function
 //! ([`Rayleigh`], F = −∂R/∂v), `sum.rs` the sum of two forces, `linear.rs` a linear damping and
 //! harmonic drive for the models; `element.rs` the discrete forces of an element, `step.rs`
-//! the Newton step, `solve.rs` the run ([`solve_forced`]), `tangent.rs` the step's tangent map (for
+//! the Newton step, `fixed_point.rs` the fixed-point run for a constant mass matrix and a force
+//! independent of v, `solve.rs` the run ([`solve_forced`]), `tangent.rs` the step's tangent map (for
 //! [`crate::chaos::forced_indicators`]) and `bvp.rs` boundary value problems
 //! with forces ([`solve_forced_bvp`]).
 
 mod bvp;
 mod element;
 mod expr;
+mod fixed_point;
 mod linear;
 mod rayleigh;
 mod solve;
@@ -97,8 +99,9 @@ pub trait Force {
     /// with slices of length [`Force::dim`] only.
     fn force<D: Scalar>(&self, t: D, q: &[D], v: &[D], out: &mut [D]);
 
-    /// Whether F depends on v (default true). Informational: forces independent of v could be
-    /// taken by a fixed-point iteration; the step solver is Newton either way.
+    /// Whether F depends on v (default true). If false, and L has a constant mass matrix,
+    /// [`solve_forced`] solves the steps by fixed-point iteration instead of Newton (unless
+    /// `Method::Newton` is asked for); a force answering false must not read `v`.
     fn depends_on_velocity(&self) -> bool {
         true
     }

@@ -1,14 +1,16 @@
 //! [`solve_forced`]: a run with non-conservative forces, node by node with the forced Newton
-//! step (`step.rs`), returning the usual [`Solution`] with the accumulated discrete work and
+//! step (`step.rs`) or, for a constant mass matrix and a force independent of v, the
+//! fixed-point solver (`fixed_point.rs`), returning the usual [`Solution`] with the accumulated discrete work and
 //! the energy balance max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
 
+use super::fixed_point::{solve_fixed_point, Setup};
 use super::step::{ForcedStep, Taken};
 use super::Force;
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::{grid, EnergyReport, Problem, Solution, SolveOptions, Steps};
-use crate::step::Start;
+use crate::step::{Method, Start};
 
 /// How well the energy balance H(t_k) − H(t_0) = W_k holds over a run (every node).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -32,15 +34,22 @@ pub struct ForcedSolution {
     pub balance: EnergyBalance,
 }
 
-/// Integrates `problem` under the force `force` with `element` (discrete Lagrange–d'Alembert,
-/// Newton's method with the exact Jacobian for every step).
+/// Integrates `problem` under the force `force` with `element` (discrete Lagrange–d'Alembert).
+///
+/// The step solver: with `Method::Auto` (the default), fixed-point iteration
+/// (`forces/fixed_point.rs`) when L has a constant mass matrix ([`Lagrangian::mass_matrix`])
+/// and the force is independent of v ([`Force::depends_on_velocity`] false), Newton's method
+/// with the exact Jacobian otherwise; `Method::Newton` always takes Newton, and
+/// `Method::FixedPoint` (or `Explicit`) asks for the fixed point. Both solve the same
+/// equations and agree to round-off (`tests/forces_fixed_point.rs`).
 ///
 /// Supported options: fixed or cyclic steps, `every`, `max_steps`, the solver's tolerance and
 /// iteration cap. A numerical failure is not an `Err`: the solution then ends at the last good
 /// node with [`Solution::error`] naming the step and time.
 ///
 /// # Errors
-/// Bad input: the force's dimension differs from the Lagrangian's, wrong start lengths, an
+/// Bad input: `Method::FixedPoint` or `Explicit` for a Lagrangian without a mass matrix or
+/// a velocity-dependent force, the force's dimension differs from the Lagrangian's, wrong start lengths, an
 /// invalid span or step, a degenerate element, or options that are not supported with forces
 /// (time steps as variables, `saveat`, `dense`, `events`, a start from (q0, q1)).
 ///
@@ -72,6 +81,18 @@ pub fn solve_forced<L: Lagrangian, F: Force>(
     options.solver.validate()?;
     let grid = grid(problem, &options.steps)?;
     let (q0, p0, v0) = start(lag, &problem.start, problem.t0)?;
+    if fixed_point_fits(lag, force, options.solver.method)? {
+        let setup = Setup {
+            grid,
+            q0: &q0,
+            p0: &p0,
+            v0,
+            t0: problem.t0,
+            every: options.every,
+            max_steps: options.max_steps,
+        };
+        return solve_fixed_point(lag, force, element, options.solver, setup);
+    }
     let mut stepper = ForcedStep::new(lag, force, element, options.solver)?;
     let mut run = Run::new(n, options.every);
     let mut node = Node {
@@ -110,6 +131,25 @@ pub fn solve_forced<L: Lagrangian, F: Force>(
         run.keep_last(&node, &v);
     }
     Ok(run.finish(node.k, iterations, stopped, error))
+}
+
+/// Whether the run goes by fixed-point iteration: for `Method::Auto` when L has a constant
+/// mass matrix and F does not depend on v, for `Method::FixedPoint` and `Method::Explicit`
+/// (no explicit forced step: the fixed point, which for degree 1 with the trapezoid rule
+/// converges in two sweeps) when they fit, never for `Method::Newton`.
+///
+/// Errors: fixed point or explicit asked for where it does not fit.
+fn fixed_point_fits<L: Lagrangian, F: Force>(lag: &L, force: &F, method: Method) -> Result<bool> {
+    let fits = lag.mass_matrix().is_some() && !force.depends_on_velocity();
+    match method {
+        Method::Newton => Ok(false),
+        Method::Auto => Ok(fits),
+        Method::FixedPoint | Method::Explicit if fits => Ok(true),
+        Method::FixedPoint | Method::Explicit => Err(invalid(
+            "solver method",
+            "fixed-point iteration with forces needs a mechanical Lagrangian (L = 1/2 v'Mv - V) and a force independent of the velocities",
+        )),
+    }
 }
 
 /// Rejects the options a forced run does not support.
@@ -196,7 +236,7 @@ fn compensated(x: &mut [f64], comp: &mut [f64], dx: &[f64]) {
 }
 
 /// The kept nodes and the energy balance over all nodes.
-struct Run {
+pub(super) struct Run {
     every: usize,
     sol: Solution,
     work: Vec<f64>,
@@ -210,7 +250,7 @@ struct Run {
 }
 
 impl Run {
-    fn new(n: usize, every: usize) -> Self {
+    pub(super) fn new(n: usize, every: usize) -> Self {
         Self {
             every,
             sol: Solution::empty(n),
@@ -225,7 +265,7 @@ impl Run {
     }
 
     /// H at the node (v: warm start in, velocity out), the balance, and the node if kept.
-    fn record<L: Lagrangian>(&mut self, lag: &L, node: &Node, v: &mut [f64], last: bool) -> Result<()> {
+    pub(super) fn record<L: Lagrangian>(&mut self, lag: &L, node: &Node, v: &mut [f64], last: bool) -> Result<()> {
         let h = hamiltonian(lag, node.t, &node.q, &node.p, v, &mut self.ld)?;
         self.last_h = Some((node.k, h));
         if self.h0.is_nan() {
@@ -259,7 +299,7 @@ impl Run {
     }
 
     /// After a stop or a failure, the last good node is kept (its H was recorded).
-    fn keep_last(&mut self, node: &Node, v: &[f64]) {
+    pub(super) fn keep_last(&mut self, node: &Node, v: &[f64]) {
         if let Some((k, h)) = self.last_h {
             if k == node.k {
                 self.push(node, v, h);
@@ -267,7 +307,13 @@ impl Run {
         }
     }
 
-    fn finish(mut self, steps: usize, iterations: usize, stopped: bool, error: Option<Error>) -> ForcedSolution {
+    pub(super) fn finish(
+        mut self,
+        steps: usize,
+        iterations: usize,
+        stopped: bool,
+        error: Option<Error>,
+    ) -> ForcedSolution {
         self.sol.steps = steps;
         self.sol.mean_iterations = if steps > 0 {
             iterations as f64 / steps as f64
