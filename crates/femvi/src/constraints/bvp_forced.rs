@@ -8,36 +8,11 @@
 use super::bvp::{solve_parts, BvpParts, ConstrainedBvpSolution};
 use super::layout::Enforcement;
 use super::Constraints;
-use crate::bvp::{BoundaryValues, BvpOptions, ElementTerm};
+use crate::bvp::{BoundaryValues, BvpOptions};
 use crate::discrete::Element;
 use crate::error::{check_len, Result};
-use crate::forces::{element_forces, element_forces_jacobian, Force};
+use crate::forces::{Force, ForceTerm};
 use crate::lagrangian::Lagrangian;
-use std::cell::RefCell;
-
-/// The discrete forces of `force` as an element term, with scratch for F_d and its Jacobian.
-struct Forces<'a, F> {
-    force: &'a F,
-    element: &'a Element,
-    scratch: RefCell<(Vec<f64>, Vec<f64>)>,
-}
-
-impl<F: Force> ElementTerm for Forces<'_, F> {
-    fn add(&self, t0: f64, h: f64, base: &[f64], incr: &[f64], grad: &mut [f64], hess: Option<&mut [f64]>) {
-        let mut scratch = self.scratch.borrow_mut();
-        let (fd, jac) = &mut *scratch;
-        match hess {
-            Some(hess) => {
-                element_forces_jacobian(self.element, self.force, t0, h, base, incr, fd, jac);
-                hess.iter_mut().zip(jac.iter()).for_each(|(a, b)| *a += b);
-            }
-            None => {
-                element_forces(self.element, self.force, t0, h, base, incr, fd);
-            }
-        }
-        grad.iter_mut().zip(fd.iter()).for_each(|(g, f)| *g += f);
-    }
-}
 
 /// Solves the constrained boundary value problem of `lag` under the non-conservative `force`
 /// (see [`super::solve_constrained_bvp_with`] for the rest). The action reported is the
@@ -79,11 +54,7 @@ pub fn solve_constrained_forced_bvp<L: Lagrangian, F: Force, C: Constraints>(
     let n = lag.dim();
     check_len("force", n, force.dim())?;
     let w = element.nodes().saturating_mul(n);
-    let term = Forces {
-        force,
-        element,
-        scratch: RefCell::new((vec![0.0; w], vec![0.0; w.saturating_mul(w)])),
-    };
+    let term = ForceTerm::new(force, element, w);
     let problem = BvpParts {
         lag,
         con: constraints,

@@ -14,12 +14,24 @@ use crate::error::{check_len, invalid, Result};
 use crate::lagrangian::Lagrangian;
 use std::cell::RefCell;
 
-/// The discrete forces of `force` as an element term of the boundary value assembly.
-struct ForceTerm<'a, F> {
+/// The discrete forces of `force` as an element term of the boundary value assembly (also
+/// of the constrained one, `constraints/bvp_forced.rs`).
+pub(crate) struct ForceTerm<'a, F> {
     force: &'a F,
     element: &'a Element,
     /// Scratch: F_d and its Jacobian.
     scratch: RefCell<(Vec<f64>, Vec<f64>)>,
+}
+
+impl<'a, F: Force> ForceTerm<'a, F> {
+    /// The term with scratch for w = (s+1)·n element unknowns.
+    pub(crate) fn new(force: &'a F, element: &'a Element, w: usize) -> Self {
+        Self {
+            force,
+            element,
+            scratch: RefCell::new((vec![0.0; w], vec![0.0; w.saturating_mul(w)])),
+        }
+    }
 }
 
 impl<F: Force> ElementTerm for ForceTerm<'_, F> {
@@ -82,10 +94,6 @@ pub fn solve_forced_bvp<L: Lagrangian, F: Force>(
         ));
     }
     let w = element.nodes().saturating_mul(n);
-    let term = ForceTerm {
-        force,
-        element,
-        scratch: RefCell::new((vec![0.0; w], vec![0.0; w.saturating_mul(w)])),
-    };
+    let term = ForceTerm::new(force, element, w);
     solve_with_term(lag, element, bv, guess, options, Some(&term))
 }

@@ -60,6 +60,7 @@ mod sum;
 mod tangent;
 
 pub use bvp::solve_forced_bvp;
+pub(crate) use bvp::ForceTerm;
 pub use element::{element_forces, element_forces_jacobian};
 pub use expr::ExprForces;
 pub use linear::LinearForce;
