@@ -12,7 +12,13 @@ ORDER (default 4: degree 2, 2-point Gauss-Legendre; 2: degree 1 trapezoid, Storm
 with its tangent-map MEGNO, through the example planetary_megno.
 
     cargo build --release -p femvi --example planetary_megno
-    python megno_rebound.py ../../target/release/examples/planetary_megno [N] [ORBITS] [ORDER] [STEPS_PER_ORBIT]
+    python megno_rebound.py ../../target/release/examples/planetary_megno [N] [ORBITS] [ORDER] [STEPS_PER_ORBIT] [ENCOUNTER]
+
+ENCOUNTER = hill (default none): a close encounter, two bodies closer than the planets'
+mutual Hill radius ((m1 + m2) / 3)^(1/3) (1 + a2) / 2, makes a point unstable (chaotic) for
+both codes, as in REBOUND's own MEGNO-map example (which counts an escape as unstable):
+REBOUND stops with `exit_min_distance` (rebound.Encounter), femvi reports the smallest
+distance at its force evaluations. Neither code follows such an encounter with a fixed step.
 
 Prints the verdicts (regular: <Y> < THRESHOLD) and how often they agree, the relative
 difference of <Y> where both say regular, and the CPU time of each (process time for
@@ -33,6 +39,7 @@ N = int(sys.argv[2]) if len(sys.argv) > 2 else 10
 ORBITS = float(sys.argv[3]) if len(sys.argv) > 3 else 1000.0
 ORDER = int(sys.argv[4]) if len(sys.argv) > 4 else 4
 STEPS_PER_ORBIT = int(sys.argv[5]) if len(sys.argv) > 5 else 50
+ENCOUNTER = sys.argv[6] if len(sys.argv) > 6 else "none"
 THRESHOLD = 2.5
 A2 = np.linspace(1.35, 1.9, N)
 E2 = np.linspace(0.0, 0.3, N)
@@ -51,6 +58,13 @@ def simulation(a2, e2):
 
 
 grid = [(a, e) for e in E2 for a in A2]
+
+
+def hill(a2):
+    """The encounter distance at outer semi-major axis a2, or None without the criterion."""
+    return ((1e-3 + 3e-4) / 3.0) ** (1.0 / 3.0) * (1.0 + a2) / 2.0 if ENCOUNTER == "hill" else None
+
+
 states = []
 for a, e in grid:
     ps = simulation(a, e).particles
@@ -59,7 +73,8 @@ for a, e in grid:
     vp = sim.var_config[0].particles
     tangent = [c for i in range(len(ps)) for c in (vp[i].x, vp[i].y, vp[i].z)]
     tangent += [c for i in range(len(ps)) for c in (vp[i].vx, vp[i].vy, vp[i].vz)]
-    states.append([c for p in ps for c in (p.x, p.y, p.z)] + [c for p in ps for c in (p.vx, p.vy, p.vz)] + tangent)
+    states.append([c for p in ps for c in (p.x, p.y, p.z)] + [c for p in ps for c in (p.vx, p.vy, p.vz)] + tangent
+                  + ([float(hill(a))] if hill(a) else []))
 
 clock = time.process_time()
 ours_rebound = []
@@ -68,32 +83,39 @@ for a, e in grid:
     sim.integrator = "whfast"
     sim.dt = H
     sim.init_megno(seed=0)
-    sim.integrate(T, exact_finish_time=0)
-    ours_rebound.append(sim.megno())
+    if hill(a):
+        sim.exit_min_distance = hill(a)
+    try:
+        sim.integrate(T, exact_finish_time=0)
+        ours_rebound.append(sim.megno())
+    except rebound.Encounter:
+        ours_rebound.append(math.inf)
 cpu_rebound = time.process_time() - clock
 
 before = resource.getrusage(resource.RUSAGE_CHILDREN)
 text = "\n".join(",".join(repr(x) for x in s) for s in states) + "\n"
 femvi_args = [repr(T), repr(H), "verlet" if ORDER == 2 else str(ORDER), "3"]
-out = subprocess.run([BIN] + femvi_args, input=text, capture_output=True, text=True, check=True)
+out = subprocess.run([BIN] + femvi_args, input=text, capture_output=True, text=True)
+if out.returncode:
+    sys.exit(f"femvi failed: {out.stderr}")
 after = resource.getrusage(resource.RUSAGE_CHILDREN)
 cpu_femvi = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 femvi = [[float(x) for x in line.split(",")] for line in out.stdout.split()]
 
 agree, rel, rows = 0, [], []
-for (a, e), yr, (yf, fli, steps, failed) in zip(grid, ours_rebound, femvi):
+for (a, e), yr, (yf, fli, steps, failed, closest) in zip(grid, ours_rebound, femvi):
     regular_r, regular_f = yr < THRESHOLD, (yf < THRESHOLD and not failed)
     agree += regular_r == regular_f
     if regular_r and regular_f:
         rel.append(abs(yf - yr) / yr)
-    rows.append(f"{a},{e},{yr},{yf},{int(failed)}")
-suffix = "" if STEPS_PER_ORBIT == 50 else f"_h{STEPS_PER_ORBIT}"
+    rows.append(f"{a},{e},{yr},{yf},{int(failed)},{closest}")
+suffix = ("" if STEPS_PER_ORBIT == 50 else f"_h{STEPS_PER_ORBIT}") + ("" if ENCOUNTER == "none" else f"_{ENCOUNTER}")
 with open(f"megno_rebound_order{ORDER}_{ORBITS:g}orbits_3d{suffix}.csv", "w") as f:
-    f.write("a2,e2,megno_rebound,megno_femvi,femvi_failed\n" + "\n".join(rows) + "\n")
+    f.write("a2,e2,megno_rebound,megno_femvi,femvi_failed,femvi_min_distance\n" + "\n".join(rows) + "\n")
 both_regular = len(rel)
 print(f"{len(grid)} points, {ORBITS:g} inner orbits, h = P1/{STEPS_PER_ORBIT}, femvi order {ORDER}: verdicts agree on {agree}/{len(grid)}; "
       f"regular for REBOUND {sum(y < THRESHOLD for y in ours_rebound)}, for femvi "
-      f"{sum(y < THRESHOLD and not fl for y, _, _, fl in femvi)}")
+      f"{sum(y < THRESHOLD and not fl for y, _, _, fl, _ in femvi)}")
 if rel:
     print(f"where both say regular ({both_regular} points): |<Y>_femvi - <Y>_rebound| / <Y>_rebound "
           f"median {np.median(rel):.4f}, max {max(rel):.4f}")

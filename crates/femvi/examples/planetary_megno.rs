@@ -2,16 +2,60 @@
 //! in `DIM` = 2 or 3 dimensions for many initial states, one per line of standard input:
 //! the positions then the velocities, barycentric (`x0,y0[,z0],x1,…,vx0,vy0[,vz0],…`,
 //! 4·DIM·… = 6·DIM numbers), optionally followed by an initial tangent vector in the same
-//! layout (δx…, δv…; its momentum part is δp = m δv), else the default vector. Writes
-//! `megno,fli,steps,failed` per line to standard output. Degree 1 with the trapezoid rule
+//! layout (δx…, δv…; its momentum part is δp = m δv), else the default vector, and then
+//! optionally by an encounter distance d. Writes `megno,fli,steps,failed,min_distance` per
+//! line to standard output: `min_distance` is the smallest distance between two bodies
+//! at the points where the force was evaluated (the step's stages); with d given, `failed` is
+//! also 1 when it fell below d (a close encounter: REBOUND's `exit_min_distance`, which the
+//! comparison applies to both codes). Degree 1 with the trapezoid rule
 //! (Störmer–Verlet; `ORDER` absent or `verlet`) or the Gauss–Legendre element of order `ORDER`, step `H`, up to time `T`,
 //! one thread (the CPU time is the caller's to measure: benches/peers/megno_rebound.py
 //! compares it with REBOUND's MEGNO on the same states and tangent vectors).
 //! `cargo run --release -p femvi --example planetary_megno -- T H [ORDER [DIM]] < states.csv`
 
 use femvi::chaos::{indicators, ChaosOptions};
-use femvi::{models, Element, NodeFamily, Problem, QuadratureKind, SolveOptions, Start};
+use femvi::models::GravityPotential;
+use femvi::{
+    models, Element, Lagrangian, Mechanical, NodeFamily, Potential, Problem, QuadratureKind, Scalar, SolveOptions,
+    Start,
+};
+use std::cell::Cell;
 use std::io::BufRead;
+
+/// The gravity potential, watching the smallest distance between any two bodies at every
+/// force evaluation; everything else is the model's own, so the run is the same bit for bit.
+#[derive(Debug, Clone)]
+struct Watched {
+    inner: GravityPotential,
+    min_distance: Cell<f64>,
+}
+
+impl Potential for Watched {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn value<D: Scalar>(&self, t: D, q: &[D]) -> D {
+        self.inner.value(t, q)
+    }
+    fn is_autonomous(&self) -> bool {
+        self.inner.is_autonomous()
+    }
+    fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        let d = self.inner.dim;
+        let mut closest = self.min_distance.get();
+        for (i, a) in q.chunks_exact(d.max(1)).enumerate() {
+            for b in q.chunks_exact(d.max(1)).skip(i + 1) {
+                let r2 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
+                closest = closest.min(r2.sqrt());
+            }
+        }
+        self.min_distance.set(closest);
+        self.inner.force(t, q, out);
+    }
+    fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        self.inner.force_jacobian(t, q, out);
+    }
+}
 
 const MASSES: [f64; 3] = [1.0, 1e-3, 3e-4];
 
@@ -29,14 +73,36 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("DIM must be 2 or 3".into());
     }
     let n = MASSES.len() * dim;
-    let lag = models::n_body(1.0, MASSES.to_vec(), dim)?;
+    let model = models::n_body(1.0, MASSES.to_vec(), dim)?;
+    let lag = Mechanical::new(
+        Watched {
+            inner: model.potential.clone(),
+            min_distance: Cell::new(f64::INFINITY),
+        },
+        model
+            .mass_matrix()
+            .cloned()
+            .ok_or("the n-body model has a mass matrix")?,
+    )?;
     // Momentum from velocity: p = m v for the body of coordinate i.
     let momentum = |v: &[f64]| -> Vec<f64> { v.iter().enumerate().map(|(i, x)| MASSES[i / dim] * x).collect() };
     for line in std::io::stdin().lock().lines() {
         let row: Vec<f64> = line?.split(',').map(|x| x.trim().parse()).collect::<Result<_, _>>()?;
-        if row.len() != 2 * n && row.len() != 4 * n {
-            return Err(format!("expected {} or {} numbers per line, got {}", 2 * n, 4 * n, row.len()).into());
+        if ![2 * n, 4 * n, 4 * n + 1].contains(&row.len()) {
+            return Err(format!(
+                "expected {}, {} or {} numbers per line, got {}",
+                2 * n,
+                4 * n,
+                4 * n + 1,
+                row.len()
+            )
+            .into());
         }
+        let (row, encounter) = if row.len() == 4 * n + 1 {
+            row.split_at(4 * n)
+        } else {
+            (&row[..], &[][..])
+        };
         let (state, tangent) = row.split_at(2 * n);
         let (q, v) = state.split_at(n);
         let start = Start::Momentum {
@@ -50,12 +116,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let problem = Problem::new(lag.clone(), start, 0.0, t_end);
         let r = indicators(&problem, &element, &SolveOptions::step(h), &chaos)?;
+        let closest = problem.lagrangian.potential.min_distance.replace(f64::INFINITY);
+        let close = encounter.first().is_some_and(|&d| closest < d);
         println!(
-            "{},{},{},{}",
+            "{},{},{},{},{}",
             r.last.mean_megno,
             r.last.fli,
             r.steps,
-            u8::from(r.error.is_some())
+            u8::from(r.error.is_some() || close),
+            closest
         );
     }
     Ok(())
