@@ -84,3 +84,28 @@ fn chunked_runs_equal_node_by_node_runs() {
         }
     }
 }
+
+/// The command's chunked run ends where the library's node-by-node `step()` does, bit for
+/// bit (Kepler, degree 1 trapezoid: the explicit fast loop against the single step), so the
+/// chunked path is not only compared with itself.
+#[test]
+fn chunked_run_ends_at_the_node_of_step_by_step_library_run() {
+    use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+    let tmp = tempfile::tempdir().unwrap();
+    let (_, s) = run(PROBLEMS[0].1, 7, tmp.path());
+    let lag = models::kepler(1.0).unwrap();
+    let el = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    let start = Start::Momentum {
+        q: vec![0.4, 0.0],
+        p: vec![0.0, 2.0],
+    };
+    let grid = TimeGrid::uniform(0.0, 0.01, 30.0).unwrap();
+    let mut it = Integrator::new(&lag, &el, grid, start, SolverOptions::default()).unwrap();
+    while it.step().unwrap() {}
+    let node = it.node();
+    let from_json =
+        |key: &str| -> Vec<f64> { s[key].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    assert_eq!(s["steps"].as_u64(), Some(node.k as u64));
+    assert_eq!(from_json("final_q"), node.q.to_vec());
+    assert_eq!(from_json("final_p"), node.p.to_vec());
+}
