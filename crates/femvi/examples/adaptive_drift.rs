@@ -10,8 +10,13 @@ use femvi::{models, Element, Integrator, SolverOptions, Start, TimeGrid};
 
 /// Least-squares slope of `y` against the midpoints of ten equal parts of `periods`.
 fn slope(y: &[f64], periods: f64) -> f64 {
-    let x: Vec<f64> = (0..y.len()).map(|k| (k as f64 + 0.5) / y.len() as f64 * periods).collect();
-    let (mx, my) = (x.iter().sum::<f64>() / x.len() as f64, y.iter().sum::<f64>() / y.len() as f64);
+    let x: Vec<f64> = (0..y.len())
+        .map(|k| (k as f64 + 0.5) / y.len() as f64 * periods)
+        .collect();
+    let (mx, my) = (
+        x.iter().sum::<f64>() / x.len() as f64,
+        y.iter().sum::<f64>() / y.len() as f64,
+    );
     let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
     let sxx: f64 = x.iter().map(|a| (a - mx) * (a - mx)).sum();
     sxy / sxx

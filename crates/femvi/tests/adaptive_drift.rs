@@ -25,7 +25,13 @@ fn tenths(ds: f64, steps: usize) -> ([f64; 2], [f64; 2]) {
     let tenth = steps / 10;
     let mut k = 0;
     it.advance_observed(steps, |node| {
-        let part = if k < tenth { 0 } else if k >= steps - tenth { 1 } else { 2 };
+        let part = if k < tenth {
+            0
+        } else if k >= steps - tenth {
+            1
+        } else {
+            2
+        };
         if part < 2 {
             l[part] += (ang(node.q, node.p) - l0) / l0 / tenth as f64;
             h[part] += (energy(node.q, node.p) - e0) / e0.abs() / tenth as f64;

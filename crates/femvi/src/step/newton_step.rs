@@ -94,9 +94,10 @@ impl NewtonStep {
                 // make the rows sum to Δp exactly, and the bias (≈ 1e-16·p_k, the same every
                 // step) drifted E and L linearly; this way p_k + Δp below is the solved p_{k+1}.
                 for c in 0..n {
-                    let dp = h * (0..element.points())
-                        .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
-                        .sum::<f64>();
+                    let dp = h
+                        * (0..element.points())
+                            .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
+                            .sum::<f64>();
                     let rows: f64 = (1..=s).map(|j| grad[j * n + c]).sum();
                     r[c] = p[c] + (dp - rows);
                 }
