@@ -2,7 +2,9 @@
 //! node increments X^1 … X^s of the element from (t_k, q_k), residuals
 //! R_0 = p_k + ∂L_d/∂Q^0 and R_j = ∂L_d/∂Q^j (0 < j < s) ((2.40)–(2.42) for any degree),
 //! Jacobian the element Hessian ∂²L_d/∂Q∂Q by automatic differentiation. Then
-//! Δq = X^s and Δp = h Σ_i b_i ∂L/∂q(c_i) (the sum of the residual rows).
+//! Δq = X^s and Δp = h Σ_i b_i ∂L/∂q(c_i) (the sum of the residual rows). R_0 is evaluated
+//! as p_k + Δp − Σ_{j≥1} ∂L_d/∂Q^j, so that p_k + Δp is exactly the p_{k+1} the equations
+//! solve for (issue 21: with row 0 itself, a linear drift of energy and angular momentum).
 
 use super::element_work::{buffers, check_dense_newton, ElementBuffers};
 use super::guess::Guess;
@@ -87,8 +89,17 @@ impl NewtonStep {
                     }
                 }
                 r.copy_from_slice(&grad[..dim]);
+                // Issue 21: R_0 = p_k + Δp − Σ_{j≥1} ∂L_d/∂Q^j, not p_k + row 0. Equal in exact
+                // arithmetic, but row 0's rounded coefficients (b_i ℓ_0'(c_i) etc.) do not
+                // make the rows sum to Δp exactly, and the bias (≈ 1e-16·p_k, the same every
+                // step) drifted E and L linearly; this way p_k + Δp below is the solved p_{k+1}.
                 for c in 0..n {
-                    r[c] += p[c];
+                    let dp = h
+                        * (0..element.points())
+                            .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
+                            .sum::<f64>();
+                    let rows: f64 = (1..=s).map(|j| grad[j * n + c]).sum();
+                    r[c] = p[c] + (dp - rows);
                 }
             },
         )
