@@ -50,6 +50,8 @@
 
 mod bvp;
 mod element;
+mod energy;
+mod energy_step;
 mod expr;
 mod fixed_point;
 mod linear;
