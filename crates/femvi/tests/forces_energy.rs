@@ -140,6 +140,13 @@ fn discrete_energy_balance_to_round_off_for_higher_degrees() {
         );
         assert!(sol.solution.error.is_none());
         assert_eq!(st.degenerate_steps, 0);
+        // Ẽ − H = O(h^{2s} Ẽ) stays nearly constant while Ẽ decays: h ∝ Ẽ^(−1/(2s)).
+        let (d0, d1) = (sol.discrete_energy[0], *sol.discrete_energy.last().unwrap());
+        let predicted = h * (d0 / d1).powf(1.0 / (2.0 * s as f64));
+        let n = sol.solution.t.len();
+        let h_end = sol.solution.t[n - 1] - sol.solution.t[n - 2];
+        eprintln!("s = {s}: last step {h_end:.5}, predicted {predicted:.5}");
+        assert!((h_end / predicted - 1.0).abs() < 0.02, "s = {s}: {h_end} vs {predicted}");
         assert!(disc.max_rel < 1e-12, "s = {s}: {}", disc.max_rel);
         assert!(sol.balance.max_rel < 1e-2, "s = {s}: {}", sol.balance.max_rel);
     }
