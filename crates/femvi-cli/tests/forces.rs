@@ -96,8 +96,14 @@ fn every_forces_example_runs_and_balances() {
             let d0 = rows[0][id];
             let worst = rows.iter().fold(0.0f64, |m, r| m.max((r[id] - d0 - r[iw]).abs()));
             let reported = summary["max_rel_discrete_energy_balance_error"].as_f64().unwrap() * d0.abs();
-            eprintln!("{}: discrete balance {worst:.2e} (reported {reported:.2e})", path.display());
-            assert!(worst <= reported * (1.0 + 1e-9) + 1e-300 && reported < 1e-14, "{worst} {reported}");
+            eprintln!(
+                "{}: discrete balance {worst:.2e} (reported {reported:.2e})",
+                path.display()
+            );
+            assert!(
+                worst <= reported * (1.0 + 1e-9) + 1e-300 && reported < 1e-14,
+                "{worst} {reported}"
+            );
             assert!(summary["max_step"].as_f64().unwrap() > summary["min_step"].as_f64().unwrap());
             assert_eq!(summary["degenerate_steps"], 0);
         }
@@ -209,9 +215,14 @@ fn input_errors_and_failures() {
     let energy = DAMPED
         .replace("FORCES", "generalized = [\"40*x_dot\"]")
         .replace("end = 5.0", "end = 5.0\nmode = \"energy\"");
-    let (code, err, _d) = run_text(&["run"], &energy);
+    let (code, err, d) = run_text(&["run"], &energy);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains("step 1 at t = 0.1") && err.contains("no admissible time step"), "{err}");
+    assert!(err.contains("no admissible time step"), "{err}");
+    // The step and time named are those of the last node written.
+    let csv = std::fs::read_to_string(d.path().join("out/trajectory.csv")).unwrap();
+    let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
+    let (k, t): (usize, f64) = (last[0].parse().unwrap(), last[1].parse().unwrap());
+    assert!(err.contains(&format!("step {k} at t = {t}")), "{err} vs {k}, {t}");
     let (code, err, _d) = run_text(&["run"], &format!("{energy}\n[solver]\nmethod = \"fixed-point\"\n"));
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("Newton"), "{err}");
