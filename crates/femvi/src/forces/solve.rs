@@ -50,15 +50,18 @@ pub struct ForcedSolution {
 /// `Method::FixedPoint` (or `Explicit`) asks for the fixed point. Both solve the same
 /// equations and agree to round-off (`tests/forces_fixed_point.rs`).
 ///
-/// Supported options: fixed or cyclic steps, `every`, `max_steps`, the solver's tolerance and
-/// iteration cap. A numerical failure is not an `Err`: the solution then ends at the last good
+/// Supported options: fixed or cyclic steps, time steps as variables ([`Steps::Energy`]: the
+/// forced energy equation of `forces/energy.rs`, solved by Newton; the result then carries
+/// [`ForcedSolution::discrete_energy`], [`ForcedSolution::discrete_balance`] and
+/// `energy_stats`), `every`, `max_steps`, the solver's tolerance and iteration cap. A numerical failure is not an `Err`: the solution then ends at the last good
 /// node with [`Solution::error`] naming the step and time.
 ///
 /// # Errors
 /// Bad input: `Method::FixedPoint` or `Explicit` for a Lagrangian without a mass matrix or
 /// a velocity-dependent force, the force's dimension differs from the Lagrangian's, wrong start lengths, an
-/// invalid span or step, a degenerate element, or options that are not supported with forces
-/// (time steps as variables, `saveat`, `dense`, `events`, a start from (q0, q1)).
+/// invalid span or step, a degenerate element, energy-mode step bounds that do not hold the
+/// first step or `Method::FixedPoint`/`Explicit` in the energy mode, or options that are not
+/// supported with forces (`saveat`, `dense`, `events`, a start from (q0, q1)).
 ///
 /// # Example
 ///
