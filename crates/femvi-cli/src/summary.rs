@@ -69,6 +69,11 @@ pub struct Summary {
     /// `max_rel_energy_balance_error` is the largest |H − H0 − W| / |H0| over every node).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub final_work: Option<f64>,
+    /// `[forces]` in the energy mode only: the largest |Ẽ − Ẽ0 − W| / |Ẽ0| of the discrete
+    /// energy Ẽ (the `discrete_energy` column) over every node: round-off where every energy
+    /// equation was solved.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_rel_discrete_energy_balance_error: Option<f64>,
     /// `femvi chaos --out DIR` (one orbit) only: the indicators, as chaos.json has them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub chaos: Option<crate::chaos::Indicators>,
@@ -149,6 +154,7 @@ pub(crate) fn run_summary(
         events_located: None,
         stopped_by_event: None,
         final_work: None,
+        max_rel_discrete_energy_balance_error: None,
         chaos: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
         command_line: command.to_vec(),
@@ -186,6 +192,7 @@ pub(crate) fn empty_summary(problem: &Problem, clock: Instant, error: String, co
         events_located: None,
         stopped_by_event: None,
         final_work: None,
+        max_rel_discrete_energy_balance_error: None,
         chaos: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
         command_line: command.to_vec(),

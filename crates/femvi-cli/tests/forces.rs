@@ -86,11 +86,27 @@ fn every_forces_example_runs_and_balances() {
         let csv = std::fs::read_to_string(out.path().join("trajectory.csv")).unwrap();
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        assert_eq!(header.last(), Some(&"work"));
-        let (ie, iw) = (header.len() - 2, header.len() - 1);
+        let col = |name: &str| header.iter().position(|h| *h == name);
+        let (ie, iw) = (col("energy").unwrap(), col("work").unwrap());
         let rows: Vec<Vec<f64>> = lines
             .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
             .collect();
+        if let Some(id) = col("discrete_energy") {
+            // Energy mode: discrete_energy − its first value − work is round-off, as reported.
+            let d0 = rows[0][id];
+            let worst = rows.iter().fold(0.0f64, |m, r| m.max((r[id] - d0 - r[iw]).abs()));
+            let reported = summary["max_rel_discrete_energy_balance_error"].as_f64().unwrap() * d0.abs();
+            eprintln!(
+                "{}: discrete balance {worst:.2e} (reported {reported:.2e})",
+                path.display()
+            );
+            assert!(
+                worst <= reported * (1.0 + 1e-9) + 1e-300 && reported < 1e-14,
+                "{worst} {reported}"
+            );
+            assert!(summary["max_step"].as_f64().unwrap() > summary["min_step"].as_f64().unwrap());
+            assert_eq!(summary["degenerate_steps"], 0);
+        }
         let e0 = rows[0][ie];
         let worst = rows.iter().fold(0.0f64, |m, r| m.max((r[ie] - e0 - r[iw]).abs()));
         let scale = if e0 != 0.0 { e0.abs() } else { 1.0 }; // relative, absolute where H0 = 0
@@ -108,7 +124,7 @@ fn every_forces_example_runs_and_balances() {
         assert_eq!(summary["final_work"].as_f64().unwrap(), rows.last().unwrap()[iw]);
         assert_eq!(summary["energy_conserved"], false);
     }
-    assert_eq!(count, 4);
+    assert_eq!(count, 5);
 }
 
 /// `femvi bvp` on the damped oscillator against the closed form x(t) with x(0) = 1,
@@ -194,13 +210,23 @@ fn input_errors_and_failures() {
     );
     assert_eq!(code, 2);
     assert!(err.contains("does not support [forces]"), "{err}");
-    // Energy mode and plots are refused with a message.
+    // Energy mode: a force the energy equation cannot follow is exit 1 naming step and time;
+    // the fixed-point method is an input error there.
     let energy = DAMPED
-        .replace("FORCES", "generalized = [\"-c*x_dot\"]")
+        .replace("FORCES", "generalized = [\"40*x_dot\"]")
         .replace("end = 5.0", "end = 5.0\nmode = \"energy\"");
-    let (code, err, _d) = run_text(&["run"], &energy);
-    assert_eq!(code, 2);
-    assert!(err.contains("not supported with [forces]"), "{err}");
+    let (code, err, d) = run_text(&["run"], &energy);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("no admissible time step"), "{err}");
+    // The step and time named are those of the last node written.
+    let csv = std::fs::read_to_string(d.path().join("out/trajectory.csv")).unwrap();
+    let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
+    let (k, t): (usize, f64) = (last[0].parse().unwrap(), last[1].parse().unwrap());
+    assert!(err.contains(&format!("step {k} at t = {t}")), "{err} vs {k}, {t}");
+    let (code, err, _d) = run_text(&["run"], &format!("{energy}\n[solver]\nmethod = \"fixed-point\"\n"));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("Newton"), "{err}");
+    // Plots are refused with a message.
     let (code, err, _d) = run_text(
         &["run", "--plot"],
         &DAMPED.replace("FORCES", "generalized = [\"-c*x_dot\"]"),

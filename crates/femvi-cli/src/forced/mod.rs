@@ -4,7 +4,10 @@
 //! writes trajectory.csv with a `work` column (the accumulated discrete work W
 //! of the forces, so that `energy` − energy₀ − `work` is the balance error) and summary.json
 //! with `final_work` and, as `max_rel_energy_balance_error`, the largest
-//! |H − H₀ − W| / |H₀| over every node. `femvi bvp` solves them with
+//! |H − H₀ − W| / |H₀| over every node. With `[time] mode = "energy"` the steps come from
+//! the forced energy equation (`femvi::forces`, `forces/energy.rs`): trajectory.csv gains a
+//! `discrete_energy` column Ẽ, summary.json the energy mode's step statistics and
+//! `max_rel_discrete_energy_balance_error`, the largest |Ẽ − Ẽ₀ − W| / |Ẽ₀| (round-off). `femvi bvp` solves them with
 //! [`femvi::forces::solve_forced_bvp`] ([`solve_bvp`]); `femvi check` reports the energy
 //! balance instead of symplecticity (`check.rs`). Commands that cannot handle forces refuse
 //! them ([`refuse`]).
@@ -48,8 +51,8 @@ pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
 /// element, grid, solver options and `every`: what `femvi run` writes.
 ///
 /// # Errors
-/// The library's message for options it does not support with forces (energy mode, events, a
-/// start from (q0, q1)) or bad input.
+/// The library's message for options it does not support with forces (events, a start from
+/// (q0, q1)) or bad input.
 pub fn solve_problem<L: Lagrangian + Clone>(
     lag: &L,
     problem: &Problem,
@@ -58,9 +61,6 @@ pub fn solve_problem<L: Lagrangian + Clone>(
 ) -> Result<ForcedSolution, String> {
     if !problem.events.is_empty() {
         return Err("[[events]] are not located with [forces] (yet)".into());
-    }
-    if problem.energy.is_some() {
-        return Err("[time] mode = \"energy\" is not supported with [forces] (the discrete energy is not conserved; no energy equation fixes the steps): use mode = \"fixed\"".into());
     }
     let p = problem.library(lag.clone());
     let options = problem.solve_options(every);
@@ -112,6 +112,13 @@ fn run_with<L: Lagrangian + Clone>(
     summary.energy_conserved = false;
     summary.max_rel_energy_balance_error = Some(sol.balance.max_rel);
     summary.final_work = sol.work.last().copied();
+    if let Some(stats) = s.energy_stats {
+        summary.max_rel_discrete_energy_error = Some(stats.max_rel_residual);
+        summary.min_step = Some(stats.min_step);
+        summary.max_step = Some(stats.max_step);
+        summary.degenerate_steps = Some(stats.degenerate_steps);
+    }
+    summary.max_rel_discrete_energy_balance_error = sol.discrete_balance.map(|b| b.max_rel);
     summary.mean_solver_iterations = s.mean_iterations;
     summary.error = s.error.as_ref().map(|e| e.to_string());
     summary.status = crate::summary::status_of(summary.error.as_deref()).into();
@@ -129,6 +136,10 @@ fn write_csv(dir: &Path, problem: &Problem, sol: &ForcedSolution) -> std::io::Re
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
     header.push("energy".into());
     header.push("work".into());
+    let discrete = !sol.discrete_energy.is_empty();
+    if discrete {
+        header.push("discrete_energy".into());
+    }
     w.write_record(&header)?;
     let num = |x: f64| format!("{x:?}");
     for (i, &t) in s.t.iter().enumerate() {
@@ -137,6 +148,9 @@ fn write_csv(dir: &Path, problem: &Problem, sol: &ForcedSolution) -> std::io::Re
         row.extend(s.p[i * n..(i + 1) * n].iter().map(|&x| num(x)));
         row.push(num(s.energy[i]));
         row.push(num(sol.work[i]));
+        if discrete {
+            row.push(num(sol.discrete_energy.get(i).copied().unwrap_or(f64::NAN)));
+        }
         w.write_record(&row)?;
     }
     w.flush()

@@ -44,12 +44,16 @@
 //! ([`Rayleigh`], F = −∂R/∂v), `sum.rs` the sum of two forces, `linear.rs` a linear damping and
 //! harmonic drive for the models; `element.rs` the discrete forces of an element, `step.rs`
 //! the Newton step, `fixed_point.rs` the fixed-point run for a constant mass matrix and a force
-//! independent of v, `solve.rs` the run ([`solve_forced`]), `tangent.rs` the step's tangent map (for
+//! independent of v, `solve.rs` the run ([`solve_forced`]), `energy.rs` (derivation and run)
+//! and `energy_step.rs` the energy mode (time steps from the forced energy equation, so that
+//! the discrete energy changes by exactly the discrete work), `tangent.rs` the step's tangent map (for
 //! [`crate::chaos::forced_indicators`]) and `bvp.rs` boundary value problems
 //! with forces ([`solve_forced_bvp`]).
 
 mod bvp;
 mod element;
+mod energy;
+mod energy_step;
 mod expr;
 mod fixed_point;
 mod linear;

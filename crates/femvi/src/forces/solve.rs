@@ -3,6 +3,7 @@
 //! fixed-point solver (`fixed_point.rs`), returning the usual [`Solution`] with the accumulated discrete work and
 //! the energy balance max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
 
+use super::energy::{solve_energy, Begin};
 use super::fixed_point::{solve_fixed_point, Setup};
 use super::step::{ForcedStep, Taken};
 use super::Force;
@@ -32,6 +33,12 @@ pub struct ForcedSolution {
     pub work: Vec<f64>,
     /// max |H_k − H_0 − W_k| over every node.
     pub balance: EnergyBalance,
+    /// Energy mode only (else empty): the discrete energy Ẽ_k at the kept nodes, measured on
+    /// the solved elements (`forces/energy.rs`).
+    pub discrete_energy: Vec<f64>,
+    /// Energy mode only: max |Ẽ_k − Ẽ_0 − W_k| over every node (round-off where every
+    /// energy equation was solved).
+    pub discrete_balance: Option<EnergyBalance>,
 }
 
 /// Integrates `problem` under the force `force` with `element` (discrete Lagrange–d'Alembert).
@@ -43,15 +50,18 @@ pub struct ForcedSolution {
 /// `Method::FixedPoint` (or `Explicit`) asks for the fixed point. Both solve the same
 /// equations and agree to round-off (`tests/forces_fixed_point.rs`).
 ///
-/// Supported options: fixed or cyclic steps, `every`, `max_steps`, the solver's tolerance and
-/// iteration cap. A numerical failure is not an `Err`: the solution then ends at the last good
+/// Supported options: fixed or cyclic steps, time steps as variables ([`Steps::Energy`]: the
+/// forced energy equation of `forces/energy.rs`, solved by Newton; the result then carries
+/// [`ForcedSolution::discrete_energy`], [`ForcedSolution::discrete_balance`] and
+/// `energy_stats`), `every`, `max_steps`, the solver's tolerance and iteration cap. A numerical failure is not an `Err`: the solution then ends at the last good
 /// node with [`Solution::error`] naming the step and time.
 ///
 /// # Errors
 /// Bad input: `Method::FixedPoint` or `Explicit` for a Lagrangian without a mass matrix or
 /// a velocity-dependent force, the force's dimension differs from the Lagrangian's, wrong start lengths, an
-/// invalid span or step, a degenerate element, or options that are not supported with forces
-/// (time steps as variables, `saveat`, `dense`, `events`, a start from (q0, q1)).
+/// invalid span or step, a degenerate element, energy-mode step bounds that do not hold the
+/// first step or `Method::FixedPoint`/`Explicit` in the energy mode, or options that are not
+/// supported with forces (`saveat`, `dense`, `events`, a start from (q0, q1)).
 ///
 /// # Example
 ///
@@ -81,6 +91,15 @@ pub fn solve_forced<L: Lagrangian, F: Force>(
     options.solver.validate()?;
     let grid = grid(problem, &options.steps)?;
     let (q0, p0, v0) = start(lag, &problem.start, problem.t0)?;
+    if let Steps::Energy { options: energy, .. } = &options.steps {
+        let begin = Begin {
+            t0: problem.t0,
+            q0: &q0,
+            p0: &p0,
+            v0: &v0,
+        };
+        return solve_energy(lag, force, element, options, (grid, *energy), begin);
+    }
     if fixed_point_fits(lag, force, options.solver.method)? {
         let setup = Setup {
             grid,
@@ -160,9 +179,6 @@ pub(super) fn check_options(options: &SolveOptions) -> Result<()> {
             "not supported with non-conservative forces (femvi::forces::solve_forced)",
         ))
     };
-    if matches!(options.steps, Steps::Energy { .. }) {
-        return unsupported("time steps as variables (energy mode)");
-    }
     if !options.saveat.is_empty() {
         return unsupported("saveat");
     }
@@ -298,6 +314,11 @@ impl Run {
         self.work.push(node.work);
     }
 
+    /// How many nodes are kept so far.
+    pub(super) fn kept(&self) -> usize {
+        self.work.len()
+    }
+
     /// After a stop or a failure, the last good node is kept (its H was recorded).
     pub(super) fn keep_last(&mut self, node: &Node, v: &[f64]) {
         if let Some((k, h)) = self.last_h {
@@ -330,6 +351,8 @@ impl Run {
             solution: self.sol,
             work: self.work,
             balance: self.balance,
+            discrete_energy: Vec::new(),
+            discrete_balance: None,
         }
     }
 }

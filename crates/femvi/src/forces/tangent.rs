@@ -65,6 +65,12 @@ impl<'a, L: Lagrangian, F: Force> ForcedTangentRun<'a, L, F> {
         let lag = &problem.lagrangian;
         let n = lag.dim();
         check_options(options)?;
+        if matches!(options.steps, crate::solution::Steps::Energy { .. }) {
+            return Err(crate::error::invalid(
+                "time steps as variables (energy mode)",
+                "not supported for the tangent maps of forced runs",
+            ));
+        }
         check_len("force", n, force.dim())?;
         element.check_nondegenerate()?;
         options.solver.validate()?;

@@ -14,6 +14,7 @@
 
 use super::checkpoint::{Reader, Words};
 use super::element_work::buffers;
+use super::energy_search::search_step;
 use super::integrator::Integrator;
 use super::solver::{Kind, Solver};
 use crate::error::{invalid, Error, Result, StepError, StepFailure};
@@ -79,13 +80,6 @@ pub(super) struct EnergyState {
     /// The node's positions during a search (the element's base; no allocation per trial).
     scratch: Vec<f64>,
 }
-
-/// Relative size of |g| at which the search stops; the residual left is at round-off level.
-const ACCEPT: f64 = 0.25 * f64::EPSILON;
-/// Relative size of |g| above which a step counts as having no admissible root. For degree
-/// s the discrete energy depends on h only at O(h^{2s}), so for s ≥ 3 g is nearly flat and
-/// its round-off noise hides the root: such steps are degenerate, not accepted loosely.
-const REJECT: f64 = 64.0 * f64::EPSILON;
 
 impl EnergyState {
     pub(super) fn options(&self) -> EnergyOptions {
@@ -286,124 +280,15 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         Ok(true)
     }
 
-    /// Finds h in the bounds with E⁻(w_k(h)) = target; leaves the solve at that h in place.
-    /// Returns (h, E⁺ − E⁻ of the element, relative residual).
+    /// Finds h in the bounds with E⁻(w_k(h)) = target ([`search_step`]); leaves the solve at
+    /// that h in place. Returns (h, E⁺ − E⁻ of the element, relative residual).
     fn search_step(
         &mut self,
         h_prev: f64,
         target: f64,
         opts: EnergyOptions,
     ) -> std::result::Result<(f64, f64, f64), StepError> {
-        let (lo, hi) = (opts.min_step, opts.max_step);
-        let fail = |me: &Self, residual: f64, iterations: usize| StepError {
-            step: me.state.k,
-            t: me.state.t,
-            residual,
-            iterations,
-            failure: StepFailure::NoAdmissibleStep,
-        };
-        let mut evals = 0;
-        // First point: the previous step.
-        let mut h0 = h_prev.clamp(lo, hi);
-        let Some((mut g0, e0, mag)) = self.energy_gap(h0, target) else {
-            return Err(fail(self, f64::NAN, 1));
-        };
-        evals += 1;
-        let tol = ACCEPT * mag;
-        let scale = target.abs().max(f64::MIN_POSITIVE);
-        if g0.abs() <= tol {
-            return Ok((h0, e0, g0.abs() / scale));
-        }
-        let mut h1 = if h0 * 1.001 <= hi { h0 * 1.001 } else { h0 * 0.999 };
-        let (mut g1, mut e1) = match self.energy_gap(h1, target) {
-            Some((g, e, _)) => (g, e),
-            None => return Err(fail(self, g0.abs() / scale, 2)),
-        };
-        evals += 1;
-        // Secant phase, trust region [h/2, 2h], until a sign change or convergence.
-        while g0.signum() == g1.signum() {
-            if g1.abs() <= tol {
-                return Ok((h1, e1, g1.abs() / scale));
-            }
-            let slope = (g1 - g0) / (h1 - h0);
-            let mut h2 = if slope != 0.0 && slope.is_finite() {
-                h1 - g1 / slope
-            } else {
-                f64::NAN
-            };
-            if !h2.is_finite() {
-                // Flat: the energy does not depend on h here (c₂ ≈ 0).
-                h2 = if g1.abs() < g0.abs() {
-                    2.0 * h1 - h0
-                } else {
-                    2.0 * h0 - h1
-                };
-            }
-            h2 = h2.clamp(0.5 * h1, 2.0 * h1).clamp(lo, hi);
-            if (h2 - h1).abs() <= 4.0 * f64::EPSILON * h1 || evals >= 60 {
-                // Stuck at a bound or no progress: accept only a round-off-level residual.
-                return if g1.abs() <= REJECT * mag {
-                    Ok((h1, e1, g1.abs() / scale))
-                } else {
-                    Err(fail(self, g1.abs() / scale, evals))
-                };
-            }
-            let Some((g2, e2, _)) = self.energy_gap(h2, target) else {
-                return Err(fail(self, g1.abs() / scale, evals));
-            };
-            evals += 1;
-            (h0, g0) = (h1, g1);
-            (h1, g1, e1) = (h2, g2, e2);
-        }
-        // Bracketed between h0 and h1: Illinois regula falsi.
-        let (best_h, best_g) = self.illinois([(h0, g0), (h1, g1)], target, tol, &mut evals, |me, g, evals| {
-            fail(me, g.abs() / scale, evals)
-        })?;
-        if best_g.abs() > REJECT * mag {
-            return Err(fail(self, best_g.abs() / scale, evals));
-        }
-        // Leave the state solved at the chosen step.
-        let Some((g, e, _)) = self.energy_gap(best_h, target) else {
-            return Err(fail(self, best_g.abs() / scale, evals));
-        };
-        Ok((best_h, e, g.abs() / scale))
-    }
-
-    /// Regula falsi (Illinois) on g(h) = E⁻(w_k(h)) − target between two steps whose g have
-    /// opposite signs; returns the best (h, g) found. `fail` builds the error of a failed
-    /// trial solve from the best |g| so far.
-    fn illinois(
-        &mut self,
-        [(h0, g0), (h1, g1)]: [(f64, f64); 2],
-        target: f64,
-        tol: f64,
-        evals: &mut usize,
-        fail: impl Fn(&Self, f64, usize) -> StepError,
-    ) -> std::result::Result<(f64, f64), StepError> {
-        let (mut ha, mut ga, mut hb, mut gb) = (h0, g0, h1, g1);
-        let (mut best_h, mut best_g) = if g0.abs() < g1.abs() { (h0, g0) } else { (h1, g1) };
-        while *evals < 100 && (hb - ha).abs() > 4.0 * f64::EPSILON * hb.abs().max(ha.abs()) {
-            let mut hc = (ha * gb - hb * ga) / (gb - ga);
-            if !hc.is_finite() || hc <= ha.min(hb) || hc >= ha.max(hb) {
-                hc = 0.5 * (ha + hb);
-            }
-            let Some((gc, _, _)) = self.energy_gap(hc, target) else {
-                return Err(fail(self, best_g, *evals));
-            };
-            *evals += 1;
-            if gc.abs() < best_g.abs() {
-                (best_h, best_g) = (hc, gc);
-            }
-            if gc.abs() <= tol {
-                break;
-            }
-            if gc.signum() != gb.signum() {
-                (ha, ga) = (hb, gb);
-            } else {
-                ga *= 0.5;
-            }
-            (hb, gb) = (hc, gc);
-        }
-        Ok((best_h, best_g))
+        let (k, t) = (self.state.k, self.state.t);
+        search_step(h_prev, target, opts, (k, t), |h| self.energy_gap(h, target))
     }
 }
