@@ -238,8 +238,9 @@ impl<L: Lagrangian> Integrator<'_, L> {
             if row < n {
                 r += dp[row];
             }
-            if row == s * n {
-                // −dE_k, the incoming variable being −E.
+            if row == s * n && neg_de != 0.0 {
+                // −dE_k, the incoming variable being −E (skipped at zero, which keeps the
+                // sign of a zero sum as it was).
                 r += neg_de;
             }
             rhs[row] = if sys.fresh && row == s * n { dt0 } else { -r };
