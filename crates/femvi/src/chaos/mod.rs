@@ -28,9 +28,9 @@ use crate::error::{invalid, Error, Result};
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, SolveOptions, Steps};
 use crate::step::Integrator;
-use accumulate::{apply, norm};
+use accumulate::norm;
 use drive::{drive, TangentRun};
-use step_map::{step_map, ExtendedProduct};
+use step_map::{carry, ExtendedProduct};
 
 /// What to compute besides MEGNO, FLI and the largest exponent.
 #[derive(Debug, Clone, PartialEq)]
@@ -141,7 +141,7 @@ pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOpt
     Ok(drive(&mut PlainRun { it, tmp: vec![0.0; d] }, u, chaos))
 }
 
-/// An integrator's run, its vectors carried by [`step_map`].
+/// An integrator's run, its vectors carried by [`carry`].
 struct PlainRun<'r, 'a, L: Lagrangian> {
     it: &'r mut Integrator<'a, L>,
     tmp: Vec<f64>,
@@ -152,13 +152,7 @@ impl<L: Lagrangian> TangentRun for PlainRun<'_, '_, L> {
         self.it.step()
     }
     fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()> {
-        let m = step_map(self.it)?;
-        let d = self.tmp.len();
-        apply(&m, d, u, &mut self.tmp);
-        if !w.is_empty() {
-            apply(&m, d, w, &mut self.tmp);
-        }
-        Ok(())
+        carry(self.it, u, w, &mut self.tmp)
     }
     fn time(&self) -> f64 {
         self.it.node().t

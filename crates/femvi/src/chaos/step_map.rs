@@ -1,9 +1,10 @@
-//! The tangent map of the last step in (q, p), whichever way the steps are chosen: with steps
-//! as parameters it is `Integrator::tangent_map`; with time steps as variables (paper §3,
-//! autonomous L) it is the (q, p) block of the extended map on (q, t; p, −E)
-//! (`Integrator::extended_tangent_map`, the paper's (3.6)). For autonomous L the energy-mode
-//! step keeps E exactly, so on vectors with dt = dE = 0 the extended form dq∧dp − dt∧dE
-//! reduces to dq∧dp: the block is symplectic, the map of the discrete flow at the run's
+//! Tangent vectors through the last step in (q, p), whichever way the steps are chosen: with
+//! steps as parameters by `Integrator::tangent_map`; with time steps as variables (paper §3,
+//! autonomous L) by the (q, p) block of the extended map on (q, t; p, −E) (the paper's (3.6)),
+//! applied as one linearised solve per vector (`Integrator::extended_tangent_apply`: for
+//! degree ≥ 2 the assembled map has entries of size 1/g_h that a product would lose digits
+//! to). For autonomous L the energy-mode step keeps E exactly, so on vectors with
+//! dt = dE = 0 the extended form dq∧dp − dt∧dE reduces to dq∧dp: the block is symplectic, the map of the discrete flow at the run's
 //! energy. Whole-run sensitivities in energy mode also follow the carried energy's
 //! dependence on the start (`ExtendedProduct`).
 
@@ -20,23 +21,42 @@ fn extended_index(i: usize, n: usize) -> usize {
     }
 }
 
-/// The last step's tangent map ∂(q', p')/∂(q, p), row-major 2n×2n (energy mode: at fixed
-/// carried energy and time).
-pub(crate) fn step_map<L: Lagrangian>(it: &mut Integrator<'_, L>) -> Result<Vec<f64>> {
-    if it.energy_stats().is_none() {
-        return it.tangent_map();
-    }
+/// Carries `u` (one vector of length 2n) and `w` (2n-long vectors, column-major, possibly
+/// none) through the last step's tangent map. In energy mode each vector is extended by
+/// dt = dE = 0 and solved through the linearised step (`Integrator::extended_tangent_apply`)
+/// rather than multiplied by the assembled block, whose entries of size 1/g_h (degree ≥ 2)
+/// would cost digits.
+pub(crate) fn carry<L: Lagrangian>(
+    it: &mut Integrator<'_, L>,
+    u: &mut [f64],
+    w: &mut [f64],
+    tmp: &mut [f64],
+) -> Result<()> {
     let n = it.lagrangian().dim();
-    let (d, de) = (2 * n, 2 * n + 2);
-    let ext = it.extended_tangent_map()?;
-    let mut out = vec![0.0; d * d];
-    for (i, row) in out.chunks_exact_mut(d).enumerate() {
-        let ei = extended_index(i, n);
-        for (j, x) in row.iter_mut().enumerate() {
-            *x = ext[ei * de + extended_index(j, n)];
+    let d = 2 * n;
+    if it.energy_stats().is_none() {
+        let m = it.tangent_map()?;
+        super::accumulate::apply(&m, d, u, tmp);
+        if !w.is_empty() {
+            super::accumulate::apply(&m, d, w, tmp);
+        }
+        return Ok(());
+    }
+    let de = d + 2;
+    let count = 1 + w.len() / d;
+    let mut ext = vec![0.0; count * de];
+    for (k, col) in std::iter::once(&*u).chain(w.chunks_exact(d)).enumerate() {
+        for (i, x) in col.iter().enumerate() {
+            ext[k * de + extended_index(i, n)] = *x;
         }
     }
-    Ok(out)
+    it.extended_tangent_apply(&mut ext)?;
+    for (k, col) in std::iter::once(u).chain(w.chunks_exact_mut(d)).enumerate() {
+        for (i, x) in col.iter_mut().enumerate() {
+            *x = ext[k * de + extended_index(i, n)];
+        }
+    }
+    Ok(())
 }
 
 /// The product of a run's step maps applied to the 2n start directions (dq, dp) — in energy
@@ -66,15 +86,16 @@ impl ExtendedProduct {
         }
     }
 
-    /// Applies the last step's map.
+    /// Applies the last step's map (energy mode: by one linearised solve per column, see
+    /// [`carry`]).
     pub(crate) fn step<L: Lagrangian>(&mut self, it: &mut Integrator<'_, L>) -> Result<()> {
-        let m = if self.rows == 2 * self.n {
-            it.tangent_map()?
+        if self.rows == 2 * self.n {
+            let m = it.tangent_map()?;
+            super::accumulate::apply(&m, self.rows, &mut self.w, &mut self.tmp);
+            Ok(())
         } else {
-            it.extended_tangent_map()?
-        };
-        super::accumulate::apply(&m, self.rows, &mut self.w, &mut self.tmp);
-        Ok(())
+            it.extended_tangent_apply(&mut self.w)
+        }
     }
 
     /// ∂(q_N, p_N)/∂(q_0, p_0), row-major 2n×2n.
