@@ -145,7 +145,7 @@ fn project_ends<L: Lagrangian, C: Constraints>(
         out.residual.push(jet.residual());
         out.hidden_residual.push(hidden);
         out.max_residual = out.max_residual.max(jet.residual());
-        out.multipliers.extend(state_multiplier(lag, &jet, t, q, v));
+        out.multipliers.extend(state_multiplier(lag, &jet, (t, q, v), None));
     }
     Ok(())
 }
