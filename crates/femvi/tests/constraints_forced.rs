@@ -194,9 +194,20 @@ fn constrained_forced_bvp_recovers_the_run() {
         assert_eq!(b.q.len(), sol.q.len());
         let dq = b.q.iter().zip(&sol.q).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
         let dp = b.p.iter().zip(&sol.p).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
-        println!("order {order}: BVP against the run: max |dq| {dq:.1e}, |dp| {dp:.1e} ({n} coordinates)");
+        // The multipliers of the forced flow at the element ends (F in their equation).
+        let dl = bvp
+            .multipliers
+            .iter()
+            .zip(&out.constrained.multipliers)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        let lmax = out.constrained.multipliers.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        println!(
+            "order {order}: BVP against the run: max |dq| {dq:.1e}, |dp| {dp:.1e}, |dλ| {dl:.1e} (max |λ| {lmax:.1}, {n} coordinates)"
+        );
         assert!(dq <= 1e-12, "order {order}: {dq}");
         assert!(dp <= 1e-12, "order {order}: {dp}");
+        assert!(dl <= 1e-12 * lmax, "order {order}: {dl}");
     }
 }
 

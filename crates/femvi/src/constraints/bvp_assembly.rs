@@ -9,10 +9,11 @@
 //! ν_N. Element k touches its own block and the end (q_k, h·ν_k) of the one before, so the
 //! bandwidth is I m + (s+1) n + m − 1 and a Newton iteration costs O(N).
 
+use super::forced::NodeForce;
 use super::layout::Layout as Sites;
 use super::step::StepSystem;
 use super::Constraints;
-use crate::bvp::{BoundaryValues, ElementTerm};
+use crate::bvp::BoundaryValues;
 use crate::discrete::Element;
 use crate::lagrangian::Lagrangian;
 use crate::solve::BandMatrix;
@@ -88,8 +89,9 @@ pub(super) struct Assembly<'a, L, C> {
     nu: Vec<f64>,
     /// Σ_l ν_l ∇²g_l at a node, n × n.
     nu_hess: Vec<f64>,
-    /// Terms added to each element's node rows (the discrete forces, [`StepSystem::add_term`]).
-    pub term: Option<&'a dyn ElementTerm>,
+    /// The force whose discrete forces are added to each element's node rows
+    /// ([`StepSystem::add_term`]).
+    pub force: Option<&'a dyn NodeForce>,
 }
 
 impl<'a, L: Lagrangian, C: Constraints> Assembly<'a, L, C> {
@@ -123,7 +125,7 @@ impl<'a, L: Lagrangian, C: Constraints> Assembly<'a, L, C> {
             zero_p: vec![0.0; n],
             nu: vec![0.0; m],
             nu_hess: vec![0.0; n * n],
-            term: None,
+            force: None,
         }
     }
 
@@ -170,8 +172,8 @@ impl<'a, L: Lagrangian, C: Constraints> Assembly<'a, L, C> {
             &self.xs,
             with_jac,
         );
-        if let Some(term) = self.term {
-            self.sys.add_term(term, t0, h, base, with_jac);
+        if let Some(force) = self.force {
+            self.sys.add_term(force.term(), t0, h, base, with_jac);
         }
     }
 

@@ -94,12 +94,7 @@ pub fn solve_constrained_forced<L: Lagrangian, F: Force, C: Constraints>(
 ) -> Result<ForcedConstrainedSolution> {
     let n = problem.lagrangian.dim();
     check_len("force", n, force.dim())?;
-    let w = element.nodes().saturating_mul(n);
-    let forcing = Forcing {
-        force,
-        term: ForceTerm::new(force, element, w),
-        fd: RefCell::new(vec![0.0; w]),
-    };
+    let forcing = Forcing::new(force, element, n);
     let mut balance = Balance::new(&forcing, n);
     let (mut constrained, _) = run_forced(
         problem,
@@ -133,10 +128,22 @@ pub(super) trait NodeForce {
 }
 
 /// A force with its element term and scratch.
-struct Forcing<'a, F> {
+pub(super) struct Forcing<'a, F> {
     force: &'a F,
     term: ForceTerm<'a, F>,
     fd: RefCell<Vec<f64>>,
+}
+
+impl<'a, F: Force> Forcing<'a, F> {
+    /// `force` on elements like `element` in dimension n.
+    pub(super) fn new(force: &'a F, element: &'a Element, n: usize) -> Self {
+        let w = element.nodes().saturating_mul(n);
+        Self {
+            force,
+            term: ForceTerm::new(force, element, w),
+            fd: RefCell::new(vec![0.0; w]),
+        }
+    }
 }
 
 impl<F: Force> NodeForce for Forcing<'_, F> {
