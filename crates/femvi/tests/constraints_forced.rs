@@ -3,7 +3,8 @@
 //! coordinates with friction and a drive. Constraint residual at every node, gravity as a force
 //! against gravity in the Lagrangian, a zero force against the unforced run (bits), the forced
 //! constrained boundary value solver fed the ends of a run, the nodal order 2s against a much
-//! finer degree-4 run, the energy balance with damping, and the typed errors.
+//! finer degree-4 run, the vertical angular momentum against its closed-form decay, the energy
+//! balance with damping, and the typed errors.
 
 use femvi::bvp::{line_guess, BoundaryValues, BvpOptions};
 use femvi::constraints::{
@@ -241,6 +242,35 @@ fn damped_spherical_pendulum_converges_with_order_2s() {
         let order = fitted_order(&hs, &errors);
         println!("degree {s}: h {hs:?}, errors {errors:?}, fitted order {order:.2}");
         assert!((order - 2.0 * s as f64).abs() < 0.25, "degree {s}: order {order}");
+    }
+}
+
+#[test]
+fn vertical_angular_momentum_decays_as_the_closed_form() {
+    // Friction −c v (m = 1): gravity and the rod force have no vertical torque, so
+    // L_z = x p_y − y p_x obeys dL_z/dt = −c L_z, L_z(t) = L_z(0) e^{−ct}.
+    let c = 0.4;
+    let friction = LinearForce::damping(3, c);
+    let t_end = 4.0;
+    for s in 1..=4usize {
+        let h0 = [0.02, 0.08, 0.2, 0.4][s - 1];
+        let hs: Vec<f64> = (1..4).map(|i| h0 / f64::from(1 << i)).collect();
+        let errors: Vec<f64> = hs
+            .iter()
+            .map(|&h| {
+                let out = run(&friction, 2 * s, h, t_end, 0);
+                let sol = &out.constrained.solution;
+                let lz = |i: usize| {
+                    let (q, p) = (sol.q_row(i).unwrap(), sol.p_row(i).unwrap());
+                    q[0] * p[1] - q[1] * p[0]
+                };
+                let exact = lz(0) * (-c * t_end).exp();
+                ((lz(sol.len() - 1) - exact) / exact).abs()
+            })
+            .collect();
+        let order = fitted_order(&hs, &errors);
+        println!("degree {s}: L_z relative errors {errors:?}, fitted order {order:.2}");
+        assert!((order - 2.0 * s as f64).abs() < 0.3, "degree {s}: order {order}");
     }
 }
 
