@@ -38,6 +38,10 @@ pub const MODEL_FILES: &[(&str, &str)] = &[
         include_str!("../../../examples/constrained/double-pendulum-cartesian.toml"),
     ),
     ("chain", include_str!("../../../examples/constrained/chain.toml")),
+    (
+        "damped-spherical-pendulum",
+        include_str!("../../../examples/constrained/damped-spherical-pendulum.toml"),
+    ),
 ];
 
 /// The models of [`MODEL_FILES`] that are problem files with `[constraints]` (expressions in
@@ -56,6 +60,10 @@ const CONSTRAINED: &[(&str, &str)] = &[
     (
         "chain",
         "three masses on rods from a pivot, planar, Cartesian, three rods",
+    ),
+    (
+        "damped-spherical-pendulum",
+        "spherical pendulum with friction and a drive ([forces] and [constraints])",
     ),
 ];
 

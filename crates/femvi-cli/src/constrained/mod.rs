@@ -3,18 +3,25 @@
 //! multipliers `lambda_1 … lambda_m` (those of the exact flow at each node: −Gᵀλ is the
 //! constraint force) and `residual` (max |g(q)|), summary.json, and constraints.json (the
 //! largest constraint and hidden-constraint residuals, how much the start momentum was
-//! projected onto the manifold's cotangent space, the enforcement); `femvi check` measures
-//! symplecticity on the manifold (`check.rs`); `femvi bvp` solves constrained boundary value
-//! problems (`bvp.rs`). Commands and modes that cannot handle constraints refuse them
+//! projected onto the manifold's cotangent space, the enforcement). With a `[forces]` table too
+//! the run is [`femvi::constraints::solve_constrained_forced`] (discrete Lagrange–d'Alembert on
+//! the augmented action): trajectory.csv gains the `work` column after `energy` and summary.json
+//! the energy balance as forced runs report it ([`crate::forced::report_work`]). `femvi check`
+//! measures symplecticity on the manifold (`check.rs`); `femvi bvp` solves constrained boundary
+//! value problems (`bvp.rs`). Commands and modes that cannot handle constraints refuse them
 //! ([`refuse`], exit code 2).
 
 pub mod bvp;
 pub mod check;
 
+use crate::problem::forces::ProblemForce;
 use crate::problem::{Problem, ProblemFile};
 use crate::run::{finish, Outcome, RunOutput};
 use crate::summary::empty_summary;
-use femvi::constraints::{solve_constrained_with, ConstrainedSolution, Enforcement, ExprConstraints};
+use femvi::constraints::{
+    solve_constrained_forced, solve_constrained_with, ConstrainedSolution, Enforcement, ExprConstraints,
+    ForcedConstrainedSolution,
+};
 use femvi::Lagrangian;
 use std::path::Path;
 use std::time::Instant;
@@ -51,10 +58,6 @@ pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
 
 /// Why a constrained problem cannot run as given, if it cannot.
 fn unsupported(problem: &Problem, resume: bool) -> Option<String> {
-    if crate::forced::refuse(problem, "").is_err() {
-        // Both tables: the constrained solver would ignore the forces.
-        return Some("[forces] and [constraints] together are not supported (yet)".into());
-    }
     if !problem.events.is_empty() {
         return Some("[[events]] are not located with [constraints] (yet)".into());
     }
@@ -88,7 +91,11 @@ pub fn run(
             "plots are not drawn for [constraints] (yet); run without --plot".into(),
         ));
     }
-    crate::with_system!(&problem.system, l => run_with(l, problem, constraints, dir, command))
+    let force = match crate::forced::force_of(problem) {
+        Ok(f) => f,
+        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    };
+    crate::with_system!(&problem.system, l => run_with(l, problem, (constraints, force.as_ref()), dir, command))
 }
 
 /// The library's constrained solve of a loaded problem: what `femvi run` writes.
@@ -105,21 +112,43 @@ pub fn solve<L: Lagrangian + Clone>(
     solve_constrained_with(&p, &constraints.0, &problem.element, &options, constraints.1).map_err(|e| e.to_string())
 }
 
+/// The library's constrained solve under the force of a loaded problem with both tables: what
+/// `femvi run` writes.
+///
+/// # Errors
+/// The library's refusal (bad start, unsupported options) as a message.
+pub fn solve_forced<L: Lagrangian + Clone>(
+    lag: &L,
+    problem: &Problem,
+    constraints: &(ExprConstraints, Enforcement),
+    force: &ProblemForce,
+) -> Result<ForcedConstrainedSolution, String> {
+    let p = problem.library(lag.clone());
+    let options = problem.solve_options(problem.every);
+    solve_constrained_forced(&p, force, &constraints.0, &problem.element, &options, constraints.1)
+        .map_err(|e| e.to_string())
+}
+
 // One arm of `with_system!` is a Copy type; `solve` clones.
 fn run_with<L: Lagrangian + Clone>(
     lag: &L,
     problem: &Problem,
-    constraints: &(ExprConstraints, Enforcement),
+    (constraints, force): (&(ExprConstraints, Enforcement), Option<&ProblemForce>),
     dir: &Path,
     command: &[String],
 ) -> std::io::Result<Outcome> {
     let clock = Instant::now();
-    let run = match solve(lag, problem, constraints) {
+    let solved = match force {
+        Some(f) => solve_forced(lag, problem, constraints, f).map(|r| (r.constrained, Some((r.work, r.balance)))),
+        None => solve(lag, problem, constraints).map(|r| (r, None)),
+    };
+    let (run, forced) = match solved {
         Ok(run) => run,
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     };
+    let work = forced.as_ref().map(|(w, _)| &w[..]);
     std::fs::create_dir_all(dir)?;
-    write_csv(dir, problem, &run)?;
+    write_csv(dir, problem, &run, work)?;
     write_json(dir, &run)?;
     let sol = &run.solution;
     let mut summary = empty_summary(problem, clock, String::new(), command);
@@ -131,6 +160,9 @@ fn run_with<L: Lagrangian + Clone>(
     let e0 = sol.energy.first().copied().unwrap_or(0.0);
     let scale = if e0 == 0.0 { 1.0 } else { e0.abs() };
     summary.max_rel_energy_error = sol.energy.iter().fold(0.0, |m, h| m.max((h - e0).abs() / scale));
+    if let Some((work, balance)) = &forced {
+        crate::forced::report_work(&mut summary, sol, balance, work);
+    }
     summary.mean_solver_iterations = sol.mean_iterations;
     summary.error = sol.error.as_ref().map(|e| e.to_string());
     summary.status = crate::summary::status_of(summary.error.as_deref()).into();
@@ -138,8 +170,9 @@ fn run_with<L: Lagrangian + Clone>(
     finish(dir, summary)
 }
 
-/// trajectory.csv: step, t, q, p, energy, the multipliers and the constraint residual.
-fn write_csv(dir: &Path, problem: &Problem, run: &ConstrainedSolution) -> std::io::Result<()> {
+/// trajectory.csv: step, t, q, p, energy, the work (forced runs), the multipliers and the
+/// constraint residual.
+fn write_csv(dir: &Path, problem: &Problem, run: &ConstrainedSolution, work: Option<&[f64]>) -> std::io::Result<()> {
     let (sol, m) = (&run.solution, run.m);
     let n = sol.n;
     let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
@@ -147,6 +180,9 @@ fn write_csv(dir: &Path, problem: &Problem, run: &ConstrainedSolution) -> std::i
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
     header.push("energy".into());
+    if work.is_some() {
+        header.push("work".into());
+    }
     header.extend((1..=m).map(|l| format!("lambda_{l}")));
     header.push("residual".into());
     w.write_record(&header)?;
@@ -156,6 +192,9 @@ fn write_csv(dir: &Path, problem: &Problem, run: &ConstrainedSolution) -> std::i
         row.extend(sol.q[i * n..(i + 1) * n].iter().map(|&x| num(x)));
         row.extend(sol.p[i * n..(i + 1) * n].iter().map(|&x| num(x)));
         row.push(num(sol.energy[i]));
+        if let Some(w) = work {
+            row.push(num(w.get(i).copied().unwrap_or(f64::NAN)));
+        }
         row.extend(run.multipliers[i * m..(i + 1) * m].iter().map(|&x| num(x)));
         row.push(num(run.residual[i]));
         w.write_record(&row)?;

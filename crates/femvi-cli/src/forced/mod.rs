@@ -20,9 +20,10 @@ pub use check::{check, print, ForcedCheck};
 use crate::problem::forces::{of_source, ProblemForce};
 use crate::problem::Problem;
 use crate::run::{empty_summary, finish, Outcome, RunOutput};
+use crate::summary::Summary;
 use femvi::bvp::{BoundaryValues, BvpOptions, BvpSolution};
-use femvi::forces::{solve_forced, ForcedSolution};
-use femvi::{Element, Lagrangian};
+use femvi::forces::{solve_forced, EnergyBalance, ForcedSolution};
+use femvi::{Element, Lagrangian, Solution};
 use std::path::Path;
 use std::time::Instant;
 
@@ -107,11 +108,7 @@ fn run_with<L: Lagrangian + Clone>(
     summary.final_t = s.t.get(last).copied().unwrap_or(problem.grid.t0());
     summary.final_q = s.q.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
     summary.final_p = s.p.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
-    let report = s.energy_report;
-    summary.max_rel_energy_error = report.map_or(f64::NAN, |r| r.max_rel_error);
-    summary.energy_conserved = false;
-    summary.max_rel_energy_balance_error = Some(sol.balance.max_rel);
-    summary.final_work = sol.work.last().copied();
+    report_work(&mut summary, s, &sol.balance, &sol.work);
     if let Some(stats) = s.energy_stats {
         summary.max_rel_discrete_energy_error = Some(stats.max_rel_residual);
         summary.min_step = Some(stats.min_step);
@@ -124,6 +121,17 @@ fn run_with<L: Lagrangian + Clone>(
     summary.status = crate::summary::status_of(summary.error.as_deref()).into();
     summary.wall_seconds = clock.elapsed().as_secs_f64();
     finish(dir, summary)
+}
+
+/// The energy change of a forced run `s` (its `energy_report`), its energy `balance` and the
+/// work `work` at its kept nodes, into summary.json's fields (the module documentation; also
+/// for forced constrained runs, `crate::constrained`).
+pub fn report_work(summary: &mut Summary, s: &Solution, balance: &EnergyBalance, work: &[f64]) {
+    let report = s.energy_report;
+    summary.max_rel_energy_error = report.map_or(f64::NAN, |r| r.max_rel_error);
+    summary.energy_conserved = false;
+    summary.max_rel_energy_balance_error = Some(balance.max_rel);
+    summary.final_work = work.last().copied();
 }
 
 /// trajectory.csv: step, t, q, p, energy, work at the kept nodes.

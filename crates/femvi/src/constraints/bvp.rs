@@ -27,11 +27,12 @@
 use super::bvp_assembly::{Assembly, Numbering};
 use super::bvp_finish::finish;
 use super::bvp_newton::{inf_norm, newton};
+use super::forced::NodeForce;
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
 use super::solve::{MAX_COORDINATES, RANK_TOLERANCE, START_TOLERANCE};
 use super::Constraints;
-use crate::bvp::{BoundaryValues, BvpOptions, BvpSolution, ElementTerm, MAX_JACOBIAN_ENTRIES};
+use crate::bvp::{BoundaryValues, BvpOptions, BvpSolution, MAX_JACOBIAN_ENTRIES};
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result, StepError};
 use crate::lagrangian::Lagrangian;
@@ -133,19 +134,19 @@ pub fn solve_constrained_bvp_with<L: Lagrangian, C: Constraints>(
         con: constraints,
         element,
         bv,
-        term: None,
+        force: None,
     };
     solve_parts(&problem, guess, options, enforcement)
 }
 
-/// The data of a constrained boundary value problem, with the terms (discrete forces) added
-/// to each element's node rows.
+/// The data of a constrained boundary value problem, with the force whose discrete forces are
+/// added to each element's node rows (and whose value enters the multipliers at the ends).
 pub(super) struct BvpParts<'a, L, C> {
     pub lag: &'a L,
     pub con: &'a C,
     pub element: &'a Element,
     pub bv: &'a BoundaryValues,
-    pub term: Option<&'a dyn ElementTerm>,
+    pub force: Option<&'a dyn NodeForce>,
 }
 
 /// [`solve_constrained_bvp_with`] on `problem`.
@@ -195,7 +196,7 @@ pub(super) fn solve_parts<L: Lagrangian, C: Constraints>(
     }
     let floor = inf_norm(&bv.q0).max(inf_norm(&bv.q1));
     let mut asm = Assembly::new(lag, constraints, element, bv, sites, nodes);
-    asm.term = problem.term;
+    asm.force = problem.force;
     let mut band = BandMatrix::zeros(len.max(1), bw, bw)?;
     let mut jacobian_norm = f64::NAN;
     let iterations = newton(

@@ -9,10 +9,11 @@
 //! ν_N. Element k touches its own block and the end (q_k, h·ν_k) of the one before, so the
 //! bandwidth is I m + (s+1) n + m − 1 and a Newton iteration costs O(N).
 
+use super::forced::NodeForce;
 use super::layout::Layout as Sites;
 use super::step::StepSystem;
 use super::Constraints;
-use crate::bvp::{BoundaryValues, ElementTerm};
+use crate::bvp::BoundaryValues;
 use crate::discrete::Element;
 use crate::lagrangian::Lagrangian;
 use crate::solve::BandMatrix;
@@ -88,12 +89,9 @@ pub(super) struct Assembly<'a, L, C> {
     nu: Vec<f64>,
     /// Σ_l ν_l ∇²g_l at a node, n × n.
     nu_hess: Vec<f64>,
-    /// Terms added to each element's node rows (the discrete forces), with scratch for their
-    /// increments, values and derivatives.
-    pub term: Option<&'a dyn ElementTerm>,
-    term_incr: Vec<f64>,
-    term_grad: Vec<f64>,
-    term_hess: Vec<f64>,
+    /// The force whose discrete forces are added to each element's node rows
+    /// ([`StepSystem::add_term`]).
+    pub force: Option<&'a dyn NodeForce>,
 }
 
 impl<'a, L: Lagrangian, C: Constraints> Assembly<'a, L, C> {
@@ -127,10 +125,7 @@ impl<'a, L: Lagrangian, C: Constraints> Assembly<'a, L, C> {
             zero_p: vec![0.0; n],
             nu: vec![0.0; m],
             nu_hess: vec![0.0; n * n],
-            term: None,
-            term_incr: vec![],
-            term_grad: vec![],
-            term_hess: vec![],
+            force: None,
         }
     }
 
@@ -177,40 +172,8 @@ impl<'a, L: Lagrangian, C: Constraints> Assembly<'a, L, C> {
             &self.xs,
             with_jac,
         );
-        if let Some(term) = self.term {
-            self.add_term(term, k, t0, h, with_jac);
-        }
-    }
-
-    /// Adds `term` of element k (evaluated) to the node rows of `sys` and, if `with_jac`, its
-    /// derivatives in the nodes to the Jacobian.
-    fn add_term(&mut self, term: &dyn ElementTerm, k: usize, t0: f64, h: f64, with_jac: bool) {
-        let (n, s) = (self.num.n, self.num.s);
-        let wn = (s + 1) * n;
-        self.term_incr.resize(wn, 0.0);
-        self.term_grad.resize(wn, 0.0);
-        self.term_incr[..n].iter_mut().for_each(|v| *v = 0.0);
-        self.term_incr[n..].copy_from_slice(&self.xs[..s * n]);
-        self.term_grad.iter_mut().for_each(|v| *v = 0.0);
-        let base = &self.nodes[k * s * n..(k * s + 1) * n];
-        let hess = if with_jac {
-            self.term_hess.resize(wn * wn, 0.0);
-            self.term_hess.iter_mut().for_each(|v| *v = 0.0);
-            Some(&mut self.term_hess[..])
-        } else {
-            None
-        };
-        term.add(t0, h, base, &self.term_incr, &mut self.term_grad, hess);
-        for (r, g) in self.sys.res[..wn].iter_mut().zip(&self.term_grad) {
-            *r += g;
-        }
-        if with_jac {
-            let f = self.sys.full;
-            for i in 0..wn {
-                for j in 0..wn {
-                    self.sys.jac[i * f + j] += self.term_hess[i * wn + j];
-                }
-            }
+        if let Some(force) = self.force {
+            self.sys.add_term(force.term(), t0, h, base, with_jac);
         }
     }
 

@@ -7,6 +7,7 @@
 use super::bvp::ConstrainedBvpSolution;
 use super::bvp_assembly::Assembly;
 use super::bvp_newton::inf_norm;
+use super::forced::NodeForce;
 use super::jet::ConstraintJet;
 use super::layout::Enforcement;
 use super::project::{state_multiplier, Projector};
@@ -90,15 +91,17 @@ pub(super) fn finish<L: Lagrangian, C: Constraints>(
         max_residual: 0.0,
         enforcement: Enforcement::default(),
     };
-    project_ends(asm.lag, asm.con, &mut out, &p_tilde, options)?;
+    project_ends(asm.lag, asm.con, asm.force, &mut out, &p_tilde, options)?;
     Ok(out)
 }
 
 /// Projects the momenta `p_tilde` at the element ends onto T*N (velocities from the secant
-/// guesses in `out.v`) and fills the multipliers and residuals of `out`.
+/// guesses in `out.v`) and fills the multipliers (those of the flow under `force`, if any) and
+/// residuals of `out`.
 fn project_ends<L: Lagrangian, C: Constraints>(
     lag: &L,
     con: &C,
+    force: Option<&dyn NodeForce>,
     out: &mut ConstrainedBvpSolution,
     p_tilde: &[f64],
     options: BvpOptions,
@@ -106,6 +109,7 @@ fn project_ends<L: Lagrangian, C: Constraints>(
     let (n, m) = (con.dim(), con.count());
     let mut jet = ConstraintJet::new(m, n);
     let mut projector = Projector::new(n, m);
+    let mut f = vec![0.0; n];
     let sol = &mut out.solution;
     for (k, &t) in sol.times.iter().enumerate() {
         let q = &sol.q[k * n..(k + 1) * n];
@@ -145,7 +149,11 @@ fn project_ends<L: Lagrangian, C: Constraints>(
         out.residual.push(jet.residual());
         out.hidden_residual.push(hidden);
         out.max_residual = out.max_residual.max(jet.residual());
-        out.multipliers.extend(state_multiplier(lag, &jet, t, q, v));
+        let f = force.map(|force| {
+            force.at(t, q, v, &mut f);
+            &f[..]
+        });
+        out.multipliers.extend(state_multiplier(lag, &jet, (t, q, v), f));
     }
     Ok(())
 }

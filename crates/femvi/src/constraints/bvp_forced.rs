@@ -3,15 +3,17 @@
 //! i.e. the equations of `bvp.rs` with the discrete forces F_d^j of each element
 //! ([`crate::forces::element_forces`]) added to its node rows, and their exact Jacobian
 //! ([`crate::forces::element_forces_jacobian`]) to Newton's. The end momenta are the forced
-//! constrained discrete Legendre transforms, projected onto T*N.
+//! constrained discrete Legendre transforms, projected onto T*N; the multipliers at the ends
+//! are those of the forced flow (F in the right-hand side, module `project`).
 
 use super::bvp::{solve_parts, BvpParts, ConstrainedBvpSolution};
+use super::forced::Forcing;
 use super::layout::Enforcement;
 use super::Constraints;
 use crate::bvp::{BoundaryValues, BvpOptions};
 use crate::discrete::Element;
 use crate::error::{check_len, Result};
-use crate::forces::{Force, ForceTerm};
+use crate::forces::Force;
 use crate::lagrangian::Lagrangian;
 
 /// Solves the constrained boundary value problem of `lag` under the non-conservative `force`
@@ -53,14 +55,13 @@ pub fn solve_constrained_forced_bvp<L: Lagrangian, F: Force, C: Constraints>(
 ) -> Result<ConstrainedBvpSolution> {
     let n = lag.dim();
     check_len("force", n, force.dim())?;
-    let w = element.nodes().saturating_mul(n);
-    let term = ForceTerm::new(force, element, w);
+    let forcing = Forcing::new(force, element, n);
     let problem = BvpParts {
         lag,
         con: constraints,
         element,
         bv,
-        term: Some(&term),
+        force: Some(&forcing),
     };
     solve_parts(&problem, guess, options, enforcement)
 }

@@ -5,7 +5,7 @@
 
 use super::chart::{chart, Chart};
 use super::layout::Enforcement;
-use super::solve::begin;
+use super::start::begin;
 use super::stepper::Stepper;
 use super::Constraints;
 use crate::discrete::Element;
@@ -87,6 +87,7 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
             &mut self.q,
             &mut self.p,
             &mut self.v,
+            None,
         )?;
         self.last = Some((self.t, h));
         self.t = t1;

@@ -50,7 +50,10 @@
 //!
 //! Files: `expr.rs` (constraints from expressions), `jet.rs` (g, G, ∇²g by AD), `layout.rs`
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
-//! projection onto T*N and the multiplier at a node), `solve.rs` (the run), `stepper.rs` (one step),
+//! projection onto T*N and the multiplier at a node), `start.rs` (the checked start of a run),
+//! `solve.rs` (the run), `stepper.rs` (one step), `forced.rs` (runs under non-conservative
+//! forces, [`solve_constrained_forced`]: the discrete Lagrange–d'Alembert principle on the
+//! augmented action, with the energy balance),
 //! `tangent.rs` (the step's tangent map, symplecticity on the manifold), `chart.rs`
 //! (symplectic coordinates on the tangent space of T*N), `chaos_run.rs` (a run carrying
 //! tangent vectors, for [`crate::chaos::constrained_indicators`]); `bvp.rs` (constrained
@@ -65,10 +68,12 @@ mod bvp_newton;
 mod chaos_run;
 mod chart;
 mod expr;
+mod forced;
 mod jet;
 mod layout;
 mod project;
 mod solve;
+mod start;
 mod step;
 mod stepper;
 mod tangent;
@@ -77,6 +82,7 @@ pub use bvp::{solve_constrained_bvp, solve_constrained_bvp_with, ConstrainedBvpS
 pub use bvp_forced::solve_constrained_forced_bvp;
 pub(crate) use chaos_run::ManifoldRun;
 pub use expr::ExprConstraints;
+pub use forced::{solve_constrained_forced, ForcedConstrainedSolution};
 pub use layout::Enforcement;
 pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};
 pub use tangent::{manifold_symplecticity, ManifoldSymplecticity};

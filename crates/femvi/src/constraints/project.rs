@@ -109,8 +109,14 @@ impl Projector {
 }
 
 /// The multiplier λ of the exact flow at the state (t, q, v) (see the module doc), from the
-/// jet of g at q with second derivatives; NaN if the system is singular.
-pub(crate) fn state_multiplier<L: Lagrangian>(lag: &L, jet: &ConstraintJet, t: f64, q: &[f64], v: &[f64]) -> Vec<f64> {
+/// jet of g at q with second derivatives; NaN if the system is singular. With `force` (the
+/// non-conservative force F(t, q, v) there) r gains F: d/dt ∂L/∂v = ∂L/∂q + F − Gᵀλ.
+pub(crate) fn state_multiplier<L: Lagrangian>(
+    lag: &L,
+    jet: &ConstraintJet,
+    (t, q, v): (f64, &[f64], &[f64]),
+    force: Option<&[f64]>,
+) -> Vec<f64> {
     let (n, m) = (jet.n, jet.m);
     if m == 0 {
         return vec![];
@@ -122,6 +128,9 @@ pub(crate) fn state_multiplier<L: Lagrangian>(lag: &L, jet: &ConstraintJet, t: f
         let mut ri = pd.l_q()[i] - pd.h(1 + n + i, 0);
         for b in 0..n {
             ri -= pd.h(1 + n + i, 1 + b) * v[b];
+        }
+        if let Some(f) = force {
+            ri += f.get(i).copied().unwrap_or(f64::NAN);
         }
         ri
     });

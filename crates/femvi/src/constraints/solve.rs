@@ -1,20 +1,20 @@
 //! The constrained run: [`solve_constrained`] checks the start against the constraints,
-//! projects the start momentum onto T*N, then takes the steps of `step.rs` with the projection
+//! projects the start momentum onto T*N (`start.rs`), then takes the steps of `step.rs` with the projection
 //! of `project.rs` on a grid of fixed steps, keeping nodes as [`crate::solve()`] does, with the
 //! multipliers and the constraint residuals per kept node.
 
+use super::forced::Balance;
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
-use super::project::{state_multiplier, Projector};
+use super::project::state_multiplier;
+use super::start::begin;
 use super::stepper::Stepper;
 use super::tangent::step_defect;
 use super::Constraints;
 use crate::discrete::Element;
-use crate::error::{check_len, invalid, Error, Result, StepError};
-use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
-use crate::solution::{Problem, Solution, SolveOptions, Steps};
-use crate::solve::NewtonFailure;
-use crate::step::Start;
+use crate::error::Result;
+use crate::lagrangian::Lagrangian;
+use crate::solution::{Problem, Solution, SolveOptions};
 
 /// A start is accepted if ‖g(q0)‖∞ ≤ `START_TOLERANCE` · max(1, ‖q0‖∞²).
 pub const START_TOLERANCE: f64 = 1e-10;
@@ -120,11 +120,27 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
     enforcement: Enforcement,
     tangent: bool,
 ) -> Result<(ConstrainedSolution, Option<f64>)> {
+    run_forced(problem, constraints, element, options, enforcement, tangent, None)
+}
+
+/// [`run_constrained`] with the discrete forces and the energy balance of `forcing`
+/// (`forced.rs`), which holds the work and the balance at the end.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn run_forced<L: Lagrangian, C: Constraints>(
+    problem: &Problem<L>,
+    constraints: &C,
+    element: &Element,
+    options: &SolveOptions,
+    enforcement: Enforcement,
+    tangent: bool,
+    forcing: Option<&mut Balance<'_>>,
+) -> Result<(ConstrainedSolution, Option<f64>)> {
     let lag = &problem.lagrangian;
     let (n, m) = (lag.dim(), constraints.count());
     let start = begin(problem, constraints, element, options, enforcement)?;
     let mut run = Run::new(element, start.layout, n, m, enforcement, options);
     run.defect = tangent.then_some(0.0);
+    run.forcing = forcing;
     run.out.start_projection = start.projection;
     let (q0, p, v) = (start.q, start.p, start.v);
     run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v)?;
@@ -132,154 +148,20 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
     Ok((run.out, run.defect))
 }
 
-/// A checked start of a constrained run.
-pub(super) struct Begun {
-    pub layout: Layout,
-    pub grid: crate::step::TimeGrid,
-    pub q: Vec<f64>,
-    /// The start momentum projected onto T*N.
-    pub p: Vec<f64>,
-    pub v: Vec<f64>,
-    /// ‖p0 − p̃0‖∞.
-    pub projection: f64,
-}
-
-/// Checks a constrained problem (sizes, options, the start on the manifold, G(q0) regular)
-/// and projects its start momentum onto T*N.
-pub(super) fn begin<L: Lagrangian, C: Constraints>(
-    problem: &Problem<L>,
-    constraints: &C,
-    element: &Element,
-    options: &SolveOptions,
-    enforcement: Enforcement,
-) -> Result<Begun> {
-    let lag = &problem.lagrangian;
-    let (n, m) = (lag.dim(), constraints.count());
-    check_len("constraints' coordinates", n, constraints.dim())?;
-    if n > MAX_COORDINATES || m >= n.max(1) {
-        return Err(invalid(
-            "constraints",
-            format!("need fewer constraints than coordinates and at most {MAX_COORDINATES} coordinates, got {m} constraints on {n}"),
-        ));
-    }
-    check_options(options)?;
-    element.check_nondegenerate()?;
-    let layout = Layout::new(element, enforcement)?;
-    let grid = crate::solution::grid(problem, &options.steps)?;
-    let (q0, p_tilde, mut v) = start_state(lag, &problem.start, problem.t0, n)?;
-    let mut jet = ConstraintJet::new(m, n);
-    jet.eval(constraints, &q0, true);
-    let qmax = q0.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
-    let within = jet.residual() <= START_TOLERANCE * qmax * qmax;
-    if !within {
-        return Err(invalid(
-            "initial q",
-            format!(
-                "violates the constraints: max |g(q0)| = {:.3e} (tolerance {:.1e} * max(1, |q0|^2))",
-                jet.residual(),
-                START_TOLERANCE
-            ),
-        ));
-    }
-    if jet.conditioning() <= RANK_TOLERANCE {
-        return Err(singular(0, problem.t0, &jet));
-    }
-    let mut p = vec![0.0; n];
-    Projector::new(n, m)
-        .project(
-            lag,
-            &jet,
-            problem.t0,
-            &q0,
-            &p_tilde,
-            &mut v,
-            &mut p,
-            options.solver.tolerance,
-            options.solver.max_iterations,
-        )
-        .map_err(|f| step_error(0, problem.t0, f))?;
-    let projection = p.iter().zip(&p_tilde).fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
-    Ok(Begun {
-        layout,
-        grid,
-        q: q0,
-        p,
-        v,
-        projection,
-    })
-}
-
-fn check_options(options: &SolveOptions) -> Result<()> {
-    options.solver.validate()?;
-    if matches!(options.steps, Steps::Energy { .. }) {
-        return Err(invalid(
-            "time mode",
-            "time steps as variables are not available with constraints",
-        ));
-    }
-    if !options.saveat.is_empty() || !options.events.is_empty() || options.dense {
-        return Err(invalid(
-            "output",
-            "saveat, events and dense output are not available with constraints",
-        ));
-    }
-    Ok(())
-}
-
-/// (q0, p̃0, v guess) from the start.
-fn start_state<L: Lagrangian>(lag: &L, start: &Start, t0: f64, n: usize) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-    match start {
-        Start::Velocity { q, v } => {
-            check_len("initial q", n, q.len())?;
-            check_len("initial v", n, v.len())?;
-            let mut pd = PointDerivatives::new(n);
-            lag.first_derivatives(t0, q, v, false, &mut pd);
-            Ok((q.clone(), pd.l_v().to_vec(), v.clone()))
-        }
-        Start::Momentum { q, p } => {
-            check_len("initial q", n, q.len())?;
-            check_len("initial p", n, p.len())?;
-            let mut v = vec![0.0; n];
-            velocity_from_momentum(lag, t0, q, p, &mut v, &mut PointDerivatives::new(n))?;
-            Ok((q.clone(), p.clone(), v))
-        }
-        Start::Positions { .. } => Err(invalid(
-            "initial data",
-            "a start from (q0, q1) is not available with constraints; give q and v (or p)",
-        )),
-    }
-}
-
-pub(super) fn singular(step: usize, t: f64, jet: &ConstraintJet) -> Error {
-    Error::SingularConstraints {
-        step,
-        t,
-        ratio: jet.conditioning(),
-    }
-}
-
-pub(super) fn step_error(step: usize, t: f64, f: NewtonFailure) -> Error {
-    Error::Step(StepError {
-        step,
-        t,
-        residual: f.residual,
-        iterations: f.iterations,
-        failure: f.failure,
-    })
-}
-
 /// The state of a run: scratch and the solution being filled.
-struct Run {
+struct Run<'r, 'f> {
     stepper: Stepper,
     kept_jet: ConstraintJet,
     every: usize,
     max_steps: Option<usize>,
     iterations: usize,
     defect: Option<f64>,
+    /// The forces and the energy balance of a forced run.
+    forcing: Option<&'r mut Balance<'f>>,
     out: ConstrainedSolution,
 }
 
-impl Run {
+impl Run<'_, '_> {
     fn new(
         element: &Element,
         layout: Layout,
@@ -296,6 +178,7 @@ impl Run {
             max_steps: options.max_steps,
             iterations: 0,
             defect: None,
+            forcing: None,
             out: ConstrainedSolution {
                 solution,
                 m,
@@ -330,7 +213,8 @@ impl Run {
         sol.p.extend_from_slice(p);
         sol.v.extend_from_slice(v);
         let pv: f64 = p.iter().zip(v).map(|(a, b)| a * b).sum();
-        sol.energy.push(pv - lag.value(t, q, v));
+        let energy = pv - lag.value(t, q, v);
+        sol.energy.push(energy);
         let jet = &self.kept_jet;
         let hidden = (0..jet.m)
             .map(|l| (0..n).map(|a| jet.jac[l * n + a] * v[a]).sum::<f64>().abs())
@@ -338,7 +222,16 @@ impl Run {
         self.out.residual.push(jet.residual());
         self.out.hidden_residual.push(hidden);
         self.out.max_residual = self.out.max_residual.max(jet.residual());
-        self.out.multipliers.extend(state_multiplier(lag, jet, t, q, v));
+        let force = match &mut self.forcing {
+            Some(b) => {
+                b.keep(energy);
+                Some(b.force_at(t, q, v))
+            }
+            None => None,
+        };
+        self.out
+            .multipliers
+            .extend(state_multiplier(lag, jet, (t, q, v), force));
         Ok(())
     }
 
@@ -361,14 +254,22 @@ impl Run {
                 self.out.solution.stopped = true;
                 break;
             }
+            let term = self.forcing.as_ref().map(|b| b.force.term());
             if let Err(e) = self
                 .stepper
-                .step(lag, con, element, (k, t, h, t1), &mut q, &mut p, &mut v)
+                .step(lag, con, element, (k, t, h, t1), &mut q, &mut p, &mut v, term)
             {
                 self.out.solution.error = Some(e);
                 break;
             }
             self.iterations += self.stepper.iterations;
+            if let Some(b) = &mut self.forcing {
+                let time_work = self.stepper.time_work(lag, element, t, h);
+                let (qk, _) = self.stepper.previous();
+                b.step(element, (t, h), qk, self.stepper.sys.increments(), time_work);
+                let pv: f64 = p.iter().zip(&v).map(|(a, b)| a * b).sum();
+                b.node(pv - lag.value(t1, &q, &v));
+            }
             if let Some(worst) = self.defect {
                 let phi = self.stepper.tangent_map(lag, con, element, (t, h, t1), &q, &v);
                 let (q0, p0) = self.stepper.previous();

@@ -7,6 +7,7 @@
 use super::jet::ConstraintJet;
 use super::layout::Layout;
 use super::Constraints;
+use crate::bvp::ElementTerm;
 use crate::discrete::{Element, ElementWork};
 use crate::lagrangian::Lagrangian;
 
@@ -38,6 +39,12 @@ pub(crate) struct StepSystem {
     pub mult: Vec<f64>,
     /// p̃ by the sums of the node rows ([`StepSystem::momentum_by_sums`]).
     ptilde: Vec<f64>,
+    /// The element term of the last [`StepSystem::add_term`] (the discrete forces F_d^j of
+    /// the node rows) and its derivative in the nodal values.
+    term_grad: Vec<f64>,
+    term_hess: Vec<f64>,
+    /// Whether a term was added since the last [`StepSystem::eval`].
+    forced: bool,
 }
 
 impl StepSystem {
@@ -63,6 +70,9 @@ impl StepSystem {
             ptilde: vec![0.0; n],
             y: vec![0.0; n],
             mult: vec![0.0; m + layout.sites * m],
+            term_grad: vec![],
+            term_hess: vec![],
+            forced: false,
             layout,
         }
     }
@@ -100,6 +110,7 @@ impl StepSystem {
     ) {
         let (n, m, s) = (self.n, self.m, self.s);
         let w = s + 1;
+        self.forced = false;
         self.incr[..n].iter_mut().for_each(|v| *v = 0.0);
         self.incr[n..].copy_from_slice(&x[..s * n]);
         if with_jac {
@@ -240,6 +251,51 @@ impl StepSystem {
         }
     }
 
+    /// Adds `term` of the element [t0, t0 + h] with first node `qk` (the discrete forces) to
+    /// the node rows of the last [`StepSystem::eval`] (same `qk`, `t0`, `h`) and, if
+    /// `with_jac`, its derivatives in the nodal values to the Jacobian (Q^0 columns included,
+    /// for the tangent map). [`StepSystem::momentum_by_sums`] then adds the term too.
+    pub fn add_term(&mut self, term: &dyn ElementTerm, t0: f64, h: f64, qk: &[f64], with_jac: bool) {
+        let wn = (self.s + 1) * self.n;
+        self.term_grad.resize(wn, 0.0);
+        self.term_grad.iter_mut().for_each(|v| *v = 0.0);
+        let hess = if with_jac {
+            self.term_hess.resize(wn * wn, 0.0);
+            self.term_hess.iter_mut().for_each(|v| *v = 0.0);
+            Some(&mut self.term_hess[..])
+        } else {
+            None
+        };
+        term.add(t0, h, qk, &self.incr, &mut self.term_grad, hess);
+        for (r, g) in self.res[..wn].iter_mut().zip(&self.term_grad) {
+            *r += g;
+        }
+        if with_jac {
+            let f = self.full;
+            for i in 0..wn {
+                for j in 0..wn {
+                    self.jac[i * f + j] += self.term_hess[i * wn + j];
+                }
+            }
+        }
+        self.forced = true;
+    }
+
+    /// −h Σ_i b_i ∂L/∂t(c_i) along the element of the last [`StepSystem::eval`] (first node
+    /// `qk`); overwrites the element's scratch (evaluate again before reading the rows).
+    pub fn time_work<L: Lagrangian>(&mut self, element: &Element, lag: &L, t0: f64, h: f64, qk: &[f64]) -> f64 {
+        element.gradient_in_place(lag, t0, h, qk, &self.incr, true, &mut self.ework, &mut self.grad);
+        (0..element.points())
+            .map(|i| -h * element.rule.weights[i] * self.ework.pts[i].l_t())
+            .sum()
+    }
+
+    /// The nodal increments Q^j − q_k (j = 0 … s, the first block zero) of the last
+    /// [`StepSystem::eval`].
+    pub fn increments(&self) -> &[f64] {
+        &self.incr
+    }
+
     /// Copies the Newton residual (node rows 0 … s−1 and the constraint rows) into `r`.
     pub fn newton_residual(&self, r: &mut [f64]) {
         for (i, ri) in r.iter_mut().enumerate() {
@@ -268,7 +324,8 @@ impl StepSystem {
     ///
     ///   p̃ = p_k + [h Σ_i b_i ∂L/∂q(c_i) − G(q_k)ᵀλ̂ − Σ_i ω_i G(y_i)ᵀλ_i],
     ///
-    /// as the unconstrained Newton step updates p. Equal to node row s in exact arithmetic,
+    /// as the unconstrained Newton step updates p; with a term added ([`StepSystem::add_term`])
+    /// also its sum over the nodes, Σ_j F_d^j = h Σ_i b_i F(c_i) (`crate::forces`). Equal to node row s in exact arithmetic,
     /// but a small correction added to p_k: row s sums terms of the size of p that cancel, and
     /// their rounding, a deterministic function of the state, made the vertical angular
     /// momentum of the spherical pendulum drift by 3e-17 per step at degree ≥ 2.
@@ -281,6 +338,11 @@ impl StepSystem {
                 * (0..element.points())
                     .map(|i| element.rule.weights[i] * self.ework.pts[i].l_q()[c])
                     .sum::<f64>();
+        }
+        if self.forced {
+            for (c, dc) in d.iter_mut().enumerate() {
+                *dc += (0..=self.s).map(|j| self.term_grad[j * n + c]).sum::<f64>();
+            }
         }
         self.start.add_transpose_times(&self.mult[..m], -1.0, d);
         for i in 0..self.layout.points {

@@ -5,10 +5,12 @@
 
 use super::layout::Layout;
 use super::project::Projector;
-use super::solve::{singular, step_error, RANK_TOLERANCE};
+use super::solve::RANK_TOLERANCE;
+use super::start::{singular, step_error};
 use super::step::StepSystem;
 use super::tangent::{step_map, StepEnds};
 use super::Constraints;
+use crate::bvp::ElementTerm;
 use crate::discrete::Element;
 use crate::error::{Error, StepFailure};
 use crate::lagrangian::Lagrangian;
@@ -55,7 +57,9 @@ impl Stepper {
     }
 
     /// Step k from (t, q, p, v) to t1 = t + h: on success (q, p, v) hold node k + 1 and the
-    /// node before is kept for [`Stepper::tangent_map`].
+    /// node before is kept for [`Stepper::tangent_map`]. With `term` (the discrete forces,
+    /// [`StepSystem::add_term`]) the step is that of the discrete Lagrange–d'Alembert
+    /// principle on the augmented action.
     ///
     /// # Errors
     /// A failed Newton solve or projection ([`Error::Step`]), a singular constraint Jacobian
@@ -70,6 +74,7 @@ impl Stepper {
         q: &mut Vec<f64>,
         p: &mut Vec<f64>,
         v: &mut [f64],
+        term: Option<&dyn ElementTerm>,
     ) -> Result<(), Error> {
         let (n, s) = (q.len(), element.degree());
         let x = &mut self.x;
@@ -91,6 +96,9 @@ impl Stepper {
             &mut self.newton,
             |xx, r, jac| {
                 sys.eval(element, lag, con, t, h, q, p, xx, jac.is_some());
+                if let Some(term) = term {
+                    sys.add_term(term, t, h, q, jac.is_some());
+                }
                 sys.newton_residual(r);
                 if let Some(jac) = jac {
                     sys.newton_jacobian(jac);
@@ -136,6 +144,16 @@ impl Stepper {
         std::mem::swap(q, &mut self.q_prev);
         std::mem::swap(p, &mut self.p_prev);
         Ok(())
+    }
+
+    /// −h Σ_i b_i ∂L/∂t at the quadrature points of the last step's element (the
+    /// explicit-time part of the energy balance, `crate::forces`; 0 for an autonomous L).
+    /// Call it after [`Stepper::step`] succeeded; it overwrites the element's scratch.
+    pub fn time_work<L: Lagrangian>(&mut self, lag: &L, element: &Element, t: f64, h: f64) -> f64 {
+        if lag.is_autonomous() {
+            return 0.0;
+        }
+        self.sys.time_work(element, lag, t, h, &self.q_prev)
     }
 
     /// The node before the last step, (q_k, p_k).
