@@ -66,6 +66,26 @@ impl Lagrangian for TrappedCharge {
     }
 }
 
+/// Relativistic Kepler, L = −c²√(1 − |v|²/c²) + 1/|q| (c = 10): a velocity-dependent,
+/// non-gyroscopic Lagrangian written only through `value` (every derivative by automatic
+/// differentiation, the general Newton path).
+struct RelativisticKepler {
+    c: f64,
+}
+impl Lagrangian for RelativisticKepler {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
+    fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
+        let c2 = self.c * self.c;
+        let w = (v[0] * v[0] + v[1] * v[1]) * (-1.0 / c2) + 1.0;
+        -(w.sqrt() * c2) + (q[0] * q[0] + q[1] * q[1]).sqrt().recip()
+    }
+}
+
 fn run<L: Lagrangian>(lag: &L, el: &Element, h: f64, q: &[f64], p: &[f64]) -> f64 {
     let start = Start::Momentum {
         q: q.to_vec(),
@@ -158,6 +178,19 @@ fn bench(c: &mut Criterion) {
         g.bench_function("magnetic_rust_newton", |b| {
             b.iter(|| run_with(&charge, &el, 0.002, charge_start(), Method::Newton))
         });
+        g.finish();
+    }
+
+    // The general path (issue 15 item 2): a velocity-dependent Rust Lagrangian by Newton
+    // against the Kepler model's fixed-point step, same degree, h and start.
+    let rel = RelativisticKepler { c: 10.0 };
+    for s in [2, 4] {
+        let el = gauss(s, s);
+        let mut g = c.benchmark_group(format!("general_degree{s}_2k_steps"));
+        g.sample_size(10);
+        g.measurement_time(std::time::Duration::from_secs(2));
+        g.bench_function("kepler_model", |b| b.iter(|| run(&kep, &el, h, &q, &p)));
+        g.bench_function("relativistic_rust", |b| b.iter(|| run(&rel, &el, h, &q, &p)));
         g.finish();
     }
 }
