@@ -21,8 +21,7 @@ use femvi::expr::ExprLagrangian;
 use femvi::lagrangian::PointDerivatives;
 use femvi::{
     models, Element, Integrator, Lagrangian, MassMatrix, Method, NodeFamily, Problem, QuadratureKind, Scalar,
-    SolverOptions,
-    Start, TimeGrid,
+    SolverOptions, Start, TimeGrid,
 };
 
 const STEPS: usize = 2_000;
@@ -224,7 +223,9 @@ fn bench(c: &mut Criterion) {
         g.measurement_time(std::time::Duration::from_secs(2));
         g.bench_function("kepler_model", |b| b.iter(|| run(&kep, &el, h, &q, &p)));
         g.bench_function("relativistic_rust", |b| b.iter(|| run(&rel, &el, h, &q, &p)));
-        g.bench_function("relativistic_rust_per_pair_ad", |b| b.iter(|| run(&rel_pairs, &el, h, &q, &p)));
+        g.bench_function("relativistic_rust_per_pair_ad", |b| {
+            b.iter(|| run(&rel_pairs, &el, h, &q, &p))
+        });
         g.bench_function("relativistic_rust_full_newton", |b| {
             b.iter(|| run_with(&rel, &el, h, start(), Method::FullNewton))
         });

@@ -82,13 +82,28 @@ fn one_pass_derivatives_match_the_per_pair_passes_on_random_points() {
                 one.second_by_ad(&lag, t, &q, &v, with_t);
                 pairs.second_by_pairs(&lag, t, &q, &v, with_t);
                 assert!((one.value - pairs.value).abs() <= 1e-14 * pairs.value.abs(), "n = {n}");
-                assert!(close(&one.grad, &pairs.grad, 1e-14), "n = {n}: {:?} {:?}", one.grad, pairs.grad);
-                assert!(close(&one.hess, &pairs.hess, 1e-14), "n = {n}: {:?} {:?}", one.hess, pairs.hess);
+                assert!(
+                    close(&one.grad, &pairs.grad, 1e-14),
+                    "n = {n}: {:?} {:?}",
+                    one.grad,
+                    pairs.grad
+                );
+                assert!(
+                    close(&one.hess, &pairs.hess, 1e-14),
+                    "n = {n}: {:?} {:?}",
+                    one.hess,
+                    pairs.hess
+                );
                 let (mut one, mut dirs) = (PointDerivatives::new(n), PointDerivatives::new(n));
                 one.first_by_ad(&lag, t, &q, &v, with_t);
                 dirs.first_by_directions(&lag, t, &q, &v, with_t);
                 assert!((one.value - dirs.value).abs() <= 1e-14 * dirs.value.abs());
-                assert!(close(&one.grad, &dirs.grad, 1e-14), "n = {n}: {:?} {:?}", one.grad, dirs.grad);
+                assert!(
+                    close(&one.grad, &dirs.grad, 1e-14),
+                    "n = {n}: {:?} {:?}",
+                    one.grad,
+                    dirs.grad
+                );
                 // The t entries are there exactly when asked for.
                 assert_eq!(one.grad[0] == 0.0, !with_t);
             }
@@ -104,7 +119,13 @@ fn options(method: Method) -> SolverOptions {
 }
 
 /// Every node (t, q, p) of a run.
-fn nodes<L: Lagrangian>(lag: &L, el: &Element, grid: TimeGrid, start: Start, method: Method) -> femvi::Result<Vec<Vec<f64>>> {
+fn nodes<L: Lagrangian>(
+    lag: &L,
+    el: &Element,
+    grid: TimeGrid,
+    start: Start,
+    method: Method,
+) -> femvi::Result<Vec<Vec<f64>>> {
     let mut it = Integrator::new(lag, el, grid, start, options(method))?;
     let mut out = Vec::new();
     loop {
@@ -180,13 +201,27 @@ fn a_stale_jacobian_is_given_up_for_a_fresh_one() {
     frozen.jac[0] = 3.0 * 0.6 * 0.6;
     assert!(frozen.factor());
     let mut x = [1.9];
-    let out = simplified_newton(&mut x, 1e-14, 50, |_| 2.0, &mut frozen, |x, r| r[0] = x[0].powi(3) - 8.0);
+    let out = simplified_newton(
+        &mut x,
+        1e-14,
+        50,
+        |_| 2.0,
+        &mut frozen,
+        |x, r| r[0] = x[0].powi(3) - 8.0,
+    );
     assert!(matches!(out, Simplified::Slow { .. }), "{out:?}");
     // With a Jacobian near the root (x = 2.1: θ ≈ 1 − 12/13.2 < 0.1) it converges to round-off.
     let mut x = [2.1];
     frozen.jac[0] = 3.0 * x[0] * x[0];
     assert!(frozen.factor());
-    let out = simplified_newton(&mut x, 1e-14, 50, |_| 2.0, &mut frozen, |x, r| r[0] = x[0].powi(3) - 8.0);
+    let out = simplified_newton(
+        &mut x,
+        1e-14,
+        50,
+        |_| 2.0,
+        &mut frozen,
+        |x, r| r[0] = x[0].powi(3) - 8.0,
+    );
     assert!(matches!(out, Simplified::Converged { .. }), "{out:?}");
     assert!((x[0] - 2.0).abs() <= 4e-16, "{}", x[0]);
 }
@@ -228,7 +263,10 @@ fn order_is_2s_for_a_velocity_dependent_lagrangian() {
                 (q[0] - reference[0]).hypot(q[1] - reference[1])
             })
             .collect();
-        assert!(errs.iter().all(|&e| e > 1e-12), "s = {s}: {errs:?} too close to round-off");
+        assert!(
+            errs.iter().all(|&e| e > 1e-12),
+            "s = {s}: {errs:?} too close to round-off"
+        );
         let p = slope(&hs, &errs);
         eprintln!("s = {s}: order {p:.3} ({errs:?})");
         assert!((p - 2.0 * s as f64).abs() < 0.3, "s = {s}: order {p:.2} ({errs:?})");
@@ -240,7 +278,15 @@ fn a_resumed_newton_run_equals_the_uninterrupted_one_bit_for_bit() {
     let lag = Relativistic { c: 10.0 };
     let el = Element::with_order(4).unwrap();
     let h = 2.0 * std::f64::consts::PI / 1000.0;
-    let new = || Integrator::new(&lag, &el, TimeGrid::uniform(0.0, h, 300.0 * h).unwrap(), p1(), options(Method::Newton));
+    let new = || {
+        Integrator::new(
+            &lag,
+            &el,
+            TimeGrid::uniform(0.0, h, 300.0 * h).unwrap(),
+            p1(),
+            options(Method::Newton),
+        )
+    };
     let mut whole = new().unwrap();
     while whole.step().unwrap() {}
     for at in [1, 37, 150] {

@@ -12,7 +12,13 @@ use num_dual::{Dual2SVec64, DualSVec64};
 
 /// L and ∂L/∂(q, v) into `grad_qv` (2n entries) if n ≤ [`ONE_PASS_MAX_DIM`]; None otherwise
 /// (nothing written). Sizes are the caller's to check.
-pub(super) fn gradient<L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[f64], v: &[f64], grad_qv: &mut [f64]) -> Option<f64> {
+pub(super) fn gradient<L: Lagrangian + ?Sized>(
+    lag: &L,
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+    grad_qv: &mut [f64],
+) -> Option<f64> {
     match q.len() {
         1 => Some(gradient_k::<2, L>(lag, t, q, v, grad_qv)),
         2 => Some(gradient_k::<4, L>(lag, t, q, v, grad_qv)),
@@ -42,7 +48,13 @@ pub(super) fn hessian<L: Lagrangian + ?Sized>(
     }
 }
 
-fn gradient_k<const K: usize, L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[f64], v: &[f64], grad_qv: &mut [f64]) -> f64 {
+fn gradient_k<const K: usize, L: Lagrangian + ?Sized>(
+    lag: &L,
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+    grad_qv: &mut [f64],
+) -> f64 {
     let n = K / 2;
     let mut z = [DualSVec64::<K>::from_re(0.0); K];
     for (a, (za, &x)) in z.iter_mut().zip(q.iter().chain(v)).enumerate() {

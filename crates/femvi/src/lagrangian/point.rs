@@ -155,7 +155,14 @@ impl PointDerivatives {
         }
     }
 
-    fn first_by_directions_unchecked<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], with_t: bool) {
+    fn first_by_directions_unchecked<L: Lagrangian + ?Sized>(
+        &mut self,
+        lag: &L,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        with_t: bool,
+    ) {
         let start = if with_t { 0 } else { 1 };
         if !with_t {
             self.grad[0] = 0.0;
@@ -164,7 +171,15 @@ impl PointDerivatives {
     }
 
     /// The gradient entries start..end by one dual pass each (sizes already checked).
-    fn first_by_passes<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], start: usize, end: usize) {
+    fn first_by_passes<L: Lagrangian + ?Sized>(
+        &mut self,
+        lag: &L,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        start: usize,
+        end: usize,
+    ) {
         let n = self.n;
         Self::load(&mut self.d1, t, q, v);
         for a in start..end {

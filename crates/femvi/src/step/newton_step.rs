@@ -26,7 +26,7 @@ use crate::solve::{newton_dense, simplified_newton, DenseNewtonWork, FrozenJacob
 
 /// The largest contraction θ of a step after which its Jacobian is kept for the next step
 /// (above it, the next step evaluates a fresh one at its predicted start).
-pub(crate) const THETA_KEEP: f64 = 0.05;
+pub(crate) const THETA_KEEP: f64 = 0.01;
 
 /// Iterations of the simplified iteration before the Jacobian is refreshed (also capped by
 /// the options' `max_iterations`).
@@ -98,6 +98,59 @@ fn evaluate<L: Lagrangian>(
     }
 }
 
+/// The Jacobian ∂R/∂X (row-major, dim = s·n) at X: the block of the element Hessian
+/// ∂²L_d/∂Q^j∂Q^m (j < s, m ≥ 1) that [`Element::hessian_in_place`] assembles, by the same
+/// arithmetic (same bits), without its other rows and columns and the gradient.
+///
+/// [`Element::hessian_in_place`]: crate::discrete::Element::hessian_in_place
+fn jacobian<L: Lagrangian>(
+    cx: &StepContext<'_, L>,
+    bufs: &mut ElementBuffers,
+    (t0, h): (f64, f64),
+    q: &[f64],
+    incr: &mut [f64],
+    x: &[f64],
+    jac: &mut [f64],
+) {
+    let (lag, element, n) = (cx.lag, cx.element, q.len());
+    let (s, dim, m) = (element.degree(), x.len(), 2 * q.len() + 1);
+    incr[..n].iter_mut().for_each(|v| *v = 0.0);
+    incr[n..].copy_from_slice(x);
+    let work = &mut bufs.ework;
+    element.points_in_place(t0, h, q, incr, work);
+    jac.iter_mut().for_each(|v| *v = 0.0);
+    for i in 0..element.points() {
+        let pd = &mut work.pts[i];
+        lag.second_derivatives(
+            work.tc[i],
+            &work.qc[i * n..(i + 1) * n],
+            &work.vc[i * n..(i + 1) * n],
+            false,
+            pd,
+        );
+        let hs = &pd.hess;
+        if hs.len() != m * m {
+            jac.iter_mut().for_each(|v| *v = f64::NAN);
+            return;
+        }
+        let b = element.rule.weights[i];
+        for j in 0..s {
+            let (aj, dj) = (element.phi(i, j), element.dphi(i, j));
+            for col in 1..=s {
+                let (am, dm) = (element.phi(i, col), element.dphi(i, col));
+                let (qq, qv, vq, vv) = (b * h * aj * am, b * aj * dm, b * dj * am, b * dj * dm / h);
+                for c in 0..n {
+                    let (hq, hv) = (&hs[(1 + c) * m..(2 + c) * m], &hs[(1 + n + c) * m..(2 + n + c) * m]);
+                    let row = &mut jac[(j * n + c) * dim + (col - 1) * n..(j * n + c) * dim + col * n];
+                    for (e, r) in row.iter_mut().enumerate() {
+                        *r += qq * hq[1 + e] + qv * hq[1 + n + e] + vq * hv[1 + e] + vv * hv[1 + n + e];
+                    }
+                }
+            }
+        }
+    }
+}
+
 impl NewtonStep {
     /// The workspace for `element` in dimension n.
     ///
@@ -129,7 +182,7 @@ impl NewtonStep {
         x: &[f64],
     ) -> bool {
         let f = &mut self.frozen;
-        evaluate(cx, bufs, (t0, h), q, None, incr, x, &mut f.r, Some(&mut f.jac));
+        jacobian(cx, bufs, (t0, h), q, incr, x, &mut f.jac);
         self.at.clear();
         self.at.extend([t0, h].iter().chain(q).chain(x));
         self.rebuild = false;
@@ -226,9 +279,14 @@ impl NewtonStep {
         }
         let mut spent = 0;
         loop {
-            let out = simplified_newton(&mut self.guess.x, cx.opts.tolerance, budget, &scale, &mut self.frozen, |x, r| {
-                evaluate(cx, bufs, (t0, h), q, Some(p), incr, x, r, None)
-            });
+            let out = simplified_newton(
+                &mut self.guess.x,
+                cx.opts.tolerance,
+                budget,
+                &scale,
+                &mut self.frozen,
+                |x, r| evaluate(cx, bufs, (t0, h), q, Some(p), incr, x, r, None),
+            );
             match out {
                 Simplified::Converged { iterations, theta } => {
                     self.theta = theta;
