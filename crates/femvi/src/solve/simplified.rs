@@ -260,7 +260,8 @@ where
         if let (Some(t), false) = (theta, met) {
             // Iterations still needed for the error to reach the tolerance.
             let needed = ((goal / error).ln() / t.ln()).ceil();
-            if t > THETA_SLOW || !(k as f64 + needed <= budget as f64) {
+            let within = k as f64 + needed <= budget as f64;
+            if t > THETA_SLOW || !within {
                 return Simplified::Slow { iterations: k };
             }
         }

@@ -271,7 +271,8 @@ impl NewtonStep {
         self.start.copy_from_slice(&self.guess.x);
         let kept_h = self.at.get(1).map(|x| x.to_bits());
         let mut fresh = false;
-        if !self.frozen.is_factored() || kept_h != Some(h.to_bits()) || !(self.theta <= THETA_KEEP) {
+        let kept_fast = self.theta <= THETA_KEEP;
+        if !self.frozen.is_factored() || kept_h != Some(h.to_bits()) || !kept_fast {
             let x = std::mem::take(&mut self.start);
             self.refresh(cx, bufs, (t0, h), q, incr, &x);
             self.start = x;
@@ -283,7 +284,7 @@ impl NewtonStep {
                 &mut self.guess.x,
                 cx.opts.tolerance,
                 budget,
-                &scale,
+                scale,
                 &mut self.frozen,
                 |x, r| evaluate(cx, bufs, (t0, h), q, Some(p), incr, x, r, None),
             );

@@ -68,7 +68,7 @@ pub(crate) fn choose<L: Lagrangian>(method: Method, lag: &L, element: &Element) 
 pub(crate) enum Solver {
     Explicit(ExplicitStep),
     FixedPoint(Box<FixedPointStep>),
-    Newton(NewtonStep),
+    Newton(Box<NewtonStep>),
     Gyroscopic(Box<GyroscopicStep>),
 }
 
@@ -78,7 +78,7 @@ impl Solver {
         Ok(match kind {
             Kind::Explicit => Solver::Explicit(ExplicitStep::new(n)),
             Kind::FixedPoint => Solver::FixedPoint(Box::new(FixedPointStep::new(element, n)?)),
-            Kind::Newton => Solver::Newton(NewtonStep::new(element, n)?),
+            Kind::Newton => Solver::Newton(Box::new(NewtonStep::new(element, n)?)),
             Kind::Gyroscopic => Solver::Gyroscopic(Box::new(GyroscopicStep::new(element, n)?)),
         })
     }
