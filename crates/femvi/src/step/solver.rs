@@ -64,6 +64,8 @@ pub(crate) fn choose<L: Lagrangian>(method: Method, lag: &L, element: &Element) 
 }
 
 /// A step solver with its own workspace and caches.
+// One solver per run, made once: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 pub(crate) enum Solver {
     Explicit(ExplicitStep),
