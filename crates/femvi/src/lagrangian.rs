@@ -6,10 +6,11 @@
 //! solvers need only the force −∇V, which the user may hand-code for large systems.
 
 mod mass;
+mod one_pass;
 mod point;
 
 pub use mass::MassMatrix;
-pub use point::PointDerivatives;
+pub use point::{PointDerivatives, ONE_PASS_MAX_DIM};
 
 use crate::error::{check_len, invalid, Error, Result};
 use num_dual::{Dual64, DualNum, HyperDual64};

@@ -1,10 +1,36 @@
-//! Derivatives of a Lagrangian at one point by forward-mode automatic differentiation:
-//! value and gradient with dual numbers (one pass per direction), and the Hessian with
-//! hyper-dual numbers (one pass per pair of directions), into buffers that are reused so that
-//! repeated evaluations do not allocate.
+//! Derivatives of a Lagrangian at one point by forward-mode automatic differentiation,
+//! into buffers that are reused so that repeated evaluations do not allocate. For n ≤
+//! [`ONE_PASS_MAX_DIM`] the derivatives with respect to (q, v) take one pass of num-dual's
+//! stack-allocated vector types (gradient: `DualSVec64<2n>`, Hessian: `Dual2SVec64<2n>`, see
+//! `one_pass.rs`); otherwise, and for ∂L/∂t, value and gradient with dual numbers (one pass
+//! per direction), and the Hessian with hyper-dual numbers (one pass per pair of directions).
 
+use super::one_pass;
 use super::{Lagrangian, Scalar};
 use num_dual::{Dual64, HyperDual64};
+
+/// The largest dimension n whose derivatives with respect to (q, v) are taken in one pass of
+/// vector dual numbers (issue 15 item 2; measured in README "General Lagrangians").
+///
+/// ```
+/// use femvi::lagrangian::{PointDerivatives, ONE_PASS_MAX_DIM};
+/// use femvi::{Lagrangian, Scalar};
+/// struct Spin;
+/// impl Lagrangian for Spin {
+///     fn dim(&self) -> usize { 2 }
+///     fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
+///         (v[0] * v[0] + v[1] * v[1]) * 0.5 * (q[0] * q[1]).cos() + v[0] * q[1]
+///     }
+/// }
+/// assert!(Spin.dim() <= ONE_PASS_MAX_DIM);
+/// let (mut one, mut pairs) = (PointDerivatives::new(2), PointDerivatives::new(2));
+/// one.second_by_ad(&Spin, 0.0, &[0.3, 0.4], &[1.0, -2.0], false); // one pass
+/// pairs.second_by_pairs(&Spin, 0.0, &[0.3, 0.4], &[1.0, -2.0], false); // ten passes
+/// for (a, b) in one.hess.iter().zip(&pairs.hess) {
+///     assert!((a - b).abs() <= 1e-15 * (1.0 + b.abs()));
+/// }
+/// ```
+pub const ONE_PASS_MAX_DIM: usize = 4;
 
 /// Value, gradient and Hessian of L at one point with respect to z = (t, q, v), m = 2n + 1
 /// entries: index 0 is t, 1 ..= n are q, n + 1 ..= 2n are v. Holds its own AD scratch so
@@ -109,15 +135,54 @@ impl PointDerivatives {
         if !self.fits(lag, q, v) {
             return;
         }
-        let n = self.n;
-        let m = 2 * n + 1;
-        Self::load(&mut self.d1, t, q, v);
         let with_t = with_t && !lag.is_autonomous();
+        if let Some(value) = one_pass::gradient(lag, t, q, v, &mut self.grad[1..]) {
+            self.value = value;
+            self.grad[0] = 0.0;
+            if with_t {
+                self.first_by_passes(lag, t, q, v, 0, 1);
+            }
+            return;
+        }
+        self.first_by_directions_unchecked(lag, t, q, v, with_t);
+    }
+
+    /// [`PointDerivatives::first_by_ad`] by one dual pass per direction, whatever n (the
+    /// reference the one-pass path is tested against).
+    pub fn first_by_directions<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], with_t: bool) {
+        if self.fits(lag, q, v) {
+            self.first_by_directions_unchecked(lag, t, q, v, with_t && !lag.is_autonomous());
+        }
+    }
+
+    fn first_by_directions_unchecked<L: Lagrangian + ?Sized>(
+        &mut self,
+        lag: &L,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        with_t: bool,
+    ) {
         let start = if with_t { 0 } else { 1 };
         if !with_t {
             self.grad[0] = 0.0;
         }
-        for a in start..m {
+        self.first_by_passes(lag, t, q, v, start, 2 * self.n + 1);
+    }
+
+    /// The gradient entries start..end by one dual pass each (sizes already checked).
+    fn first_by_passes<L: Lagrangian + ?Sized>(
+        &mut self,
+        lag: &L,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        start: usize,
+        end: usize,
+    ) {
+        let n = self.n;
+        Self::load(&mut self.d1, t, q, v);
+        for a in start..end {
             self.d1[a].eps = 1.0;
             let (zt, rest) = self.d1.split_at(1);
             let r = lag.value(zt[0], &rest[..n], &rest[n..]);
@@ -127,9 +192,28 @@ impl PointDerivatives {
         }
     }
 
-    /// Fills value, gradient and Hessian by hyper-dual numbers, one pass per pair of
+    /// Fills value, gradient and Hessian: for n ≤ [`ONE_PASS_MAX_DIM`] without ∂/∂t in one
+    /// pass of `Dual2SVec64<2n>`, otherwise by hyper-dual numbers, one pass per pair of
     /// directions. Sizes that do not fit give NaN, as for [`PointDerivatives::first_by_ad`].
     pub fn second_by_ad<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], with_t: bool) {
+        self.hessian_mut();
+        if !self.fits(lag, q, v) {
+            self.hess.iter_mut().for_each(|h| *h = f64::NAN);
+            return;
+        }
+        let with_t = with_t && !lag.is_autonomous();
+        if !with_t {
+            if let Some(value) = one_pass::hessian(lag, t, q, v, &mut self.grad, &mut self.hess) {
+                self.value = value;
+                return;
+            }
+        }
+        self.second_by_pairs(lag, t, q, v, with_t);
+    }
+
+    /// [`PointDerivatives::second_by_ad`] by hyper-dual numbers, one pass per pair of
+    /// directions, whatever n (the reference the one-pass path is tested against).
+    pub fn second_by_pairs<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], with_t: bool) {
         self.hessian_mut();
         if !self.fits(lag, q, v) {
             self.hess.iter_mut().for_each(|h| *h = f64::NAN);

@@ -153,7 +153,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
             Solver::Explicit(e) => e.save_state(&mut w),
             Solver::FixedPoint(f) => f.save(&mut w),
             Solver::Gyroscopic(g) => g.save(&mut w),
-            Solver::Newton(_) => {}
+            Solver::Newton(nw) => nw.save(&mut w),
         }
         if let Some(e) = &self.energy {
             e.save(&mut w);
@@ -221,7 +221,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
             Solver::Explicit(e) => e.load_state(&mut r)?,
             Solver::FixedPoint(f) => f.load(&mut r)?,
             Solver::Gyroscopic(g) => g.load(&mut r)?,
-            Solver::Newton(_) => {}
+            Solver::Newton(nw) => nw.load(&mut r, state.n)?,
         }
         if let Some(e) = energy.as_mut() {
             e.load(&mut r)?;

@@ -1,24 +1,54 @@
-//! The step equations by Newton's method with a line search, for any Lagrangian: unknowns the
-//! node increments X^1 … X^s of the element from (t_k, q_k), residuals
-//! R_0 = p_k + ∂L_d/∂Q^0 and R_j = ∂L_d/∂Q^j (0 < j < s) ((2.40)–(2.42) for any degree),
-//! Jacobian the element Hessian ∂²L_d/∂Q∂Q by automatic differentiation. Then
-//! Δq = X^s and Δp = h Σ_i b_i ∂L/∂q(c_i) (the sum of the residual rows). R_0 is evaluated
-//! as p_k + Δp − Σ_{j≥1} ∂L_d/∂Q^j, so that p_k + Δp is exactly the p_{k+1} the equations
-//! solve for (issue 21: with row 0 itself, a linear drift of energy and angular momentum).
+//! The step equations by Newton's method, for any Lagrangian: unknowns the node increments
+//! X^1 … X^s of the element from (t_k, q_k), residuals R_0 = p_k + ∂L_d/∂Q^0 and
+//! R_j = ∂L_d/∂Q^j (0 < j < s) ((2.40)–(2.42) for any degree), Jacobian the element Hessian
+//! ∂²L_d/∂Q∂Q by automatic differentiation. Then Δq = X^s and Δp = h Σ_i b_i ∂L/∂q(c_i) (the
+//! sum of the residual rows). R_0 is evaluated as p_k + Δp − Σ_{j≥1} ∂L_d/∂Q^j, so that
+//! p_k + Δp is exactly the p_{k+1} the equations solve for (issue 21: with row 0 itself, a
+//! linear drift of energy and angular momentum).
+//!
+//! `Method::Newton` solves by the simplified iteration ([`simplified_newton`], issue 15 item
+//! 2): the Jacobian is evaluated at the predicted start and factorised, and kept for the next
+//! steps while the iteration contracts with θ ≤ [`THETA_KEEP`] and h stays the same (bit for
+//! bit); a step that is too slow refreshes it at its current iterate, and one that fails
+//! even so is solved again from the prediction by full Newton with a line search
+//! ([`newton_dense`], what `Method::FullNewton` always uses), so that whatever converged
+//! before still does. Checkpoints keep the point at which the kept Jacobian was evaluated and
+//! the last θ, and a restored run evaluates it there again: resumed runs equal uninterrupted
+//! ones bit for bit.
 
+use super::checkpoint::{Reader, Words};
 use super::element_work::{buffers, check_dense_newton, ElementBuffers};
 use super::guess::Guess;
+use super::options::Method;
 use super::solver::StepContext;
 use super::state::{Increments, LastElement, RunState};
-use crate::error::{Error, Result, StepError};
+use crate::error::{invalid, Error, Result, StepError};
 use crate::lagrangian::Lagrangian;
-use crate::solve::{newton_dense, DenseNewtonWork, NewtonFailure};
+use crate::solve::{newton_dense, simplified_newton, DenseNewtonWork, FrozenJacobian, NewtonFailure, Simplified};
 
-/// Newton's workspace and the predictor of its starting values.
+/// The largest contraction θ of a step after which its Jacobian is kept for the next step
+/// (above it, the next step evaluates a fresh one at its predicted start).
+pub(crate) const THETA_KEEP: f64 = 0.01;
+
+/// Iterations of the simplified iteration before the Jacobian is refreshed (also capped by
+/// the options' `max_iterations`).
+const BUDGET: usize = 12;
+
+/// Newton's workspace, the kept Jacobian and the predictor of its starting values.
 #[derive(Debug, Clone)]
 pub(crate) struct NewtonStep {
     guess: Guess,
+    /// Full Newton's buffers: empty until first used (fallback or `Method::FullNewton`).
     newton: DenseNewtonWork,
+    frozen: FrozenJacobian,
+    /// Where the kept Jacobian was evaluated: (t_k, h, q_k, X) (empty: none kept).
+    at: Vec<f64>,
+    /// The kept Jacobian must be evaluated again at `at` (after a checkpoint restore).
+    rebuild: bool,
+    /// The largest θ of the last step solved by the simplified iteration.
+    theta: f64,
+    /// The starting values, for a fallback to full Newton.
+    start: Vec<f64>,
 }
 
 /// A failed Newton solve as the step error at the current node.
@@ -32,6 +62,107 @@ pub(crate) fn step_error(state: &RunState, f: NewtonFailure) -> Error {
     })
 }
 
+/// The residual R(X) into `r` and, with `jac`, the Jacobian ∂R/∂X (row-major) into it.
+#[allow(clippy::too_many_arguments)]
+fn evaluate<L: Lagrangian>(
+    cx: &StepContext<'_, L>,
+    bufs: &mut ElementBuffers,
+    (t0, h): (f64, f64),
+    q: &[f64],
+    p: Option<&[f64]>,
+    incr: &mut [f64],
+    x: &[f64],
+    r: &mut [f64],
+    jac: Option<&mut [f64]>,
+) {
+    let (lag, element, n) = (cx.lag, cx.element, q.len());
+    let dim = x.len();
+    let w = dim + n;
+    let (ework, grad, hess) = bufs.with_hessian();
+    incr[..n].iter_mut().for_each(|v| *v = 0.0);
+    incr[n..].copy_from_slice(x);
+    match jac {
+        Some(jac) => {
+            element.hessian_in_place(lag, t0, h, q, incr, ework, grad, hess);
+            for a in 0..dim {
+                jac[a * dim..(a + 1) * dim].copy_from_slice(&hess[a * w + n..a * w + w]);
+            }
+        }
+        None => {
+            element.gradient_in_place(lag, t0, h, q, incr, false, ework, grad);
+        }
+    }
+    r.copy_from_slice(&grad[..dim]);
+    if let Some(p) = p {
+        // Issue 21: R_0 = p_k + Δp − Σ_{j≥1} ∂L_d/∂Q^j, not p_k + row 0. Equal in exact
+        // arithmetic, but row 0's rounded coefficients (b_i ℓ_0'(c_i) etc.) do not make the
+        // rows sum to Δp exactly, and the bias (≈ 1e-16·p_k, the same every step) drifted E
+        // and L linearly; this way p_k + Δp (the step's update) is the solved p_{k+1}.
+        let s = element.degree();
+        for (c, (rc, pc)) in r.iter_mut().zip(p).enumerate().take(n) {
+            let dp = h
+                * (0..element.points())
+                    .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
+                    .sum::<f64>();
+            let rows: f64 = (1..=s).map(|j| grad[j * n + c]).sum();
+            *rc = pc + (dp - rows);
+        }
+    }
+}
+
+/// The Jacobian ∂R/∂X (row-major, dim = s·n) at X: the block of the element Hessian
+/// ∂²L_d/∂Q^j∂Q^m (j < s, m ≥ 1) that [`Element::hessian_in_place`] assembles, by the same
+/// arithmetic (same bits), without its other rows and columns and the gradient.
+///
+/// [`Element::hessian_in_place`]: crate::discrete::Element::hessian_in_place
+fn jacobian<L: Lagrangian>(
+    cx: &StepContext<'_, L>,
+    bufs: &mut ElementBuffers,
+    (t0, h): (f64, f64),
+    q: &[f64],
+    incr: &mut [f64],
+    x: &[f64],
+    jac: &mut [f64],
+) {
+    let (lag, element, n) = (cx.lag, cx.element, q.len());
+    let (s, dim, m) = (element.degree(), x.len(), 2 * q.len() + 1);
+    incr[..n].iter_mut().for_each(|v| *v = 0.0);
+    incr[n..].copy_from_slice(x);
+    let work = &mut bufs.ework;
+    element.points_in_place(t0, h, q, incr, work);
+    jac.iter_mut().for_each(|v| *v = 0.0);
+    for i in 0..element.points() {
+        let pd = &mut work.pts[i];
+        lag.second_derivatives(
+            work.tc[i],
+            &work.qc[i * n..(i + 1) * n],
+            &work.vc[i * n..(i + 1) * n],
+            false,
+            pd,
+        );
+        let hs = &pd.hess;
+        if hs.len() != m * m {
+            jac.iter_mut().for_each(|v| *v = f64::NAN);
+            return;
+        }
+        let b = element.rule.weights[i];
+        for j in 0..s {
+            let (aj, dj) = (element.phi(i, j), element.dphi(i, j));
+            for col in 1..=s {
+                let (am, dm) = (element.phi(i, col), element.dphi(i, col));
+                let (qq, qv, vq, vv) = (b * h * aj * am, b * aj * dm, b * dj * am, b * dj * dm / h);
+                for c in 0..n {
+                    let (hq, hv) = (&hs[(1 + c) * m..(2 + c) * m], &hs[(1 + n + c) * m..(2 + n + c) * m]);
+                    let row = &mut jac[(j * n + c) * dim + (col - 1) * n..(j * n + c) * dim + col * n];
+                    for (e, r) in row.iter_mut().enumerate() {
+                        *r += qq * hq[1 + e] + qv * hq[1 + n + e] + vq * hv[1 + e] + vv * hv[1 + n + e];
+                    }
+                }
+            }
+        }
+    }
+}
+
 impl NewtonStep {
     /// The workspace for `element` in dimension n.
     ///
@@ -43,8 +174,31 @@ impl NewtonStep {
         let s = element.degree();
         Ok(Self {
             guess: Guess::new(s, n),
-            newton: DenseNewtonWork::new(s * n),
+            newton: DenseNewtonWork::new(0),
+            frozen: FrozenJacobian::new(s * n),
+            at: Vec::new(),
+            rebuild: false,
+            theta: f64::INFINITY,
+            start: vec![0.0; s * n],
         })
+    }
+
+    /// Evaluates and factorises the Jacobian at (t0, h, q, x) and remembers the point.
+    fn refresh<L: Lagrangian>(
+        &mut self,
+        cx: &StepContext<'_, L>,
+        bufs: &mut ElementBuffers,
+        (t0, h): (f64, f64),
+        q: &[f64],
+        incr: &mut [f64],
+        x: &[f64],
+    ) -> bool {
+        let f = &mut self.frozen;
+        jacobian(cx, bufs, (t0, h), q, incr, x, &mut f.jac);
+        self.at.clear();
+        self.at.extend([t0, h].iter().chain(q).chain(x));
+        self.rebuild = false;
+        f.factor()
     }
 
     /// Solves the step from the current node with step h into `out`; returns the iterations.
@@ -57,16 +211,40 @@ impl NewtonStep {
         h: f64,
         out: &mut Increments,
     ) -> Result<usize> {
-        let (lag, element, n) = (cx.lag, cx.element, state.n);
+        let (element, n) = (cx.element, state.n);
         self.guess.predict(element, last, &state.v0, h);
         let s = element.degree();
-        let dim = s * n;
-        let w = (s + 1) * n;
-        let t0 = state.t;
-        let (q, p) = (&state.q, &state.p);
-        let (ework, grad, hess) = buffers(bufs, element, n).with_hessian();
-        let incr = &mut out.incr;
-        incr[..n].iter_mut().for_each(|x| *x = 0.0);
+        let bufs = buffers(bufs, element, n);
+        let iterations = if cx.opts.method == Method::FullNewton {
+            self.full(cx, state, bufs, h, &mut out.incr)?
+        } else {
+            self.simplified(cx, state, bufs, h, &mut out.incr)?
+        };
+        // The last evaluation (residual only) was at the converged x: the points hold ∂L/∂q.
+        let x = &self.guess.x;
+        out.incr[..n].iter_mut().for_each(|v| *v = 0.0);
+        out.incr[n..].copy_from_slice(x);
+        out.dq.copy_from_slice(&x[(s - 1) * n..]);
+        let ework = &bufs.ework;
+        for c in 0..n {
+            out.dp[c] = h
+                * (0..element.points())
+                    .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
+                    .sum::<f64>();
+        }
+        Ok(iterations)
+    }
+
+    /// Full Newton with a line search from the guess.
+    fn full<L: Lagrangian>(
+        &mut self,
+        cx: &StepContext<'_, L>,
+        state: &RunState,
+        bufs: &mut ElementBuffers,
+        h: f64,
+        incr: &mut [f64],
+    ) -> Result<usize> {
+        let (q, p, t0) = (&state.q, &state.p, state.t);
         let qscale = state.qscale();
         let scale = |x: &[f64]| x.iter().fold(qscale, |m, v| m.max(v.abs()));
         let report = newton_dense(
@@ -75,45 +253,105 @@ impl NewtonStep {
             cx.opts.max_iterations,
             scale,
             &mut self.newton,
-            |x, r, jac| {
-                incr[n..].copy_from_slice(x);
-                match jac {
-                    Some(jac) => {
-                        element.hessian_in_place(lag, t0, h, q, incr, ework, grad, hess);
-                        for a in 0..dim {
-                            jac[a * dim..(a + 1) * dim].copy_from_slice(&hess[a * w + n..a * w + w]);
-                        }
-                    }
-                    None => {
-                        element.gradient_in_place(lag, t0, h, q, incr, false, ework, grad);
-                    }
-                }
-                r.copy_from_slice(&grad[..dim]);
-                // Issue 21: R_0 = p_k + Δp − Σ_{j≥1} ∂L_d/∂Q^j, not p_k + row 0. Equal in exact
-                // arithmetic, but row 0's rounded coefficients (b_i ℓ_0'(c_i) etc.) do not
-                // make the rows sum to Δp exactly, and the bias (≈ 1e-16·p_k, the same every
-                // step) drifted E and L linearly; this way p_k + Δp below is the solved p_{k+1}.
-                for c in 0..n {
-                    let dp = h
-                        * (0..element.points())
-                            .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
-                            .sum::<f64>();
-                    let rows: f64 = (1..=s).map(|j| grad[j * n + c]).sum();
-                    r[c] = p[c] + (dp - rows);
-                }
-            },
+            |x, r, jac| evaluate(cx, bufs, (t0, h), q, Some(p), incr, x, r, jac),
         )
         .map_err(|f| step_error(state, f))?;
-        // The last evaluation (residual only) was at the converged x: the points hold ∂L/∂q.
-        let x = &self.guess.x;
-        out.incr[n..].copy_from_slice(x);
-        out.dq.copy_from_slice(&x[(s - 1) * n..]);
-        for c in 0..n {
-            out.dp[c] = h
-                * (0..element.points())
-                    .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
-                    .sum::<f64>();
-        }
         Ok(report.iterations)
+    }
+
+    /// The simplified iteration with the kept Jacobian, refreshed when needed, and full
+    /// Newton from the guess if even a fresh Jacobian does not converge.
+    fn simplified<L: Lagrangian>(
+        &mut self,
+        cx: &StepContext<'_, L>,
+        state: &RunState,
+        bufs: &mut ElementBuffers,
+        h: f64,
+        incr: &mut [f64],
+    ) -> Result<usize> {
+        let (q, p, t0) = (&state.q, &state.p, state.t);
+        let qscale = state.qscale();
+        let scale = |x: &[f64]| x.iter().fold(qscale, |m, v| m.max(v.abs()));
+        let budget = BUDGET.min(cx.opts.max_iterations);
+        if self.rebuild {
+            // After a restore: the Jacobian the uninterrupted run holds, evaluated again.
+            let at = std::mem::take(&mut self.at);
+            let (head, rest) = at.split_at(2);
+            let (aq, ax) = rest.split_at(state.n);
+            self.refresh(cx, bufs, (head[0], head[1]), aq, incr, ax);
+        }
+        self.start.copy_from_slice(&self.guess.x);
+        let kept_h = self.at.get(1).map(|x| x.to_bits());
+        let mut fresh = false;
+        let kept_fast = self.theta <= THETA_KEEP;
+        if !self.frozen.is_factored() || kept_h != Some(h.to_bits()) || !kept_fast {
+            let x = std::mem::take(&mut self.start);
+            self.refresh(cx, bufs, (t0, h), q, incr, &x);
+            self.start = x;
+            fresh = true;
+        }
+        let mut spent = 0;
+        loop {
+            let out = simplified_newton(
+                &mut self.guess.x,
+                cx.opts.tolerance,
+                budget,
+                scale,
+                &mut self.frozen,
+                |x, r| evaluate(cx, bufs, (t0, h), q, Some(p), incr, x, r, None),
+            );
+            match out {
+                Simplified::Converged { iterations, theta } => {
+                    self.theta = theta;
+                    return Ok(spent + iterations);
+                }
+                Simplified::Slow { iterations } | Simplified::Failed { iterations, .. } => {
+                    spent += iterations;
+                    if fresh {
+                        break;
+                    }
+                    if !self.guess.x.iter().all(|v| v.is_finite()) {
+                        self.guess.x.copy_from_slice(&self.start);
+                    }
+                    let x = self.guess.x.clone();
+                    fresh = true;
+                    if !self.refresh(cx, bufs, (t0, h), q, incr, &x) {
+                        break;
+                    }
+                }
+            }
+        }
+        // Fallback: full Newton from the prediction; the next step evaluates a fresh Jacobian.
+        self.frozen.clear();
+        self.theta = f64::INFINITY;
+        self.guess.x.copy_from_slice(&self.start);
+        Ok(spent + self.full(cx, state, bufs, h, incr)?)
+    }
+
+    /// Writes the point of the kept Jacobian and the last θ (nothing else is kept).
+    pub(crate) fn save(&self, w: &mut Words) {
+        let kept = self.frozen.is_factored() || self.rebuild;
+        w.b(kept);
+        if kept {
+            w.fs(&self.at);
+        }
+        w.f(self.theta);
+    }
+
+    /// Reads what [`NewtonStep::save`] wrote; the Jacobian is evaluated again at the next step.
+    pub(crate) fn load(&mut self, r: &mut Reader<'_>, n: usize) -> Result<()> {
+        self.frozen.clear();
+        self.rebuild = r.b()?;
+        self.at.clear();
+        if self.rebuild {
+            let len = 2 + n + self.frozen.dim();
+            self.at.resize(len, 0.0);
+            r.fs(&mut self.at)?;
+            if !self.at.iter().all(|v| v.is_finite()) {
+                return Err(invalid("checkpoint", "a non-finite Newton Jacobian point"));
+            }
+        }
+        self.theta = r.f()?;
+        Ok(())
     }
 }

@@ -10,8 +10,15 @@ pub enum Method {
     /// Explicit for degree 1 with the trapezoid rule on a mechanical Lagrangian, fixed-point
     /// iteration for other mechanical Lagrangians, Newton otherwise.
     Auto,
-    /// Newton's method with a line search.
+    /// Newton's method: for the step equations the simplified iteration (the Jacobian
+    /// factorised once and kept across iterations and steps while the iteration contracts fast,
+    /// refreshed when it does not or when the step changes), falling back to full Newton with
+    /// a line search when even a fresh Jacobian does not converge.
     Newton,
+    /// Full Newton with a line search only: the element Hessian evaluated and factorised at
+    /// every iteration (the step equations' solver before the simplified iteration; same
+    /// results to round-off, slower; for comparison).
+    FullNewton,
     /// Fixed-point iteration on the forces (mechanical Lagrangians only).
     FixedPoint,
     /// Explicit stepping (degree 1, trapezoid rule, mechanical Lagrangians only).

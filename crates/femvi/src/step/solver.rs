@@ -45,7 +45,7 @@ pub(crate) fn choose<L: Lagrangian>(method: Method, lag: &L, element: &Element) 
         Method::Auto if mechanical && explicit_fits => Kind::Explicit,
         Method::Auto if mechanical => Kind::FixedPoint,
         Method::Auto | Method::FixedPoint if gyroscopic => Kind::Gyroscopic,
-        Method::Auto | Method::Newton => Kind::Newton,
+        Method::Auto | Method::Newton | Method::FullNewton => Kind::Newton,
         Method::FixedPoint if mechanical => Kind::FixedPoint,
         Method::Explicit if mechanical && explicit_fits => Kind::Explicit,
         Method::FixedPoint => {
@@ -64,11 +64,13 @@ pub(crate) fn choose<L: Lagrangian>(method: Method, lag: &L, element: &Element) 
 }
 
 /// A step solver with its own workspace and caches.
+// One solver per run, made once: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 pub(crate) enum Solver {
     Explicit(ExplicitStep),
     FixedPoint(Box<FixedPointStep>),
-    Newton(NewtonStep),
+    Newton(Box<NewtonStep>),
     Gyroscopic(Box<GyroscopicStep>),
 }
 
@@ -78,7 +80,7 @@ impl Solver {
         Ok(match kind {
             Kind::Explicit => Solver::Explicit(ExplicitStep::new(n)),
             Kind::FixedPoint => Solver::FixedPoint(Box::new(FixedPointStep::new(element, n)?)),
-            Kind::Newton => Solver::Newton(NewtonStep::new(element, n)?),
+            Kind::Newton => Solver::Newton(Box::new(NewtonStep::new(element, n)?)),
             Kind::Gyroscopic => Solver::Gyroscopic(Box::new(GyroscopicStep::new(element, n)?)),
         })
     }
