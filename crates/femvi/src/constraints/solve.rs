@@ -94,11 +94,11 @@ pub fn solve_constrained<L: Lagrangian, C: Constraints>(
 /// ends the run with the error in `solution.error` (the nodes before it are kept).
 ///
 /// # Errors
-/// [`Error::Dimension`] if the constraints and the Lagrangian disagree on n, or the start has
-/// the wrong length; [`Error::Invalid`] for m ≥ n or n > [`MAX_COORDINATES`], a start off the
+/// [`Error::Dimension`](crate::Error::Dimension) if the constraints and the Lagrangian disagree on n, or the start has
+/// the wrong length; [`Error::Invalid`](crate::Error::Invalid) for m ≥ n or n > [`MAX_COORDINATES`], a start off the
 /// manifold (naming the residual), a
 /// start from (q0, q1), time steps as variables, `saveat`, `events` or `dense` (not
-/// available with constraints), or invalid solver options; [`Error::SingularConstraints`] if
+/// available with constraints), or invalid solver options; [`Error::SingularConstraints`](crate::Error::SingularConstraints) if
 /// G(q0) is singular.
 pub fn solve_constrained_with<L: Lagrangian, C: Constraints>(
     problem: &Problem<L>,
