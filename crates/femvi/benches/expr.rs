@@ -222,9 +222,11 @@ fn bench(c: &mut Criterion) {
         g.sample_size(10);
         g.measurement_time(std::time::Duration::from_secs(2));
         g.bench_function("kepler_model", |b| b.iter(|| run(&kep, &el, h, &q, &p)));
-        g.bench_function("relativistic_rust", |b| b.iter(|| run(&rel, &el, h, &q, &p)));
+        g.bench_function("relativistic_rust", |b| {
+            b.iter(|| run_with(&rel, &el, h, start(), Method::SimplifiedNewton))
+        });
         g.bench_function("relativistic_rust_per_pair_ad", |b| {
-            b.iter(|| run(&rel_pairs, &el, h, &q, &p))
+            b.iter(|| run_with(&rel_pairs, &el, h, start(), Method::SimplifiedNewton))
         });
         g.bench_function("relativistic_rust_full_newton", |b| {
             b.iter(|| run_with(&rel, &el, h, start(), Method::FullNewton))
@@ -260,7 +262,7 @@ fn bench(c: &mut Criterion) {
         };
         solve_adaptive(&problem, KeplerMonitor, &el8, &options).unwrap()
     };
-    let (fast, full) = (adaptive(Method::Newton), adaptive(Method::FullNewton));
+    let (fast, full) = (adaptive(Method::SimplifiedNewton), adaptive(Method::FullNewton));
     eprintln!(
         "adaptive_kepler_e0.9_order8: {} steps (simplified Newton: {:.2} iterations per step; full: {} steps, {:.2})",
         fast.steps, fast.mean_iterations, full.steps, full.mean_iterations
@@ -268,7 +270,9 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("adaptive_kepler_e0.9_order8_1_period");
     g.sample_size(10);
     g.measurement_time(std::time::Duration::from_secs(2));
-    g.bench_function("newton", |b| b.iter(|| adaptive(Method::Newton).steps));
+    g.bench_function("simplified_newton", |b| {
+        b.iter(|| adaptive(Method::SimplifiedNewton).steps)
+    });
     g.bench_function("full_newton", |b| b.iter(|| adaptive(Method::FullNewton).steps));
     g.finish();
 }

@@ -161,7 +161,7 @@ pub fn solve_forced<L: Lagrangian, F: Force>(
 fn fixed_point_fits<L: Lagrangian, F: Force>(lag: &L, force: &F, method: Method) -> Result<bool> {
     let fits = lag.mass_matrix().is_some() && !force.depends_on_velocity();
     match method {
-        Method::Newton | Method::FullNewton => Ok(false),
+        Method::Newton | Method::FullNewton | Method::SimplifiedNewton => Ok(false),
         Method::Auto => Ok(fits),
         Method::FixedPoint | Method::Explicit if fits => Ok(true),
         Method::FixedPoint | Method::Explicit => Err(invalid(

@@ -6,12 +6,12 @@
 //! p_k + Δp is exactly the p_{k+1} the equations solve for (issue 21: with row 0 itself, a
 //! linear drift of energy and angular momentum).
 //!
-//! `Method::Newton` solves by the simplified iteration ([`simplified_newton`], issue 15 item
+//! `Method::SimplifiedNewton` solves by the simplified iteration ([`simplified_newton`], issue 15 item
 //! 2): the Jacobian is evaluated at the predicted start and factorised, and kept for the next
 //! steps while the iteration contracts with θ ≤ [`THETA_KEEP`] and h stays the same (bit for
 //! bit); a step that is too slow refreshes it at its current iterate, and one that fails
 //! even so is solved again from the prediction by full Newton with a line search
-//! ([`newton_dense`], what `Method::FullNewton` always uses), so that whatever converged
+//! ([`newton_dense`], what `Method::Newton` always uses), so that whatever converged
 //! before still does. Checkpoints keep the point at which the kept Jacobian was evaluated and
 //! the last θ, and a restored run evaluates it there again: resumed runs equal uninterrupted
 //! ones bit for bit.
@@ -215,10 +215,10 @@ impl NewtonStep {
         self.guess.predict(element, last, &state.v0, h);
         let s = element.degree();
         let bufs = buffers(bufs, element, n);
-        let iterations = if cx.opts.method == Method::FullNewton {
-            self.full(cx, state, bufs, h, &mut out.incr)?
-        } else {
+        let iterations = if cx.opts.method == Method::SimplifiedNewton {
             self.simplified(cx, state, bufs, h, &mut out.incr)?
+        } else {
+            self.full(cx, state, bufs, h, &mut out.incr)?
         };
         // The last evaluation (residual only) was at the converged x: the points hold ∂L/∂q.
         let x = &self.guess.x;

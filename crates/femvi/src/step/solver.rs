@@ -45,7 +45,7 @@ pub(crate) fn choose<L: Lagrangian>(method: Method, lag: &L, element: &Element) 
         Method::Auto if mechanical && explicit_fits => Kind::Explicit,
         Method::Auto if mechanical => Kind::FixedPoint,
         Method::Auto | Method::FixedPoint if gyroscopic => Kind::Gyroscopic,
-        Method::Auto | Method::Newton | Method::FullNewton => Kind::Newton,
+        Method::Auto | Method::Newton | Method::FullNewton | Method::SimplifiedNewton => Kind::Newton,
         Method::FixedPoint if mechanical => Kind::FixedPoint,
         Method::Explicit if mechanical && explicit_fits => Kind::Explicit,
         Method::FixedPoint => {
