@@ -134,8 +134,16 @@ impl<'a, L: Lagrangian, F: Force> EnergyStep<'a, L, F> {
                 for a in 0..dim {
                     r[a] = grad[a] + fd[a];
                 }
+                // R_0 in the form of the conservative step (issue 21): p_k + Δp − Σ_{j≥1} rows,
+                // with Δp the update below, so that p_k + Δp is the solved p_{k+1}.
                 for c in 0..n {
-                    r[c] += p[c];
+                    let lq = h
+                        * (0..element.points())
+                            .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
+                            .sum::<f64>();
+                    let f: f64 = (0..=s).map(|j| fd[j * n + c]).sum();
+                    let rows: f64 = (1..=s).map(|j| grad[j * n + c] + fd[j * n + c]).sum();
+                    r[c] = p[c] + ((lq + f) - rows);
                 }
             },
         )
