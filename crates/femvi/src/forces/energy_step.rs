@@ -9,7 +9,8 @@
 //! So a zero force gives the conservative energy-mode run with `Method::Newton` bit for bit
 //! (`tests/forces_energy.rs`).
 
-use super::element::{element_forces, element_forces_jacobian};
+use super::element::element_forces;
+use super::step::forced_rows;
 use super::Force;
 use crate::discrete::{Element, ElementWork};
 use crate::error::{Error, Result, StepError};
@@ -96,7 +97,6 @@ impl<'a, L: Lagrangian, F: Force> EnergyStep<'a, L, F> {
         let (lag, force, element, n) = (self.lag, self.force, self.element, self.n);
         self.guess.predict(element, &self.last, v0, h);
         let s = element.degree();
-        let (dim, w) = (s * n, (s + 1) * n);
         let (ework, grad, hess, fd, fjac) = (
             &mut self.ework,
             &mut self.grad,
@@ -115,25 +115,8 @@ impl<'a, L: Lagrangian, F: Force> EnergyStep<'a, L, F> {
             scale,
             &mut self.newton,
             |x, r, jac| {
-                incr[n..].copy_from_slice(x);
-                match jac {
-                    Some(jac) => {
-                        element.hessian_in_place(lag, t0, h, q, incr, ework, grad, hess);
-                        element_forces_jacobian(element, force, t0, h, q, incr, fd, fjac);
-                        for a in 0..dim {
-                            for b in 0..dim {
-                                jac[a * dim + b] = hess[a * w + n + b] + fjac[a * w + n + b];
-                            }
-                        }
-                    }
-                    None => {
-                        element.gradient_in_place(lag, t0, h, q, incr, false, ework, grad);
-                        element_forces(element, force, t0, h, q, incr, fd);
-                    }
-                }
-                for a in 0..dim {
-                    r[a] = grad[a] + fd[a];
-                }
+                let bufs = (&mut *ework, &mut grad[..], &mut hess[..], &mut fd[..], &mut fjac[..]);
+                forced_rows(lag, force, element, (t0, h), q, incr, bufs, x, r, jac);
                 // R_0 in the form of the conservative step (issue 21): p_k + Δp − Σ_{j≥1} rows,
                 // with Δp the update below, so that p_k + Δp is the solved p_{k+1}.
                 for c in 0..n {

@@ -136,8 +136,7 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
         out: &mut Taken,
     ) -> Result<()> {
         self.predict(v0, h);
-        let (n, s) = (self.n, self.element.degree());
-        let (dim, w) = (s * n, (s + 1) * n);
+        let n = self.n;
         let (lag, force, element) = (self.lag, self.force, self.element);
         let (ework, grad, hess, fd, fjac, incr) = (
             &mut self.ework,
@@ -157,25 +156,8 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
             scale,
             &mut self.newton,
             |x, r, jac| {
-                incr[n..].copy_from_slice(x);
-                match jac {
-                    Some(jac) => {
-                        element.hessian_in_place(lag, t0, h, q, incr, ework, grad, hess);
-                        element_forces_jacobian(element, force, t0, h, q, incr, fd, fjac);
-                        for a in 0..dim {
-                            for b in 0..dim {
-                                jac[a * dim + b] = hess[a * w + n + b] + fjac[a * w + n + b];
-                            }
-                        }
-                    }
-                    None => {
-                        element.gradient_in_place(lag, t0, h, q, incr, false, ework, grad);
-                        element_forces(element, force, t0, h, q, incr, fd);
-                    }
-                }
-                for a in 0..dim {
-                    r[a] = grad[a] + fd[a];
-                }
+                let bufs = (&mut *ework, &mut grad[..], &mut hess[..], &mut fd[..], &mut fjac[..]);
+                forced_rows(lag, force, element, (t0, h), q, incr, bufs, x, r, jac);
                 for c in 0..n {
                     r[c] += p[c];
                 }
@@ -233,5 +215,46 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
             }
             None => self.last = Some((self.incr.clone(), h)),
         }
+    }
+}
+
+/// The forced step's rows at increments `x` (node 0's increment is zero): r = ∂L_d/∂Q^j + the
+/// discrete forces for j < s (without p_k, which the caller adds in its own form), and with
+/// `jac` the Jacobian of those rows, the element Hessian plus the forces' Jacobian. The
+/// buffers are (element work, gradient, Hessian, discrete forces, their Jacobian); `incr`
+/// receives (0, x). Shared by the fixed-step and the energy-mode forced steps.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn forced_rows<L: Lagrangian, F: Force>(
+    lag: &L,
+    force: &F,
+    element: &Element,
+    (t0, h): (f64, f64),
+    q: &[f64],
+    incr: &mut [f64],
+    (ework, grad, hess, fd, fjac): (&mut ElementWork, &mut [f64], &mut [f64], &mut [f64], &mut [f64]),
+    x: &[f64],
+    r: &mut [f64],
+    jac: Option<&mut [f64]>,
+) {
+    let (n, dim) = (q.len(), x.len());
+    let w = dim + n;
+    incr[n..].copy_from_slice(x);
+    match jac {
+        Some(jac) => {
+            element.hessian_in_place(lag, t0, h, q, incr, ework, grad, hess);
+            element_forces_jacobian(element, force, t0, h, q, incr, fd, fjac);
+            for a in 0..dim {
+                for b in 0..dim {
+                    jac[a * dim + b] = hess[a * w + n + b] + fjac[a * w + n + b];
+                }
+            }
+        }
+        None => {
+            element.gradient_in_place(lag, t0, h, q, incr, false, ework, grad);
+            element_forces(element, force, t0, h, q, incr, fd);
+        }
+    }
+    for a in 0..dim {
+        r[a] = grad[a] + fd[a];
     }
 }
