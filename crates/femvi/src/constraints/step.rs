@@ -354,6 +354,24 @@ impl StepSystem {
         }
     }
 
+    /// Replaces node row 0 of the last evaluation (and term) by its equal in exact arithmetic
+    /// p̃ − Σ_{j≥1} (node row j), p̃ by [`StepSystem::momentum_by_sums`] (issue 21's residual
+    /// form, as in `crate::step`'s Newton step): the basis functions sum to 1, so the node rows
+    /// without p_k sum to p̃ − p_k. Then the momentum the step returns, p̃ by the sums, is the
+    /// one the solved equations define, to round-off of p̃'s size rather than of the cancelling
+    /// row terms: with p_k + row 0 the difference had the same sign every step and the
+    /// vertical angular momentum of the spherical pendulum (degree 1, trapezoid, h = 2⁻⁷)
+    /// drifted by 2e-18 per step. Initial value steps only: the BVP keeps row 0 as it is
+    /// (its rows of neighbouring elements are added, and there is no p_k).
+    pub fn summed_row_zero(&mut self, element: &Element, pk: &[f64], h: f64) {
+        self.momentum_by_sums(element, pk, h);
+        let (n, w) = (self.n, self.s + 1);
+        for c in 0..n {
+            let rows: f64 = (1..w).map(|j| self.res[j * n + c]).sum();
+            self.res[c] = self.ptilde[c] - rows;
+        }
+    }
+
     /// p̃ of the last [`StepSystem::momentum_by_sums`].
     pub fn summed_momentum(&self) -> &[f64] {
         &self.ptilde

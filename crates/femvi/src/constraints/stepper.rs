@@ -99,6 +99,7 @@ impl Stepper {
                 if let Some(term) = term {
                     sys.add_term(term, t, h, q, jac.is_some());
                 }
+                sys.summed_row_zero(element, p, h);
                 sys.newton_residual(r);
                 if let Some(jac) = jac {
                     sys.newton_jacobian(jac);
