@@ -1,14 +1,17 @@
 //! `femvi chaos` for problems with `[forces]` (the library's
-//! [`femvi::chaos::forced_indicators`]) or `[constraints]`
+//! [`femvi::chaos::forced_indicators`]), `[constraints]`
 //! ([`femvi::chaos::constrained_indicators`]: tangent vectors on the constraint manifold,
-//! 2(n − m) of them, the initial vector projected onto its phase space's tangent space): the
+//! 2(n − m) of them, the initial vector projected onto its phase space's tangent space) or both
+//! ([`femvi::chaos::forced_constrained_indicators`]): the
 //! indicators of one orbit (printed, `--json`, `--out`'s chaos.json and summary.json) or of a
 //! map (`--grid`), as for an unconstrained problem (`chaos.rs` calls [`Tables::of`] once and
 //! [`Tables::indicators`] per point).
 
 use crate::problem::forces::ProblemForce;
 use crate::problem::Problem;
-use femvi::chaos::{constrained_indicators, forced_indicators, ChaosOptions, ChaosReport};
+use femvi::chaos::{
+    constrained_indicators, forced_constrained_indicators, forced_indicators, ChaosOptions, ChaosReport,
+};
 use femvi::constraints::{Enforcement, ExprConstraints};
 use femvi::{Lagrangian, Start};
 
@@ -20,19 +23,21 @@ pub enum Tables {
     Forces(ProblemForce),
     /// `[constraints]` and where they are enforced.
     Constraints(Box<(ExprConstraints, Enforcement)>),
+    /// Both tables.
+    Both(Box<(ProblemForce, ExprConstraints, Enforcement)>),
 }
 
 impl Tables {
     /// The tables of `problem` (its parameters as loaded).
     ///
     /// # Errors
-    /// A message (bad input, exit code 2): both tables, or either in energy mode.
+    /// A message (bad input, exit code 2): either table in energy mode.
     pub fn of(problem: &Problem) -> Result<Self, String> {
         let force = crate::forced::force_of(problem)?;
         let constraints = crate::constrained::settings(problem)?;
         let tables = match (force, constraints) {
             (None, None) => return Ok(Tables::None),
-            (Some(_), Some(_)) => return Err("[forces] and [constraints] together are not supported (yet)".into()),
+            (Some(f), Some((c, e))) => Tables::Both(Box::new((f, c, e))),
             (Some(f), None) => Tables::Forces(f),
             (None, Some(c)) => Tables::Constraints(Box::new(c)),
         };
@@ -67,6 +72,15 @@ impl Tables {
             Tables::None => None,
             Tables::Forces(f) => Some(forced_indicators(&library(), f, element, &options, chaos)),
             Tables::Constraints(c) => Some(constrained_indicators(&library(), &c.0, element, &options, c.1, chaos)),
+            Tables::Both(b) => Some(forced_constrained_indicators(
+                &library(),
+                &b.0,
+                &b.1,
+                element,
+                &options,
+                b.2,
+                chaos,
+            )),
         }
     }
 }

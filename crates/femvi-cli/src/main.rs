@@ -225,13 +225,6 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
         Err(code) => return code,
     };
     match femvi_cli::forced::force_of(&problem) {
-        Ok(Some(_)) if femvi_cli::constrained::refuse(&problem, "").is_err() => {
-            eprintln!(
-                "error: {}: [forces] and [constraints] together are not supported (yet)",
-                path.display()
-            );
-            return ExitCode::from(BAD_INPUT);
-        }
         Ok(Some(f)) => {
             if let Err(msg) = femvi_cli::adaptive::refuse(&problem, "femvi check") {
                 eprintln!("error: {}: {msg}", path.display());

@@ -1,10 +1,12 @@
 //! `femvi chaos` on problems with `[forces]` and `[constraints]`: one orbit's indicators as
 //! JSON equal to the library's (femvi::chaos::forced_indicators / constrained_indicators) on
-//! the same problem, summary.json with `--out`, maps (`--grid`) equal to one-orbit runs, and
-//! bad input.
+//! the same problem (also with both tables: forced_constrained_indicators), summary.json with
+//! `--out`, maps (`--grid`) equal to one-orbit runs, and bad input.
 
 use assert_cmd::Command;
-use femvi::chaos::{constrained_indicators, forced_indicators, ChaosOptions, ChaosReport};
+use femvi::chaos::{
+    constrained_indicators, forced_constrained_indicators, forced_indicators, ChaosOptions, ChaosReport,
+};
 use femvi::constraints::{Enforcement, ExprConstraints};
 use femvi::expr::ExprLagrangian;
 use femvi::forces::ExprForces;
@@ -151,14 +153,35 @@ fn a_constrained_orbit_as_json_equals_the_library_and_writes_a_summary() {
 }
 
 #[test]
-fn both_tables_are_refused_and_a_start_off_the_manifold_fails() {
+fn both_tables_give_the_forced_constrained_indicators_and_a_start_off_the_manifold_fails() {
     let both = SPHERE.replace(
         "[initial]",
         "[forces]\ngeneralized = [\"0\", \"0\", \"-0.1*z_dot\"]\n[initial]",
     );
-    let (code, _, err, _d) = chaos(&both, &[]);
-    assert_eq!(code, 2);
-    assert!(err.contains("together are not supported"), "{err}");
+    let (code, out, err, _d) = chaos(&both, &[]);
+    assert_eq!(code, 0, "{err}");
+    let xyz: Vec<String> = ["x", "y", "z"].iter().map(|s| s.to_string()).collect();
+    let params = [("g".to_string(), 1.0)];
+    let lag = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2 + z_dot^2) - g*z", &xyz, &params).unwrap();
+    let sphere = ExprConstraints::new(&["x^2 + y^2 + z^2 - 1".to_string()], &xyz, &params).unwrap();
+    let force = ExprForces::new(&["0", "0", "-0.1*z_dot"], &xyz, &params).unwrap();
+    let start = Start::Velocity {
+        q: vec![0.6, 0.0, -0.8],
+        v: vec![0.0, 0.7, 0.0],
+    };
+    let problem = Problem::new(lag, start, 0.0, 50.0);
+    let el = Element::with_order(4).unwrap();
+    let r = forced_constrained_indicators(
+        &problem,
+        &force,
+        &sphere,
+        &el,
+        &SolveOptions::step(0.1),
+        Enforcement::default(),
+        &spectrum(),
+    )
+    .unwrap();
+    assert_equal(&out, &r, 4);
     // A start off the manifold: the orbit fails (exit code 1, as a failed start of an
     // unconstrained problem), its error naming the residual.
     let off = SPHERE.replace("q = [0.6, 0.0, -0.8]", "q = [0.6, 0.0, -0.9]");

@@ -95,16 +95,56 @@ fn bad_constrained_input_is_refused() {
         .code(2);
 }
 
-/// A file with both `[forces]` and `[constraints]`: `femvi check` has no report for both (its
-/// symplecticity check would drop the forces), so it refuses it; `femvi run` takes it
-/// (`tests/constraints_forced.rs`).
+/// A file with both `[forces]` and `[constraints]`: `femvi check` reports the energy balance
+/// of the forced constrained run (the constraint forces do no work) and the constraint
+/// residual, the numbers `femvi run` writes for the same run.
 #[test]
-fn forces_with_constraints_are_refused_by_check() {
+fn forces_with_constraints_are_checked_by_their_energy_balance() {
     let text = std::fs::read_to_string(model("spherical-pendulum")).unwrap()
         + "\n[forces]\ngeneralized = [\"-0.1*x_dot\", \"-0.1*y_dot\", \"-0.1*z_dot\"]\n";
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("both.toml");
     std::fs::write(&path, text).unwrap();
-    let not_both = "[forces] and [constraints] together are not supported";
-    refused(femvi().arg("check").arg(&path), not_both);
+    let out = femvi().args(["check", "--json"]).arg(&path).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let check: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let run_dir = dir.path().join("run");
+    femvi()
+        .args(["run", "--quiet"])
+        .arg(&path)
+        .arg("--out")
+        .arg(&run_dir)
+        .assert()
+        .success();
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(run_dir.join(name)).unwrap()).unwrap()
+    };
+    let (summary, constraints) = (read("summary.json"), read("constraints.json"));
+    for (a, b) in [
+        ("max_rel_energy_balance_error", "max_rel_energy_balance_error"),
+        ("final_work", "final_work"),
+    ] {
+        assert_eq!(check[a].as_f64(), summary[b].as_f64(), "{a}");
+    }
+    assert_eq!(
+        check["max_constraint_residual"].as_f64(),
+        constraints["max_residual"].as_f64()
+    );
+    let residual = check["max_constraint_residual"].as_f64().unwrap();
+    assert!(residual <= 1e-13, "{residual:e}");
+    // The balance is a check: without the work it would be off by |W|.
+    let (balance, work) = (
+        check["max_energy_balance_error"].as_f64().unwrap(),
+        check["final_work"].as_f64().unwrap(),
+    );
+    assert!(
+        work < 0.0 && balance <= 1e-4 * work.abs(),
+        "balance {balance:e}, work {work:e}"
+    );
+    let text = femvi().arg("check").arg(&path).output().unwrap();
+    let shown = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        shown.contains("max |g(q)|") && shown.contains("energy balance"),
+        "{shown}"
+    );
 }

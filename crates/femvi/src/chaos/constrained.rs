@@ -58,7 +58,17 @@ pub fn constrained_indicators<L: Lagrangian, C: Constraints>(
     chaos: &ChaosOptions,
 ) -> Result<ChaosReport> {
     let run = ManifoldRun::new(problem, constraints, element, options, enforcement)?;
-    let v = initial_vector(chaos, 2 * problem.lagrangian.dim())?;
+    indicators_on(run, problem.lagrangian.dim(), chaos)
+}
+
+/// The indicators of `run` (n coordinates) from the initial vector of `chaos` projected onto
+/// the tangent space of T*N ([`constrained_indicators`]).
+pub(super) fn indicators_on<L: Lagrangian, C: Constraints>(
+    run: ManifoldRun<'_, L, C>,
+    n: usize,
+    chaos: &ChaosOptions,
+) -> Result<ChaosReport> {
+    let v = initial_vector(chaos, 2 * n)?;
     let mut u: Vec<f64> = (&run.chart.reduce * DMatrix::from_column_slice(v.len(), 1, &v))
         .iter()
         .copied()
@@ -110,7 +120,14 @@ pub fn constrained_sensitivity<L: Lagrangian, C: Constraints>(
     options: &SolveOptions,
     enforcement: Enforcement,
 ) -> Result<(Vec<f64>, FinalNode)> {
-    let mut run = ManifoldRun::new(problem, constraints, element, options, enforcement)?;
+    let run = ManifoldRun::new(problem, constraints, element, options, enforcement)?;
+    sensitivity_of(run)
+}
+
+/// The sensitivity of the end of `run` to its start ([`constrained_sensitivity`]).
+pub(super) fn sensitivity_of<L: Lagrangian, C: Constraints>(
+    mut run: ManifoldRun<'_, L, C>,
+) -> Result<(Vec<f64>, FinalNode)> {
     let mut w = &run.chart.lift * &run.chart.reduce;
     while run.step()? {
         w = run.ambient_map()? * w;

@@ -5,7 +5,8 @@
 //! spectrum (`accumulate.rs`) — and the sensitivity of the final state to the initial one
 //! and to a parameter of the Lagrangian (`parameter.rs`). Forced runs ([`crate::forces`],
 //! `forced.rs`) and constrained runs on their manifold ([`crate::constraints`],
-//! `constrained.rs`) have the same indicators, through the loop of `drive.rs`.
+//! `constrained.rs`), also both at once (`forced_constrained.rs`), have the same indicators,
+//! through the loop of `drive.rs`.
 //!
 //! Cost: one element Hessian by automatic differentiation and one LU of the s·n step
 //! Jacobian per step, on top of the step itself.
@@ -14,12 +15,14 @@ mod accumulate;
 mod constrained;
 mod drive;
 mod forced;
+mod forced_constrained;
 mod map;
 mod parameter;
 mod step_map;
 
 pub use constrained::{constrained_indicators, constrained_sensitivity};
 pub use forced::{forced_indicators, forced_sensitivity};
+pub use forced_constrained::{forced_constrained_indicators, forced_constrained_sensitivity};
 pub use map::map;
 pub use parameter::{parameter_sensitivity, Frozen};
 

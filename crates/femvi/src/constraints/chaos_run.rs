@@ -8,6 +8,7 @@ use super::layout::Enforcement;
 use super::start::begin;
 use super::stepper::Stepper;
 use super::Constraints;
+use crate::bvp::ElementTerm;
 use crate::discrete::Element;
 use crate::error::{Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
@@ -32,6 +33,8 @@ pub(crate) struct ManifoldRun<'a, L, C> {
     last: Option<(f64, f64)>,
     /// The chart at the current node.
     pub chart: Chart,
+    /// The discrete forces of a forced run ([`ManifoldRun::with_term`]).
+    term: Option<&'a dyn ElementTerm>,
 }
 
 impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
@@ -64,7 +67,16 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
             k: 0,
             last: None,
             chart,
+            term: None,
         })
+    }
+
+    /// The same run under the discrete forces `term` (those of
+    /// [`super::solve_constrained_forced`]'s steps): its steps and tangent maps are those of
+    /// the discrete Lagrange–d'Alembert principle on the augmented action.
+    pub(crate) fn with_term(mut self, term: &'a dyn ElementTerm) -> Self {
+        self.term = Some(term);
+        self
     }
 
     /// Takes the next step: Ok(false) at the end of the grid or after `max_steps`.
@@ -87,7 +99,7 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
             &mut self.q,
             &mut self.p,
             &mut self.v,
-            None,
+            self.term,
         )?;
         self.last = Some((self.t, h));
         self.t = t1;
@@ -110,7 +122,7 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
         };
         let (lag, con, element) = (self.lag, self.con, self.element);
         self.stepper
-            .tangent_map(lag, con, element, (t0, h, self.t), &self.q, &self.v)
+            .tangent_map(lag, con, element, (t0, h, self.t), &self.q, &self.v, self.term)
             .ok_or_else(|| singular(self.k - 1, t0))
     }
 

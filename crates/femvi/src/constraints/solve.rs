@@ -271,7 +271,7 @@ impl Run<'_, '_> {
                 b.node(pv - lag.value(t1, &q, &v));
             }
             if let Some(worst) = self.defect {
-                let phi = self.stepper.tangent_map(lag, con, element, (t, h, t1), &q, &v);
+                let phi = self.stepper.tangent_map(lag, con, element, (t, h, t1), &q, &v, term);
                 let (q0, p0) = self.stepper.previous();
                 self.defect = Some(worst.max(step_defect(lag, con, phi, (t, q0, p0))));
             }

@@ -163,7 +163,8 @@ impl Stepper {
     }
 
     /// The ambient tangent map Φ (2n square, `tangent.rs`) of the last step from (t, q_k, p_k)
-    /// with step h to node (t1, q, v); None if singular.
+    /// with step h to node (t1, q, v), with the derivatives of the discrete forces `term` if the
+    /// step had them; None if singular.
     #[allow(clippy::too_many_arguments)]
     pub fn tangent_map<L: Lagrangian, C: Constraints>(
         &mut self,
@@ -173,9 +174,13 @@ impl Stepper {
         (t, h, t1): (f64, f64, f64),
         q: &[f64],
         v: &[f64],
+        term: Option<&dyn ElementTerm>,
     ) -> Option<DMatrix<f64>> {
         self.sys
             .eval(element, lag, con, t, h, &self.q_prev, &self.p_prev, &self.x, true);
+        if let Some(term) = term {
+            self.sys.add_term(term, t, h, &self.q_prev, true);
+        }
         let ends = StepEnds {
             t1,
             q1: q,

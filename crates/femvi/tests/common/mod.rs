@@ -2,6 +2,8 @@
 //! least-squares order fits and a tiny deterministic random generator.
 #![allow(dead_code)]
 
+pub mod tangent_fd;
+
 use femvi::{Element, Integrator, Lagrangian, SolverOptions, Start, TimeGrid};
 
 /// Runs to the end; returns every node (t, q, p).
