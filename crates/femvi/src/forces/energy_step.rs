@@ -10,7 +10,7 @@
 //! (`tests/forces_energy.rs`).
 
 use super::element::element_forces;
-use super::step::forced_rows;
+use super::step::{forced_rows, summed_row_zero};
 use super::Force;
 use crate::discrete::{Element, ElementWork};
 use crate::error::{Error, Result, StepError};
@@ -117,17 +117,9 @@ impl<'a, L: Lagrangian, F: Force> EnergyStep<'a, L, F> {
             |x, r, jac| {
                 let bufs = (&mut *ework, &mut grad[..], &mut hess[..], &mut fd[..], &mut fjac[..]);
                 forced_rows(lag, force, element, (t0, h), q, incr, bufs, x, r, jac);
-                // R_0 in the form of the conservative step (issue 21): p_k + Δp − Σ_{j≥1} rows,
-                // with Δp the update below, so that p_k + Δp is the solved p_{k+1}.
-                for c in 0..n {
-                    let lq = h
-                        * (0..element.points())
-                            .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
-                            .sum::<f64>();
-                    let f: f64 = (0..=s).map(|j| fd[j * n + c]).sum();
-                    let rows: f64 = (1..=s).map(|j| grad[j * n + c] + fd[j * n + c]).sum();
-                    r[c] = p[c] + ((lq + f) - rows);
-                }
+                // R_0 in the form of the conservative step (issue 21), so that p_k + Δp is
+                // the solved p_{k+1}.
+                summed_row_zero(element, ework, grad, fd, h, p, r);
             },
         )
         .map_err(|f| {

@@ -1,6 +1,7 @@
 //! One step of the forced discrete Euler–Lagrange equations (module docs of
 //! [`crate::forces`]) by dense Newton ([`newton_dense`]): unknowns the node increments
-//! X^m = Q^m − q_k (m = 1 … s), residuals R_0 = p_k + ∂L_d/∂Q^0 + F_d^0 and
+//! X^m = Q^m − q_k (m = 1 … s), residuals R_0 = p_k + ∂L_d/∂Q^0 + F_d^0 (evaluated as
+//! p_k + Δp − Σ_{j≥1} (∂L_d/∂Q^j + F_d^j), [`summed_row_zero`]) and
 //! R_j = ∂L_d/∂Q^j + F_d^j (0 < j < s), Jacobian the element Hessian plus ∂F_d/∂Q (automatic
 //! differentiation of the generic force). Starting values: the last element's polynomial
 //! extrapolated, or the initial velocity.
@@ -158,9 +159,7 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
             |x, r, jac| {
                 let bufs = (&mut *ework, &mut grad[..], &mut hess[..], &mut fd[..], &mut fjac[..]);
                 forced_rows(lag, force, element, (t0, h), q, incr, bufs, x, r, jac);
-                for c in 0..n {
-                    r[c] += p[c];
-                }
+                summed_row_zero(element, ework, grad, fd, h, p, r);
             },
         )
         .map_err(|f| {
@@ -256,5 +255,32 @@ pub(super) fn forced_rows<L: Lagrangian, F: Force>(
     }
     for a in 0..dim {
         r[a] = grad[a] + fd[a];
+    }
+}
+
+/// Node row 0 of the forced step in the form of the conservative Newton step (issue 21):
+/// r_0 = p_k + (Δp − Σ_{j≥1} (∂L_d/∂Q^j + F_d^j)) with Δp = h Σ_i b_i ∂L/∂q(c_i) + Σ_j F_d^j,
+/// equal to p_k + ∂L_d/∂Q^0 + F_d^0 in exact arithmetic (the basis functions sum to 1), so that
+/// p_k + Δp, the update the step makes, is the solved p_{k+1}; with p_k + row 0 the rounding of
+/// the row terms, of one sign step after step, drifts like a bias. `ework`, `grad` and `fd` are
+/// those [`forced_rows`] just filled.
+pub(super) fn summed_row_zero(
+    element: &Element,
+    ework: &ElementWork,
+    grad: &[f64],
+    fd: &[f64],
+    h: f64,
+    p: &[f64],
+    r: &mut [f64],
+) {
+    let (n, s) = (p.len(), element.degree());
+    for c in 0..n {
+        let lq = h
+            * (0..element.points())
+                .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
+                .sum::<f64>();
+        let f: f64 = (0..=s).map(|j| fd[j * n + c]).sum();
+        let rows: f64 = (1..=s).map(|j| grad[j * n + c] + fd[j * n + c]).sum();
+        r[c] = p[c] + ((lq + f) - rows);
     }
 }
