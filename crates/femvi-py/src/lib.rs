@@ -11,6 +11,7 @@ mod ensemble;
 mod events;
 mod info;
 mod solve;
+mod tables;
 
 use pyo3::create_exception;
 use pyo3::prelude::*;

@@ -6,6 +6,7 @@
 
 use crate::arrays::{index1, rows, vec1};
 use crate::input_error;
+use crate::tables::{Added, Tables};
 use femvi::solution::{solve, DenseOutput, Solution, SolveOptions};
 use femvi::Lagrangian;
 use femvi_cli::problem::{self, Problem};
@@ -36,19 +37,20 @@ pub struct Run {
     pub file_events: usize,
 }
 
-/// Loads `path` as `femvi run` does (the message of a bad file is the command's).
+/// Loads `path` as `femvi run` does (the message of a bad file is the command's), for
+/// ensembles: adaptive mode, `[forces]` and `[constraints]` are refused.
 pub fn load(path: &Path) -> Result<Problem, String> {
     let problem = load_any(path)?;
-    femvi_cli::adaptive::refuse(&problem, "femvi.ensemble").map_err(|e| format!("{}: {e}", path.display()))?;
+    let named = |e: String| format!("{}: {e}", path.display());
+    femvi_cli::adaptive::refuse(&problem, "femvi.ensemble").map_err(named)?;
+    femvi_cli::forced::refuse(&problem, "femvi.ensemble").map_err(named)?;
+    femvi_cli::constrained::refuse(&problem, "femvi.ensemble").map_err(named)?;
     Ok(problem)
 }
 
-/// [`load`] that also accepts adaptive-mode problems (for `solve`).
+/// [`load`] that accepts every problem `femvi run` does (for `solve`).
 pub fn load_any(path: &Path) -> Result<Problem, String> {
-    let problem = problem::load(path).map_err(|e| e.to_string())?;
-    femvi_cli::forced::refuse(&problem, "the Python package").map_err(|e| format!("{}: {e}", path.display()))?;
-    femvi_cli::constrained::refuse(&problem, "the Python package").map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(problem)
+    problem::load(path).map_err(|e| e.to_string())
 }
 
 /// Runs a loaded problem. Err: the library rejected it (message as the command prints it).
@@ -194,10 +196,22 @@ pub fn solve_file(
         max_steps,
         events: crate::events::events(events.unwrap_or_default(), &raised)?,
     };
-    type Done = (Run, Option<Vec<f64>>, Vec<String>, String, String);
+    type Done = (Run, Option<Vec<f64>>, Added, Vec<String>, String, String);
     let done = py.allow_threads(|| -> Result<Done, String> {
         let problem = load_any(&path)?;
-        let adaptive = femvi_cli::adaptive::settings(&problem).map_err(|e| format!("{}: {e}", path.display()))?;
+        let named = |e: String| format!("{}: {e}", path.display());
+        let adaptive = femvi_cli::adaptive::settings(&problem).map_err(named)?;
+        let tables = Tables::of(&problem).map_err(named)?;
+        if let Some(tables) = tables {
+            if adaptive.is_some() || potential.is_some() {
+                return Err(named(
+                    "[forces] and [constraints] are not available in [time] mode = \"adaptive\" or with a Python potential".into(),
+                ));
+            }
+            let (r, added) = tables.run(&problem, &path, &extras)?;
+            let labels = (problem.coordinates.clone(), problem.name.clone(), problem.scheme_label.clone());
+            return Ok((r, None, added, labels.0, labels.1, labels.2));
+        }
         let (r, s) = match (potential, adaptive) {
             (None, None) => (run(&problem, &path, &extras)?, None),
             (None, Some(a)) => {
@@ -215,6 +229,7 @@ pub fn solve_file(
         Ok((
             r,
             s,
+            Added::default(),
             problem.coordinates.clone(),
             problem.name.clone(),
             problem.scheme_label.clone(),
@@ -223,10 +238,20 @@ pub fn solve_file(
     if let Some(e) = raised.take() {
         return Err(e);
     }
-    let (r, s, coordinates, name, scheme) = done.map_err(input_error)?;
+    let (r, s, added, coordinates, name, scheme) = done.map_err(input_error)?;
     let d = to_dict(py, r, coordinates, name, scheme)?;
     if let Some(s) = s {
         d.set_item("s", vec1(py, s))?;
+    }
+    if let Some((work, abs, rel)) = added.work {
+        d.set_item("work", vec1(py, work))?;
+        d.set_item("max_energy_balance_error", abs)?;
+        d.set_item("max_rel_energy_balance_error", rel)?;
+    }
+    if let Some((m, multipliers, residual, max_residual)) = added.constraints {
+        d.set_item("multipliers", rows(py, multipliers, m)?)?;
+        d.set_item("constraint_residual", vec1(py, residual))?;
+        d.set_item("max_constraint_residual", max_residual)?;
     }
     Ok(d)
 }

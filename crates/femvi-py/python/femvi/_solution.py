@@ -16,6 +16,12 @@ class Solution:
     ``error`` (None or the message), ``coordinates``, ``name``, ``scheme``, ``events`` (list of
     dicts), ``saved`` (``t``, ``q``, ``v``, ``p`` at the ``saveat`` times), ``energy_stats``
     (energy mode only). With ``dense=True``, ``sol.q_at(t)`` / ``sol(t)`` and ``sol.v_at(t)``.
+
+    A problem with ``[forces]`` adds ``work`` (N,), the discrete work W of the forces at the
+    kept nodes, and ``max_energy_balance_error`` / ``max_rel_energy_balance_error``, max |H − H0
+    − W| over every node; one with ``[constraints]`` adds ``multipliers`` (N, m), the
+    multipliers λ of the constraint force −Gᵀλ, ``constraint_residual`` (N,), max |g(q)| at each
+    kept node, and ``max_constraint_residual`` over every node. Absent tables give None.
     """
 
     def __init__(self, raw: Dict[str, Any]):
@@ -39,6 +45,12 @@ class Solution:
         self._dense = raw.get("dense")
         #: Adaptive mode only: the fictitious time s of each kept node (t is physical).
         self.s: Optional[np.ndarray] = raw.get("s")
+        self.work: Optional[np.ndarray] = raw.get("work")
+        self.max_energy_balance_error: Optional[float] = raw.get("max_energy_balance_error")
+        self.max_rel_energy_balance_error: Optional[float] = raw.get("max_rel_energy_balance_error")
+        self.multipliers: Optional[np.ndarray] = raw.get("multipliers")
+        self.constraint_residual: Optional[np.ndarray] = raw.get("constraint_residual")
+        self.max_constraint_residual: Optional[float] = raw.get("max_constraint_residual")
 
     def __len__(self) -> int:
         return len(self.t)

@@ -1,0 +1,121 @@
+//! `solve` of problem files with `[forces]` or `[constraints]` or both: the runs `femvi run`
+//! makes of them (the library's `forces::solve_forced`, `constraints::solve_constrained_with`
+//! and `constraints::solve_constrained_forced` with the file's element, grid and solver), and
+//! what they add to the solution — the discrete work W at the kept nodes and the energy
+//! balance max |H − H0 − W| for forces; the multipliers (constraint force −Gᵀλ) and the
+//! residual max |g(q)| at the kept nodes for constraints. What these runs do not do yet
+//! (events, `saveat`, dense output, adaptive steps, a Python potential) is refused with a
+//! message rather than dropped.
+
+use crate::solve::{Extras, Run};
+use femvi::constraints::{solve_constrained_forced, solve_constrained_with, ConstrainedSolution};
+use femvi::constraints::{Enforcement, ExprConstraints};
+use femvi::forces::solve_forced;
+use femvi::{Lagrangian, Solution};
+use femvi_cli::constrained::settings;
+use femvi_cli::problem::forces::ProblemForce;
+use femvi_cli::problem::Problem;
+use std::path::Path;
+
+/// What a forced or constrained run adds to the solution.
+#[derive(Debug, Default)]
+pub struct Added {
+    /// Forces: W_k at the kept nodes, and the balance (absolute, relative to |H_0|).
+    pub work: Option<(Vec<f64>, f64, f64)>,
+    /// Constraints: their number m, the multipliers (kept nodes × m), max |g(q)| at each kept
+    /// node and over every node.
+    pub constraints: Option<(usize, Vec<f64>, Vec<f64>, f64)>,
+}
+
+/// The tables of a loaded problem.
+pub struct Tables {
+    force: Option<ProblemForce>,
+    constraints: Option<(ExprConstraints, Enforcement)>,
+}
+
+impl Tables {
+    /// The `[forces]` and `[constraints]` tables of `problem`; None if it has neither.
+    ///
+    /// # Errors
+    /// A table that does not compile (the command's message).
+    pub fn of(problem: &Problem) -> Result<Option<Self>, String> {
+        let force = femvi_cli::forced::force_of(problem)?;
+        let constraints = settings(problem)?;
+        Ok((force.is_some() || constraints.is_some()).then_some(Self { force, constraints }))
+    }
+
+    /// Runs `problem` under these tables with the Python side's `extras`.
+    ///
+    /// # Errors
+    /// Options these runs do not take, or the library's refusal, as a message naming `path`.
+    // One arm of `with_system!` is a Copy type.
+    #[allow(clippy::clone_on_copy)]
+    pub fn run(&self, problem: &Problem, path: &Path, extras: &Extras) -> Result<(Run, Added), String> {
+        let refused = |what: &str| {
+            Err(format!(
+                "{}: {what} with [forces] or [constraints] (yet)",
+                path.display()
+            ))
+        };
+        if !problem.events.is_empty() || !extras.events.is_empty() {
+            return refused("events are not located");
+        }
+        if !extras.saveat.is_empty() || extras.dense {
+            return refused("saveat and dense output are not available");
+        }
+        let mut options = problem.solve_options(extras.every.unwrap_or(problem.every));
+        options.max_steps = extras.max_steps;
+        femvi_cli::with_system!(&problem.system, l => self.run_with(l.clone(), problem, &options))
+            .map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    fn run_with<L: Lagrangian>(
+        &self,
+        lag: L,
+        problem: &Problem,
+        options: &femvi::SolveOptions,
+    ) -> femvi::Result<(Run, Added)> {
+        let p = problem.library(lag);
+        let element = &problem.element;
+        let mut added = Added::default();
+        let sol = match (&self.force, &self.constraints) {
+            (Some(f), None) => {
+                let r = solve_forced(&p, f, element, options)?;
+                added.work = Some((r.work, r.balance.max_abs, r.balance.max_rel));
+                r.solution
+            }
+            (None, Some(c)) => {
+                let r = solve_constrained_with(&p, &c.0, element, options, c.1)?;
+                constrained(r, &mut added)
+            }
+            (Some(f), Some(c)) => {
+                let r = solve_constrained_forced(&p, f, &c.0, element, options, c.1)?;
+                added.work = Some((r.work, r.balance.max_abs, r.balance.max_rel));
+                constrained(r.constrained, &mut added)
+            }
+            (None, None) => {
+                return Err(femvi::Error::Invalid {
+                    what: "tables".into(),
+                    reason: "the problem has neither [forces] nor [constraints]".into(),
+                })
+            }
+        };
+        let max_rel_energy_error = sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error);
+        Ok((
+            Run {
+                sol,
+                max_rel_energy_error,
+                message: None,
+                event_names: vec![],
+                file_events: 0,
+            },
+            added,
+        ))
+    }
+}
+
+/// The solution of a constrained run, its additions moved into `added`.
+fn constrained(r: ConstrainedSolution, added: &mut Added) -> Solution {
+    added.constraints = Some((r.m, r.multipliers, r.residual, r.max_residual));
+    r.solution
+}
