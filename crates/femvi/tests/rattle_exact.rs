@@ -12,10 +12,14 @@ use femvi::constraints::solve_constrained;
 use femvi::{models, Element, NodeFamily, Problem, QuadratureKind, SolveOptions, Start};
 use twofloat::TwoFloat;
 
+mod common;
+use common::rattle::rattle as rattle_f64;
+
 const G: f64 = 9.81;
 type Node = ([f64; 3], [f64; 3]);
 
-/// RATTLE for L = ½|v|² − g z on |q| = 1 in double-double: the position constraint is a
+/// RATTLE for L = ½|v|² − g z on |q| = 1 in double-double (as `common::rattle`, in double
+/// precision there): the position constraint is a
 /// quadratic in the multiplier (the smaller root, in the form without cancellation), the
 /// momentum projection a dot product. Nodes rounded to f64 for the comparison only.
 fn rattle_dd(q0: [f64; 3], p0: [f64; 3], h: f64, steps: usize) -> Vec<Node> {
@@ -36,34 +40,6 @@ fn rattle_dd(q0: [f64; 3], p0: [f64; 3], h: f64, steps: usize) -> Vec<Node> {
         p = std::array::from_fn(|i| pt[i] - mu * q1[i]);
         q = q1;
         out.push((q.map(f64::from), p.map(f64::from)));
-    }
-    out
-}
-
-/// The same map in double precision, written in increments with q accumulated by
-/// compensated summation (as `tests/constraints.rs`).
-fn rattle_f64(q0: [f64; 3], p0: [f64; 3], h: f64, steps: usize) -> Vec<Node> {
-    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let (mut q, mut p, mut comp) = (q0, p0, [0.0; 3]);
-    let grad_v = [0.0, 0.0, G];
-    let mut out = vec![(q, p)];
-    for _ in 0..steps {
-        let e: [f64; 3] = std::array::from_fn(|i| h * (p[i] - 0.5 * h * grad_v[i]));
-        let (qq, qe, ee) = (dot(&q, &q), dot(&q, &e), dot(&e, &e));
-        let (b, c0) = (qq + qe, (qq - 1.0) + 2.0 * qe + ee);
-        let c = c0 / (b + (b * b - qq * c0).sqrt());
-        let d: [f64; 3] = std::array::from_fn(|i| e[i] - c * q[i]);
-        let mut q1 = [0.0; 3];
-        for i in 0..3 {
-            let y = d[i] + comp[i];
-            q1[i] = q[i] + y;
-            comp[i] = y - (q1[i] - q[i]);
-        }
-        let pt: [f64; 3] = std::array::from_fn(|i| d[i] / h - 0.5 * h * grad_v[i]);
-        let mu = dot(&q1, &pt) / dot(&q1, &q1);
-        p = std::array::from_fn(|i| pt[i] - mu * q1[i]);
-        q = q1;
-        out.push((q, p));
     }
     out
 }
@@ -130,7 +106,7 @@ fn degree_one_trapezoid_follows_the_exact_rattle_map() {
         let femvi = femvi_run(theta, h, steps);
         let (q0, p0) = femvi[0];
         let exact = rattle_dd(q0, p0, h, steps);
-        let hand = rattle_f64(q0, p0, h, steps);
+        let hand = rattle_f64(q0, p0, h, G, steps);
         let (dev, dev_hand) = (max_difference(&femvi, &exact), max_difference(&hand, &exact));
         let drift = (lz(&femvi[steps]) - lz(&exact[steps])).abs();
         println!(

@@ -51,10 +51,9 @@ pub fn forced_constrained_indicators<L: Lagrangian, F: Force, C: Constraints>(
     chaos: &ChaosOptions,
 ) -> Result<ChaosReport> {
     let n = problem.lagrangian.dim();
-    check_len("force", n, force.dim())?;
-    let term = ForceTerm::new(force, element, element.nodes().saturating_mul(n));
-    let run = ManifoldRun::new(problem, constraints, element, options, enforcement)?.with_term(&term);
-    indicators_on(run, n, chaos)
+    forced_run(problem, force, constraints, element, (options, enforcement), |run| {
+        indicators_on(run, n, chaos)
+    })
 }
 
 /// [`super::constrained_sensitivity`] for the forced constrained run of `problem` under
@@ -91,9 +90,28 @@ pub fn forced_constrained_sensitivity<L: Lagrangian, F: Force, C: Constraints>(
     options: &SolveOptions,
     enforcement: Enforcement,
 ) -> Result<(Vec<f64>, FinalNode)> {
+    forced_run(
+        problem,
+        force,
+        constraints,
+        element,
+        (options, enforcement),
+        sensitivity_of,
+    )
+}
+
+/// `go` applied to the constrained run of `problem` under `force` (the force's dimension
+/// checked).
+fn forced_run<L: Lagrangian, F: Force, C: Constraints, R>(
+    problem: &Problem<L>,
+    force: &F,
+    constraints: &C,
+    element: &Element,
+    (options, enforcement): (&SolveOptions, Enforcement),
+    go: impl FnOnce(ManifoldRun<'_, L, C>) -> Result<R>,
+) -> Result<R> {
     let n = problem.lagrangian.dim();
     check_len("force", n, force.dim())?;
     let term = ForceTerm::new(force, element, element.nodes().saturating_mul(n));
-    let run = ManifoldRun::new(problem, constraints, element, options, enforcement)?.with_term(&term);
-    sensitivity_of(run)
+    go(ManifoldRun::new(problem, constraints, element, options, enforcement)?.with_term(&term))
 }

@@ -2,6 +2,7 @@
 //! least-squares order fits and a tiny deterministic random generator.
 #![allow(dead_code)]
 
+pub mod rattle;
 pub mod tangent_fd;
 
 use femvi::{Element, Integrator, Lagrangian, SolverOptions, Start, TimeGrid};
