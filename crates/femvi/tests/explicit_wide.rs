@@ -37,6 +37,9 @@ fn snapshot<L: Lagrangian>(it: &Integrator<'_, L>) -> Snapshot {
     )
 }
 
+/// A node shown to the callback, as bits.
+type Shown = (usize, Vec<u64>, Vec<u64>);
+
 fn verlet() -> Element {
     Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap()
 }
@@ -66,7 +69,7 @@ fn by_chunks<L: Lagrangian>(
     start: &Start,
     chunk: usize,
     want: &[Snapshot],
-) -> (Vec<(usize, Vec<u64>, Vec<u64>)>, Option<String>) {
+) -> (Vec<Shown>, Option<String>) {
     let el = verlet();
     let mut it = Integrator::new(lag, &el, grid.clone(), start.clone(), SolverOptions::default()).unwrap();
     let mut shown = vec![];
