@@ -177,7 +177,8 @@ impl EnergyTracker {
     /// v = M⁻¹p = p. Its code has no call and no error path, so that in a caller's loop over
     /// nodes (the command's explicit fast path) the loop's carried values stay in
     /// registers: the checked [`EnergyTracker::node`] there cost 16 % of a Kepler run, this
-    /// 2 %. None (and nothing recorded) if q or p is not of the tracker's dimension.
+    /// 2 %. None (and nothing recorded) if q or p is not of the tracker's dimension. See
+    /// [`EnergyTracker::lean`] for an example.
     #[inline(always)]
     pub fn node_lean<L: Lagrangian>(&mut self, lag: &L, t: f64, q: &[f64], p: &[f64]) -> Option<f64> {
         if q.len() != self.v.len() || p.len() != self.v.len() {
