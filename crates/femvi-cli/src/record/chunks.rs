@@ -2,7 +2,8 @@
 //! [`Integrator::advance_observed`] up to the next node the trajectory keeps, the next
 //! checkpoint due by step count, or a length that keeps the chunks a few milliseconds long.
 //! Every node still gets its energy, its finiteness check and its place as the last good node
-//! ([`Recorders::each_node`], which the explicit fast path runs inside its loop); the outputs,
+//! ([`Recorders::each_node`], which the explicit fast path runs inside its loop, or its
+//! call-free twin [`Recorders::each_node_lean`] where the energy is ½|p|² + V); the outputs,
 //! the progress bar, flushes, time-based checkpoints and the stop signals are looked at when a
 //! chunk ends ([`Recorders::boundary`]). The nodes, rows and summary are those of
 //! [`femvi::step::drive`] with the same recorders, bit for bit; only the moments a signal is
@@ -64,17 +65,35 @@ pub fn drive_in_chunks<L: Lagrangian>(lag: &L, it: &mut Integrator<'_, L>, rec: 
     while error.is_none() && !stopped {
         let mut failed = None;
         let n = rec.chunk(it.node().k, cap.len);
-        let advanced = it.advance_observed(
-            n,
-            #[inline(always)]
-            |node| match rec.each_node(lag, node, 0.0) {
-                Ok(()) => true,
-                Err(e) => {
-                    failed = Some(e);
-                    false
-                }
-            },
-        );
+        let advanced = if rec.lean(lag) {
+            let mut unrecorded = false;
+            let advanced = it.advance_observed(
+                n,
+                #[inline(always)]
+                |node| {
+                    unrecorded = !rec.each_node_lean(lag, node);
+                    !unrecorded
+                },
+            );
+            // The node the lean path stopped at, again through the checked path: its error
+            // (or, for a node it could not take, its record).
+            if unrecorded && advanced.is_ok() {
+                failed = rec.each_node(lag, it.node(), 0.0).err();
+            }
+            advanced
+        } else {
+            it.advance_observed(
+                n,
+                #[inline(always)]
+                |node| match rec.each_node(lag, node, 0.0) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        failed = Some(e);
+                        false
+                    }
+                },
+            )
+        };
         match advanced {
             Ok(0) => break,
             Ok(done) => {

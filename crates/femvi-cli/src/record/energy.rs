@@ -72,6 +72,20 @@ impl EnergyError {
         Ok(self.tracker.node(lag, node.t, node.q, node.p)?.h)
     }
 
+    /// Whether [`EnergyError::at_lean`] applies to `lag` ([`EnergyTracker::lean`]: M = I,
+    /// autonomous).
+    pub fn lean<L: Lagrangian>(&self, lag: &L) -> bool {
+        self.tracker.lean(lag)
+    }
+
+    /// [`EnergyError::at`] for a Lagrangian [`EnergyError::lean`] accepted, without a call
+    /// or an error path ([`EnergyTracker::node_lean`]): the same energy, bit for bit; None
+    /// (nothing recorded) if the node is not of the tracker's dimension.
+    #[inline(always)]
+    pub fn at_lean<L: Lagrangian>(&mut self, lag: &L, node: Node<'_>) -> Option<f64> {
+        self.tracker.node_lean(lag, node.t, node.q, node.p)
+    }
+
     /// Shows the last node's energy and relative error to the writers ([`EnergyError::current`]).
     pub fn publish(&self) {
         self.current.set(self.tracker.current());

@@ -299,6 +299,50 @@ impl<'a> Recorders<'a> {
         Ok(())
     }
 
+    /// Whether the nodes of the next chunk may go through [`Self::each_node_lean`]: an
+    /// autonomous mechanical Lagrangian with M = I ([`EnergyError::lean`]), past the first
+    /// node and a restored checkpoint's.
+    pub(super) fn lean<L: Lagrangian>(&self, lag: &L) -> bool {
+        let dim = lag.dim();
+        !self.restored
+            && self.first_k.is_some()
+            && self.good.q.len() == dim
+            && self.good.p.len() == dim
+            && self.energy.lean(lag)
+    }
+
+    /// [`Self::each_node`] in a chunk [`Self::lean`] accepted: the same work and results,
+    /// in code without a call or an error path, so that the explicit fast loop it runs in
+    /// keeps its carried values in registers (`femvi run` on Kepler: 1.17× → 1.02× the
+    /// library's loop). False when the node is not finite or not recorded: the caller
+    /// then passes the same node to [`Self::each_node`] for the error.
+    #[inline(always)]
+    pub(super) fn each_node_lean<L: Lagrangian>(&mut self, lag: &L, node: Node<'_>) -> bool {
+        let Some(h) = self.energy.at_lean(lag, node) else {
+            return false;
+        };
+        // As `check_finite`: x·0 is NaN exactly when x is not finite.
+        let probe = node
+            .q
+            .iter()
+            .chain(node.p)
+            .fold(node.t * 0.0 + h * 0.0, |s, x| s + x * 0.0);
+        if probe.is_nan() {
+            return false;
+        }
+        self.good.steps = self.steps_at(node.k);
+        self.good.t = node.t;
+        // Copies whose length is the node's, a constant in the fast loop: a few moves, where
+        // a loop over `good`'s length becomes a call to memcpy (`lean` checked the lengths).
+        if let Some(g) = self.good.q.get_mut(..node.q.len()) {
+            g.copy_from_slice(node.q);
+        }
+        if let Some(g) = self.good.p.get_mut(..node.p.len()) {
+            g.copy_from_slice(node.p);
+        }
+        true
+    }
+
     /// What the node ending a chunk needs after [`Self::each_node`]: the progress bar, the
     /// outputs, flushes and checkpoints (`last`: the grid's final node).
     pub(super) fn boundary<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {

@@ -3,7 +3,11 @@
 //! Δp = ½h (f_k + f_{k+1}). Two paths with the same increments up to rounding: a step at a
 //! time over the run's buffers ([`ExplicitStep::step`]), and a tight loop over `[f64; N]`
 //! locals for small fixed sizes ([`ExplicitStep::advance`]) that keeps the compensated
-//! momentum lazily between calls.
+//! momentum lazily between calls; and for other sizes with M = I, a loop that fuses the
+//! commit of a step with the drift of the next (`explicit_wide.rs`, same bits as `step`).
+
+#[path = "explicit_wide.rs"]
+mod wide;
 
 use super::checkpoint::{Reader, Words};
 use super::grid::TimeGrid;

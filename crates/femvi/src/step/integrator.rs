@@ -303,6 +303,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         if let Some(done) = self.fast_explicit(max_steps, &mut at_node) {
             return done;
         }
+        if let Some(done) = self.wide_explicit(max_steps, &mut at_node) {
+            return done;
+        }
         let mut done = 0;
         while done < max_steps && self.step()? {
             done += 1;
@@ -311,6 +314,23 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             }
         }
         Ok(done)
+    }
+
+    /// The explicit path with M = I for the other sizes, which fuses the commit of a step
+    /// with the drift of the next (None if it does not apply). The same bits as `step`.
+    fn wide_explicit<F: FnMut(Node<'_>) -> bool>(
+        &mut self,
+        max_steps: usize,
+        at_node: &mut F,
+    ) -> Option<Result<usize>> {
+        let Solver::Explicit(ex) = &mut self.solver else {
+            return None;
+        };
+        if self.pending.is_some() || self.energy.is_some() || !self.lag.mass_matrix()?.is_identity() {
+            return None;
+        }
+        let (lag, grid) = (&*self.lag, &self.grid);
+        Some(ex.advance_wide(lag, grid, &mut self.state, &mut self.last, max_steps, at_node))
     }
 
     /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).
