@@ -20,6 +20,10 @@ use crate::error::StepFailure;
 /// The contraction θ above which the iteration is abandoned (refresh the Jacobian).
 pub const THETA_SLOW: f64 = 0.5;
 
+/// Corrections below this many round-off units of the unknowns are left out of the reported
+/// θ (their ratios are noise).
+const NOISE: f64 = 100.0;
+
 /// A factorised Jacobian and the buffers of the iteration. The factorisation is kept as the
 /// explicit inverse: each iteration is then one matrix-vector product,
 /// which for the small systems of an element (dim = s·n) costs a fraction of the triangular
@@ -78,7 +82,8 @@ pub enum Simplified {
     Converged {
         /// Residual evaluations with a correction (not counting the final one).
         iterations: usize,
-        /// The largest contraction estimate met (0 if there was only one iteration).
+        /// The largest contraction estimate met while the corrections were above round-off
+        /// (0 if there was none).
         theta: f64,
     },
     /// Too slow or diverging (θ > [`THETA_SLOW`], or the budget would be passed); x is the
@@ -242,20 +247,24 @@ where
         for (xi, d) in x.iter_mut().zip(frozen.rhs.iter()) {
             *xi += d;
         }
+        // The round-off of the unknowns: once the correction just applied is below it, the
+        // new iterate is off by θ times that (see the module docs for why not the estimated
+        // error).
+        let floor = (f64::EPSILON * x.iter().fold(0.0f64, |m, v| m.max(v.abs()))).max(f64::MIN_POSITIVE);
         // The estimated error of the new iterate: θ/(1−θ)·‖δ‖ (at the first iteration, with
         // no θ yet, ‖δ‖ itself).
         let error = match theta {
             None => dn,
             Some(t) => {
-                theta_max = theta_max.max(t);
+                // The rate the caller keeps the Jacobian by: ratios of corrections near
+                // round-off measure its noise, not the contraction.
+                if previous.is_some_and(|p| p > NOISE * floor) {
+                    theta_max = theta_max.max(t);
+                }
                 t / (1.0 - t) * dn
             }
         };
         met |= error <= goal;
-        // The round-off of the unknowns: once the correction just applied is below it, the
-        // new iterate is off by θ times that (see the module docs for why not the estimated
-        // error).
-        let floor = (f64::EPSILON * x.iter().fold(0.0f64, |m, v| m.max(v.abs()))).max(f64::MIN_POSITIVE);
         if met && dn <= floor {
             residual(x, &mut frozen.r);
             return Simplified::Converged {
