@@ -22,11 +22,11 @@
 
 use super::checkpoint::{Reader, Words};
 use super::element_work::{buffers, check_dense_newton, ElementBuffers};
-use crate::discrete::ElementWork;
 use super::guess::Guess;
 use super::options::Method;
 use super::solver::StepContext;
 use super::state::{Increments, LastElement, RunState};
+use crate::discrete::ElementWork;
 use crate::error::{invalid, Error, Result, StepError};
 use crate::lagrangian::Lagrangian;
 use crate::solve::{newton_dense, simplified_newton, DenseNewtonWork, FrozenJacobian, NewtonFailure, Simplified};
