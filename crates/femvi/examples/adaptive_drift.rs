@@ -4,7 +4,8 @@
 //! of the run and the slope per period of a line fitted to the ten means (least squares
 //! against the tenths' midpoints), and the largest |ΔH/H| per tenth with its slope.
 //!
-//! `cargo run --release -p femvi --example adaptive_drift -- DS PERIODS [TOL] [E]`
+//! `cargo run --release -p femvi --example adaptive_drift -- DS PERIODS [TOL] [E] [full]`
+//! (`full`: `Method::FullNewton` instead of the default simplified Newton)
 use femvi::adaptive::{KeplerMonitor, TimeTransformed};
 use femvi::{models, Element, Integrator, SolverOptions, Start, TimeGrid};
 
@@ -47,6 +48,11 @@ fn main() -> femvi::Result<()> {
     let grid = TimeGrid::uniform(0.0, ds, ds * steps as f64)?;
     let opts = SolverOptions {
         tolerance: tol,
+        method: if std::env::args().any(|a| a == "full") {
+            femvi::Method::FullNewton
+        } else {
+            femvi::Method::Auto
+        },
         ..SolverOptions::default()
     };
     let start = Start::Momentum { q: q0, p: p0 };

@@ -192,8 +192,8 @@ fn strongly_nonlinear_steps_refresh_and_still_agree() {
     let d = largest_difference(&a, &b);
     // A regression bound, not a derived one: 1e-13 when the simplified iteration landed; with
     // the issue-21 form of R_0 (p_k + Δp − Σ_{j≥1} rows) the two solvers end 1.1e-13 apart
-    // here. The simplified iteration's iterates carry a small bias (why it is not the
-    // default, `Method::SimplifiedNewton`), which this bound tracks.
+    // here. The simplified iteration's iterates carried a small bias then; since it
+    // iterates to round-off (issue 15, now the default `Method::Newton`) the bound is kept.
     assert!(d <= 2e-13, "{d:e}");
 }
 

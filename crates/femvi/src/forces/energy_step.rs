@@ -6,8 +6,8 @@
 //! The arithmetic is that of the conservative Newton step (`step/newton_step.rs`): the same
 //! predictor ([`Guess`], from the last *accepted* element, which trial solves do not move),
 //! the same residual and Jacobian with F_d added, the same update Δp = h Σ b_i ∂L/∂q + Σ_j F_d^j.
-//! So a zero force gives the conservative energy-mode run with `Method::Newton` bit for bit
-//! (`tests/forces_energy.rs`).
+//! So a zero force gives the conservative energy-mode run with `Method::FullNewton` bit for
+//! bit (`tests/forces_energy.rs`; the conservative `Method::Newton` is the simplified iteration).
 
 use super::element::element_forces;
 use super::step::{forced_rows, summed_row_zero};

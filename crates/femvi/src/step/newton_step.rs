@@ -6,15 +6,19 @@
 //! p_k + Δp is exactly the p_{k+1} the equations solve for (issue 21: with row 0 itself, a
 //! linear drift of energy and angular momentum).
 //!
-//! `Method::SimplifiedNewton` solves by the simplified iteration ([`simplified_newton`], issue 15 item
-//! 2): the Jacobian is evaluated at the predicted start and factorised, and kept for the next
-//! steps while the iteration contracts with θ ≤ [`THETA_KEEP`] and h stays the same (bit for
-//! bit); a step that is too slow refreshes it at its current iterate, and one that fails
-//! even so is solved again from the prediction by full Newton with a line search
-//! ([`newton_dense`], what `Method::Newton` always uses), so that whatever converged
-//! before still does. Checkpoints keep the point at which the kept Jacobian was evaluated and
-//! the last θ, and a restored run evaluates it there again: resumed runs equal uninterrupted
-//! ones bit for bit.
+//! `Method::Newton` (and `Auto` for a general Lagrangian) solves by the simplified iteration
+//! ([`simplified_newton`], issue 15 item 2): the Jacobian is evaluated at the predicted start
+//! and factorised, and kept for the next steps while the iteration contracts with
+//! θ ≤ [`THETA_KEEP`] and h stays the same (bit for bit); a step that is too slow refreshes
+//! it at its current iterate (and the next steps, up to [`MAX_SKIP`] after repeated
+//! failures, evaluate their own), and one that fails even so is solved again from the
+//! prediction by full Newton with a line search ([`newton_dense`], what `Method::FullNewton`
+//! always uses), so that whatever converged before still does. Its residual rows are
+//! assembled with the arithmetic of full Newton's ([`simplified_residual`]) and it iterates to
+//! the round-off of the unknowns: without both, its iterates carried a bias that drifted the
+//! angular momentum and energy of long runs (issue 15). Checkpoints keep the point at which
+//! the kept Jacobian was evaluated, the last θ and the refresh back-off, and a restored run
+//! evaluates the Jacobian there again: resumed runs equal uninterrupted ones bit for bit.
 
 use super::checkpoint::{Reader, Words};
 use super::element_work::{buffers, check_dense_newton, ElementBuffers};
@@ -22,6 +26,7 @@ use super::guess::Guess;
 use super::options::Method;
 use super::solver::StepContext;
 use super::state::{Increments, LastElement, RunState};
+use crate::discrete::ElementWork;
 use crate::error::{invalid, Error, Result, StepError};
 use crate::lagrangian::Lagrangian;
 use crate::solve::{newton_dense, simplified_newton, DenseNewtonWork, FrozenJacobian, NewtonFailure, Simplified};
@@ -29,6 +34,11 @@ use crate::solve::{newton_dense, simplified_newton, DenseNewtonWork, FrozenJacob
 /// The largest contraction θ of a step after which its Jacobian is kept for the next step
 /// (above it, the next step evaluates a fresh one at its predicted start).
 pub(crate) const THETA_KEEP: f64 = 0.01;
+
+/// The longest run of steps that evaluate a fresh Jacobian without trying the kept one,
+/// after kept Jacobians failed again and again (the adaptive Kepler orbit: a Jacobian from
+/// one step off by a third at the next).
+const MAX_SKIP: usize = 16;
 
 /// Iterations of the simplified iteration before the Jacobian is refreshed (also capped by
 /// the options' `max_iterations`).
@@ -49,6 +59,11 @@ pub(crate) struct NewtonStep {
     theta: f64,
     /// The starting values, for a fallback to full Newton.
     start: Vec<f64>,
+    /// Steps left that evaluate a fresh Jacobian without trying the kept one.
+    skip: usize,
+    /// The skip set after the next failure of a kept Jacobian (doubles up to [`MAX_SKIP`],
+    /// 0 again after a kept Jacobian converges).
+    backoff: usize,
 }
 
 /// A failed Newton solve as the step error at the current node.
@@ -62,7 +77,8 @@ pub(crate) fn step_error(state: &RunState, f: NewtonFailure) -> Error {
     })
 }
 
-/// The residual R(X) into `r` and, with `jac`, the Jacobian ∂R/∂X (row-major) into it.
+/// The residual R(X) into `r` and, with `jac`, the Jacobian ∂R/∂X (row-major) into it (full
+/// Newton's evaluation: the element gradient and Hessian of `discrete.rs`).
 #[allow(clippy::too_many_arguments)]
 fn evaluate<L: Lagrangian>(
     cx: &StepContext<'_, L>,
@@ -92,13 +108,27 @@ fn evaluate<L: Lagrangian>(
             element.gradient_in_place(lag, t0, h, q, incr, false, ework, grad);
         }
     }
-    r.copy_from_slice(&grad[..dim]);
+    residual_from_rows(cx, ework, grad, h, p, r);
+}
+
+/// R from the element gradient ∂L_d/∂Q in `grad` and the point derivatives in `ework`: the
+/// rows j < s, with row 0 replaced, given p_k, by its issue-21 form.
+fn residual_from_rows<L: Lagrangian>(
+    cx: &StepContext<'_, L>,
+    ework: &ElementWork,
+    grad: &[f64],
+    h: f64,
+    p: Option<&[f64]>,
+    r: &mut [f64],
+) {
+    let element = cx.element;
+    r.copy_from_slice(&grad[..r.len()]);
     if let Some(p) = p {
         // Issue 21: R_0 = p_k + Δp − Σ_{j≥1} ∂L_d/∂Q^j, not p_k + row 0. Equal in exact
         // arithmetic, but row 0's rounded coefficients (b_i ℓ_0'(c_i) etc.) do not make the
         // rows sum to Δp exactly, and the bias (≈ 1e-16·p_k, the same every step) drifted E
         // and L linearly; this way p_k + Δp (the step's update) is the solved p_{k+1}.
-        let s = element.degree();
+        let (s, n) = (element.degree(), p.len());
         for (c, (rc, pc)) in r.iter_mut().zip(p).enumerate().take(n) {
             let dp = h
                 * (0..element.points())
@@ -108,6 +138,59 @@ fn evaluate<L: Lagrangian>(
             *rc = pc + (dp - rows);
         }
     }
+}
+
+/// The residual R(X) of the simplified iteration into `r`. The rows are assembled as
+/// b_i (h φ_j(c_i) ∂L/∂q + φ_j'(c_i) ∂L/∂v), the arithmetic of the gradient inside
+/// [`Element::hessian_in_place`] (whose rows full Newton drives to zero), not with the
+/// per-step coefficients b_i h φ_j and b_i φ_j' of [`Element::gradient_in_place`]: those are
+/// rounded once for a whole run of equal steps, so their rounding biases every step the
+/// same way, and an iteration that drove those rows to zero drifted the angular momentum
+/// of `tests/adaptive_drift.rs` by 2e-13 over 2 000 periods (−6e-15 with these rows).
+///
+/// [`Element::hessian_in_place`]: crate::discrete::Element::hessian_in_place
+/// [`Element::gradient_in_place`]: crate::discrete::Element::gradient_in_place
+#[allow(clippy::too_many_arguments)]
+fn simplified_residual<L: Lagrangian>(
+    cx: &StepContext<'_, L>,
+    bufs: &mut ElementBuffers,
+    (t0, h): (f64, f64),
+    q: &[f64],
+    p: &[f64],
+    incr: &mut [f64],
+    x: &[f64],
+    r: &mut [f64],
+) {
+    let (lag, element, n) = (cx.lag, cx.element, q.len());
+    let w = element.degree() + 1;
+    incr[..n].iter_mut().for_each(|v| *v = 0.0);
+    incr[n..].copy_from_slice(x);
+    let (ework, grad) = (&mut bufs.ework, &mut bufs.grad);
+    element.points_in_place(t0, h, q, incr, ework);
+    grad.iter_mut().for_each(|g| *g = 0.0);
+    for i in 0..element.points() {
+        let pd = &mut ework.pts[i];
+        lag.first_derivatives(
+            ework.tc[i],
+            &ework.qc[i * n..(i + 1) * n],
+            &ework.vc[i * n..(i + 1) * n],
+            false,
+            pd,
+        );
+        let b = element.rule.weights[i];
+        let (lq, lv) = (pd.l_q(), pd.l_v());
+        if lq.len() != n || lv.len() != n || grad.len() != w * n {
+            grad.iter_mut().for_each(|g| *g = f64::NAN);
+            break;
+        }
+        for (j, gj) in grad.chunks_exact_mut(n).enumerate() {
+            let (aj, dj) = (element.phi(i, j), element.dphi(i, j));
+            for ((g, lq), lv) in gj.iter_mut().zip(lq).zip(lv) {
+                *g += b * (h * aj * lq + dj * lv);
+            }
+        }
+    }
+    residual_from_rows(cx, ework, grad, h, Some(p), r);
 }
 
 /// The Jacobian ∂R/∂X (row-major, dim = s·n) at X: the block of the element Hessian
@@ -180,6 +263,8 @@ impl NewtonStep {
             rebuild: false,
             theta: f64::INFINITY,
             start: vec![0.0; s * n],
+            skip: 0,
+            backoff: 1,
         })
     }
 
@@ -215,7 +300,7 @@ impl NewtonStep {
         self.guess.predict(element, last, &state.v0, h);
         let s = element.degree();
         let bufs = buffers(bufs, element, n);
-        let iterations = if cx.opts.method == Method::SimplifiedNewton {
+        let iterations = if cx.opts.method != Method::FullNewton {
             self.simplified(cx, state, bufs, h, &mut out.incr)?
         } else {
             self.full(cx, state, bufs, h, &mut out.incr)?
@@ -284,7 +369,8 @@ impl NewtonStep {
         let kept_h = self.at.get(1).map(|x| x.to_bits());
         let mut fresh = false;
         let kept_fast = self.theta <= THETA_KEEP;
-        if !self.frozen.is_factored() || kept_h != Some(h.to_bits()) || !kept_fast {
+        if !self.frozen.is_factored() || kept_h != Some(h.to_bits()) || !kept_fast || self.skip > 0 {
+            self.skip = self.skip.saturating_sub(1);
             let x = std::mem::take(&mut self.start);
             self.refresh(cx, bufs, (t0, h), q, incr, &x);
             self.start = x;
@@ -298,11 +384,14 @@ impl NewtonStep {
                 budget,
                 scale,
                 &mut self.frozen,
-                |x, r| evaluate(cx, bufs, (t0, h), q, Some(p), incr, x, r, None),
+                |x, r| simplified_residual(cx, bufs, (t0, h), q, p, incr, x, r),
             );
             match out {
                 Simplified::Converged { iterations, theta } => {
                     self.theta = theta;
+                    if !fresh {
+                        self.backoff = 1;
+                    }
                     return Ok(spent + iterations);
                 }
                 Simplified::Slow { iterations } | Simplified::Failed { iterations, .. } => {
@@ -310,6 +399,9 @@ impl NewtonStep {
                     if fresh {
                         break;
                     }
+                    // The kept Jacobian failed: the next steps evaluate their own.
+                    self.skip = self.backoff;
+                    self.backoff = (2 * self.backoff).min(MAX_SKIP);
                     if !self.guess.x.iter().all(|v| v.is_finite()) {
                         self.guess.x.copy_from_slice(&self.start);
                     }
@@ -328,7 +420,8 @@ impl NewtonStep {
         Ok(spent + self.full(cx, state, bufs, h, incr)?)
     }
 
-    /// Writes the point of the kept Jacobian and the last θ (nothing else is kept).
+    /// Writes the point of the kept Jacobian, the last θ and the refresh back-off (nothing
+    /// else is kept).
     pub(crate) fn save(&self, w: &mut Words) {
         let kept = self.frozen.is_factored() || self.rebuild;
         w.b(kept);
@@ -336,6 +429,8 @@ impl NewtonStep {
             w.fs(&self.at);
         }
         w.f(self.theta);
+        w.u(self.skip);
+        w.u(self.backoff);
     }
 
     /// Reads what [`NewtonStep::save`] wrote; the Jacobian is evaluated again at the next step.
@@ -352,6 +447,8 @@ impl NewtonStep {
             }
         }
         self.theta = r.f()?;
+        self.skip = r.u()?.min(MAX_SKIP);
+        self.backoff = r.u()?.clamp(1, MAX_SKIP);
         Ok(())
     }
 }

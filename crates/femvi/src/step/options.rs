@@ -8,21 +8,20 @@ use crate::error::{invalid, Result};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
     /// Explicit for degree 1 with the trapezoid rule on a mechanical Lagrangian, fixed-point
-    /// iteration for other mechanical Lagrangians, Newton otherwise.
+    /// iteration for other mechanical Lagrangians, the gyroscopic fixed point for gyroscopic
+    /// ones, [`Method::Newton`] otherwise.
     Auto,
-    /// Newton's method with a line search: the element Hessian evaluated and factorised at
-    /// every iteration.
+    /// Newton's method for the step equations of general Lagrangians: the simplified
+    /// iteration (issue 15), the Jacobian factorised once and kept across iterations and
+    /// steps while the iteration contracts fast, refreshed when it does not or when the step
+    /// changes, falling back to full Newton with a line search when even a fresh Jacobian
+    /// does not converge. Its iterates are correct to round-off like full Newton's, so
+    /// conserved quantities do not drift over long runs (`tests/adaptive_drift.rs`).
     Newton,
-    /// The same as [`Method::Newton`] (kept for comparisons with [`Method::SimplifiedNewton`]).
+    /// Full Newton with a line search: the element Hessian evaluated and factorised at every
+    /// iteration (the solver of [`Method::Newton`] before issue 15, kept for comparisons).
     FullNewton,
-    /// The simplified iteration for the step equations (issue 15): the Jacobian factorised
-    /// once and kept across iterations and steps while the iteration contracts fast,
-    /// refreshed when it does not or when the step changes, falling back to full Newton with
-    /// a line search when even a fresh Jacobian does not converge. 2–3.4× faster than
-    /// [`Method::Newton`] on a relativistic Kepler problem and agrees with it to 1e-13 over
-    /// 10³ steps, but not yet the default: over long runs its iterates carry a bias that
-    /// drifts conserved quantities (adaptive Kepler, 2 000 periods: angular momentum −2.6e-13
-    /// against 4.2e-14 with Newton).
+    /// The same as [`Method::Newton`] (its name while it was opt-in).
     SimplifiedNewton,
     /// Fixed-point iteration on the forces (mechanical Lagrangians only).
     FixedPoint,
