@@ -1,5 +1,5 @@
-//! The forced fixed-step Newton step (`femvi::forces::solve_forced`) against the conservative
-//! Newton step: with a zero force both solve the same equations in the same form (node row 0
+//! The forced fixed-step Newton step (`femvi::forces::solve_forced`, full Newton) against the
+//! conservative full Newton step (`Method::FullNewton`): with a zero force both solve the same equations in the same form (node row 0
 //! as p_k + Δp − Σ_{j≥1} rows, issue 21), so the runs agree bit for bit (they did not while the
 //! forced step solved p_k + row 0).
 
@@ -22,7 +22,7 @@ fn zero_force_is_the_conservative_newton_run_bit_for_bit() {
         let el = Element::with_order(order).unwrap();
         let opts = SolveOptions {
             solver: SolverOptions {
-                method: Method::Newton,
+                method: Method::FullNewton,
                 ..SolverOptions::default()
             },
             ..SolveOptions::step(0.1)
