@@ -9,19 +9,14 @@
 //! magnetic field and a harmonic trap as a Rust Lagrangian with hand-coded gyroscopic parts
 //! (b = 3, h = 0.002: 1/950 of the fast period), each also by Newton (`newton`, the path
 //! they took before the gyroscopic fixed point). Report ratios of medians within one run;
-//! the machine is shared. The general path (issue 15 item 2): a relativistic Kepler
-//! Lagrangian written only through `value` (c = 10, same start and h as Kepler) against the
-//! Kepler model's fixed-point step of the same degree: as it runs (simplified Newton, one-pass
-//! vector-dual derivatives), with per-pair AD, with full Newton, and `before` (full Newton and
-//! per-pair AD, the path before both changes).
+//! the machine is shared. The general path (issue 15 item 2) and the adaptive Kepler are in
+//! `benches/general.rs`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use femvi::adaptive::{solve_adaptive, AdaptiveOptions, KeplerMonitor};
 use femvi::expr::ExprLagrangian;
-use femvi::lagrangian::PointDerivatives;
 use femvi::{
-    models, Element, Integrator, Lagrangian, MassMatrix, Method, NodeFamily, Problem, QuadratureKind, Scalar,
-    SolverOptions, Start, TimeGrid,
+    models, Element, Integrator, Lagrangian, MassMatrix, Method, NodeFamily, QuadratureKind, Scalar, SolverOptions,
+    Start, TimeGrid,
 };
 
 const STEPS: usize = 2_000;
@@ -69,47 +64,6 @@ impl Lagrangian for TrappedCharge {
             o[2] = hb * v[1] - q[0];
             o[3] = -hb * v[0] - q[1];
         }
-    }
-}
-
-/// Relativistic Kepler, L = −c²√(1 − |v|²/c²) + 1/|q| (c = 10): a velocity-dependent,
-/// non-gyroscopic Lagrangian written only through `value` (every derivative by automatic
-/// differentiation, the general Newton path).
-struct RelativisticKepler {
-    c: f64,
-}
-impl Lagrangian for RelativisticKepler {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn is_autonomous(&self) -> bool {
-        true
-    }
-    fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
-        let c2 = self.c * self.c;
-        let w = (v[0] * v[0] + v[1] * v[1]) * (-1.0 / c2) + 1.0;
-        -(w.sqrt() * c2) + (q[0] * q[0] + q[1] * q[1]).sqrt().recip()
-    }
-}
-
-/// A Lagrangian whose derivatives take the per-direction and per-pair AD passes whatever n
-/// (the path before the one-pass vector duals), for the before/after ratio.
-struct PerPair<L>(L);
-impl<L: Lagrangian> Lagrangian for PerPair<L> {
-    fn dim(&self) -> usize {
-        self.0.dim()
-    }
-    fn is_autonomous(&self) -> bool {
-        self.0.is_autonomous()
-    }
-    fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
-        self.0.value(t, q, v)
-    }
-    fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
-        out.first_by_directions(self, t, q, v, with_t);
-    }
-    fn second_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
-        out.second_by_pairs(self, t, q, v, with_t);
     }
 }
 
@@ -197,84 +151,16 @@ fn bench(c: &mut Criterion) {
             b.iter(|| run_with(&are, &el, are_h, are_start(), Method::Auto))
         });
         g.bench_function("arenstorf_expression_newton", |b| {
-            b.iter(|| run_with(&are, &el, are_h, are_start(), Method::Newton))
+            b.iter(|| run_with(&are, &el, are_h, are_start(), Method::FullNewton))
         });
         g.bench_function("magnetic_rust", |b| {
             b.iter(|| run_with(&charge, &el, 0.002, charge_start(), Method::Auto))
         });
         g.bench_function("magnetic_rust_newton", |b| {
-            b.iter(|| run_with(&charge, &el, 0.002, charge_start(), Method::Newton))
+            b.iter(|| run_with(&charge, &el, 0.002, charge_start(), Method::FullNewton))
         });
         g.finish();
     }
-
-    // The general path (issue 15 item 2): a velocity-dependent Rust Lagrangian by Newton
-    // against the Kepler model's fixed-point step, same degree, h and start.
-    let rel = RelativisticKepler { c: 10.0 };
-    let rel_pairs = PerPair(RelativisticKepler { c: 10.0 });
-    let start = || Start::Momentum {
-        q: q.to_vec(),
-        p: p.to_vec(),
-    };
-    for s in [2, 4] {
-        let el = gauss(s, s);
-        let mut g = c.benchmark_group(format!("general_degree{s}_2k_steps"));
-        g.sample_size(10);
-        g.measurement_time(std::time::Duration::from_secs(2));
-        g.bench_function("kepler_model", |b| b.iter(|| run(&kep, &el, h, &q, &p)));
-        g.bench_function("relativistic_rust", |b| {
-            b.iter(|| run_with(&rel, &el, h, start(), Method::SimplifiedNewton))
-        });
-        g.bench_function("relativistic_rust_per_pair_ad", |b| {
-            b.iter(|| run_with(&rel_pairs, &el, h, start(), Method::SimplifiedNewton))
-        });
-        g.bench_function("relativistic_rust_full_newton", |b| {
-            b.iter(|| run_with(&rel, &el, h, start(), Method::FullNewton))
-        });
-        g.bench_function("relativistic_rust_before", |b| {
-            b.iter(|| run_with(&rel_pairs, &el, h, start(), Method::FullNewton))
-        });
-        g.finish();
-    }
-
-    // The adaptive time-transformed Kepler (issue 21: L_g has a position-dependent mass
-    // matrix, so it takes the Newton step with hand-coded derivatives): e = 0.9, one period,
-    // ds = 0.05, order 8; divide by the steps printed once to get µs per step.
-    let e = 0.9;
-    let problem = Problem::new(
-        models::kepler(1.0).unwrap(),
-        Start::Momentum {
-            q: vec![1.0 - e, 0.0],
-            p: vec![0.0, ((1.0 + e) / (1.0 - e)).sqrt()],
-        },
-        0.0,
-        2.0 * std::f64::consts::PI,
-    );
-    let el8 = Element::with_order(8).unwrap();
-    let adaptive = |method: Method| {
-        let options = AdaptiveOptions {
-            every: 0,
-            solver: SolverOptions {
-                method,
-                ..Default::default()
-            },
-            ..AdaptiveOptions::step(0.05)
-        };
-        solve_adaptive(&problem, KeplerMonitor, &el8, &options).unwrap()
-    };
-    let (fast, full) = (adaptive(Method::SimplifiedNewton), adaptive(Method::FullNewton));
-    eprintln!(
-        "adaptive_kepler_e0.9_order8: {} steps (simplified Newton: {:.2} iterations per step; full: {} steps, {:.2})",
-        fast.steps, fast.mean_iterations, full.steps, full.mean_iterations
-    );
-    let mut g = c.benchmark_group("adaptive_kepler_e0.9_order8_1_period");
-    g.sample_size(10);
-    g.measurement_time(std::time::Duration::from_secs(2));
-    g.bench_function("simplified_newton", |b| {
-        b.iter(|| adaptive(Method::SimplifiedNewton).steps)
-    });
-    g.bench_function("full_newton", |b| b.iter(|| adaptive(Method::FullNewton).steps));
-    g.finish();
 }
 
 criterion_group!(benches, bench);

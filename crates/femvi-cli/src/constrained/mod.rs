@@ -50,7 +50,7 @@ pub fn settings(problem: &Problem) -> Result<Option<(ExprConstraints, Enforcemen
 pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
     match settings(problem)? {
         Some(_) => Err(format!(
-            "{what} does not support [constraints] (only `femvi run`, `femvi check`, `femvi chaos`, `femvi bvp` and the library's femvi::constraints do)"
+            "{what} does not support [constraints] (only `femvi run`, `femvi check`, `femvi chaos`, `femvi bvp`, Python's femvi.solve and femvi.bvp, and the library's femvi::constraints do)"
         )),
         None => Ok(()),
     }

@@ -42,7 +42,7 @@ pub fn force_of(problem: &Problem) -> Result<Option<ProblemForce>, String> {
 pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
     match force_of(problem)? {
         Some(_) => Err(format!(
-            "{what} does not support [forces] (non-conservative forces); `femvi run`, `femvi check`, `femvi bvp` and `femvi chaos` do"
+            "{what} does not support [forces] (non-conservative forces); `femvi run`, `femvi check`, `femvi bvp`, `femvi chaos` and Python's femvi.solve do"
         )),
         None => Ok(()),
     }
