@@ -10,12 +10,12 @@
 //! bit (`tests/forces_energy.rs`; the conservative `Method::Newton` is the simplified iteration).
 
 use super::element::element_forces;
-use super::step::{forced_rows, summed_row_zero};
+use super::step::{delta_p, newton_forced};
 use super::Force;
 use crate::discrete::{Element, ElementWork};
-use crate::error::{Error, Result, StepError};
+use crate::error::Result;
 use crate::lagrangian::Lagrangian;
-use crate::solve::{newton_dense, DenseNewtonWork};
+use crate::solve::DenseNewtonWork;
 use crate::step::{check_dense_newton, Guess, LastElement, SolverOptions};
 
 /// What an element solved at a trial step gives the energy equation.
@@ -97,54 +97,31 @@ impl<'a, L: Lagrangian, F: Force> EnergyStep<'a, L, F> {
         let (lag, force, element, n) = (self.lag, self.force, self.element, self.n);
         self.guess.predict(element, &self.last, v0, h);
         let s = element.degree();
-        let (ework, grad, hess, fd, fjac) = (
+        let bufs = (
             &mut self.ework,
-            &mut self.grad,
-            &mut self.hess,
-            &mut self.fd,
-            &mut self.fjac,
+            &mut self.grad[..],
+            &mut self.hess[..],
+            &mut self.fd[..],
+            &mut self.fjac[..],
+            &mut self.incr[..],
         );
-        let incr = &mut self.incr;
-        incr[..n].iter_mut().for_each(|x| *x = 0.0);
-        let qscale = q.iter().fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
-        let scale = |x: &[f64]| x.iter().fold(qscale, |m, v| m.max(v.abs()));
-        let report = newton_dense(
+        let iterations = newton_forced(
+            (lag, force, element),
+            (k, t0, h),
+            (q, p),
+            bufs,
             &mut self.guess.x,
-            self.opts.tolerance,
-            self.opts.max_iterations,
-            scale,
-            &mut self.newton,
-            |x, r, jac| {
-                let bufs = (&mut *ework, &mut grad[..], &mut hess[..], &mut fd[..], &mut fjac[..]);
-                forced_rows(lag, force, element, (t0, h), q, incr, bufs, x, r, jac);
-                // R_0 in the form of the conservative step (issue 21), so that p_k + Δp is
-                // the solved p_{k+1}.
-                summed_row_zero(element, ework, grad, fd, h, p, r);
-            },
-        )
-        .map_err(|f| {
-            Error::Step(StepError {
-                step: k,
-                t: t0,
-                residual: f.residual,
-                iterations: f.iterations,
-                failure: f.failure,
-            })
-        })?;
+            (&self.opts, &mut self.newton),
+        )?;
         // The last evaluation (residual only) was at the converged x: the points hold ∂L/∂q
         // and `fd` the discrete forces there.
         let x = &self.guess.x;
         self.incr[n..].copy_from_slice(x);
         self.dq.copy_from_slice(&x[(s - 1) * n..]);
         for c in 0..n {
-            let lq = h
-                * (0..element.points())
-                    .map(|i| element.rule.weights[i] * self.ework.pts[i].l_q()[c])
-                    .sum::<f64>();
-            let f: f64 = (0..=s).map(|j| self.fd[j * n + c]).sum();
-            self.dp[c] = lq + f;
+            self.dp[c] = delta_p(element, &self.ework, &self.fd, h, n, c);
         }
-        Ok(report.iterations)
+        Ok(iterations)
     }
 
     /// E⁻, E⁺, W⁻, W⁺, W and the magnitude of the element solved last, from (t0, q) with step h.

@@ -137,41 +137,24 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
         out: &mut Taken,
     ) -> Result<()> {
         self.predict(v0, h);
-        let n = self.n;
         let (lag, force, element) = (self.lag, self.force, self.element);
-        let (ework, grad, hess, fd, fjac, incr) = (
+        let bufs = (
             &mut self.ework,
-            &mut self.grad,
-            &mut self.hess,
-            &mut self.fd,
-            &mut self.fjac,
-            &mut self.incr,
+            &mut self.grad[..],
+            &mut self.hess[..],
+            &mut self.fd[..],
+            &mut self.fjac[..],
+            &mut self.incr[..],
         );
-        incr[..n].iter_mut().for_each(|x| *x = 0.0);
-        let qscale = q.iter().fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
-        let scale = |x: &[f64]| x.iter().fold(qscale, |m, v| m.max(v.abs()));
-        let report = newton_dense(
+        let iterations = newton_forced(
+            (lag, force, element),
+            (k, t0, h),
+            (q, p),
+            bufs,
             &mut self.x,
-            self.opts.tolerance,
-            self.opts.max_iterations,
-            scale,
-            &mut self.newton,
-            |x, r, jac| {
-                let bufs = (&mut *ework, &mut grad[..], &mut hess[..], &mut fd[..], &mut fjac[..]);
-                forced_rows(lag, force, element, (t0, h), q, incr, bufs, x, r, jac);
-                summed_row_zero(element, ework, grad, fd, h, p, r);
-            },
-        )
-        .map_err(|f| {
-            Error::Step(StepError {
-                step: k,
-                t: t0,
-                residual: f.residual,
-                iterations: f.iterations,
-                failure: f.failure,
-            })
-        })?;
-        self.finish(t0, h, q, report.iterations, out);
+            (&self.opts, &mut self.newton),
+        )?;
+        self.finish(t0, h, q, iterations, out);
         Ok(())
     }
 
@@ -217,13 +200,61 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
     }
 }
 
+/// The buffers of a forced Newton solve: element work, gradient, Hessian, discrete forces,
+/// their Jacobian, and the increments (0, X).
+pub(super) type ForcedBuffers<'b> = (
+    &'b mut ElementWork,
+    &'b mut [f64],
+    &'b mut [f64],
+    &'b mut [f64],
+    &'b mut [f64],
+    &'b mut [f64],
+);
+
+/// Solves the forced step equations of step `k` (element [t0, t0 + h] from (q, p)) for the
+/// unknowns `x` (starting from their value) by dense Newton: rows [`forced_rows`], row 0 in the
+/// form [`summed_row_zero`]. Returns the iterations; on return the buffers hold the last
+/// evaluation, a residual-only one at the converged `x`. Shared by the fixed-step and the
+/// energy-mode forced steps.
+///
+/// # Errors
+/// A failed Newton solve as [`Error::Step`] naming step k and t0.
+pub(super) fn newton_forced<L: Lagrangian, F: Force>(
+    (lag, force, element): (&L, &F, &Element),
+    (k, t0, h): (usize, f64, f64),
+    (q, p): (&[f64], &[f64]),
+    (ework, grad, hess, fd, fjac, incr): ForcedBuffers<'_>,
+    x: &mut [f64],
+    (opts, newton): (&SolverOptions, &mut DenseNewtonWork),
+) -> Result<usize> {
+    let n = q.len();
+    incr[..n].iter_mut().for_each(|x| *x = 0.0);
+    let qscale = q.iter().fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
+    let scale = |x: &[f64]| x.iter().fold(qscale, |m, v| m.max(v.abs()));
+    let report = newton_dense(x, opts.tolerance, opts.max_iterations, scale, newton, |x, r, jac| {
+        let bufs = (&mut *ework, &mut grad[..], &mut hess[..], &mut fd[..], &mut fjac[..]);
+        forced_rows(lag, force, element, (t0, h), q, incr, bufs, x, r, jac);
+        summed_row_zero(element, ework, grad, fd, h, p, r);
+    })
+    .map_err(|f| {
+        Error::Step(StepError {
+            step: k,
+            t: t0,
+            residual: f.residual,
+            iterations: f.iterations,
+            failure: f.failure,
+        })
+    })?;
+    Ok(report.iterations)
+}
+
 /// The forced step's rows at increments `x` (node 0's increment is zero): r = ∂L_d/∂Q^j + the
 /// discrete forces for j < s (without p_k, which the caller adds in its own form), and with
 /// `jac` the Jacobian of those rows, the element Hessian plus the forces' Jacobian. The
 /// buffers are (element work, gradient, Hessian, discrete forces, their Jacobian); `incr`
 /// receives (0, x). Shared by the fixed-step and the energy-mode forced steps.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn forced_rows<L: Lagrangian, F: Force>(
+fn forced_rows<L: Lagrangian, F: Force>(
     lag: &L,
     force: &F,
     element: &Element,
@@ -264,23 +295,21 @@ pub(super) fn forced_rows<L: Lagrangian, F: Force>(
 /// p_k + Δp, the update the step makes, is the solved p_{k+1}; with p_k + row 0 the rounding of
 /// the row terms, of one sign step after step, drifts like a bias. `ework`, `grad` and `fd` are
 /// those [`forced_rows`] just filled.
-pub(super) fn summed_row_zero(
-    element: &Element,
-    ework: &ElementWork,
-    grad: &[f64],
-    fd: &[f64],
-    h: f64,
-    p: &[f64],
-    r: &mut [f64],
-) {
+fn summed_row_zero(element: &Element, ework: &ElementWork, grad: &[f64], fd: &[f64], h: f64, p: &[f64], r: &mut [f64]) {
     let (n, s) = (p.len(), element.degree());
     for c in 0..n {
-        let lq = h
-            * (0..element.points())
-                .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
-                .sum::<f64>();
-        let f: f64 = (0..=s).map(|j| fd[j * n + c]).sum();
         let rows: f64 = (1..=s).map(|j| grad[j * n + c] + fd[j * n + c]).sum();
-        r[c] = p[c] + ((lq + f) - rows);
+        r[c] = p[c] + (delta_p(element, ework, fd, h, n, c) - rows);
     }
+}
+
+/// Component c of the forced step's momentum update Δp = h Σ_i b_i ∂L/∂q(c_i) + Σ_j F_d^j, from
+/// the points of `ework` and the discrete forces `fd` of the last evaluation.
+pub(super) fn delta_p(element: &Element, ework: &ElementWork, fd: &[f64], h: f64, n: usize, c: usize) -> f64 {
+    let lq = h
+        * (0..element.points())
+            .map(|i| element.rule.weights[i] * ework.pts[i].l_q()[c])
+            .sum::<f64>();
+    let f: f64 = (0..=element.degree()).map(|j| fd[j * n + c]).sum();
+    lq + f
 }
