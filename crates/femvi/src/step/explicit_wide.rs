@@ -149,20 +149,27 @@ fn update_and_drift(
     let mut finite = true;
     for c in 0..n {
         let dp = 0.5 * h * (f0[c] + f1[c]);
-        let b = base[c];
-        let yq = dq[c] + cq[c];
-        let tq = b + yq;
-        cq[c] = (b - tq) + yq;
-        q[c] = tq;
-        let yp = dp + cp[c];
-        let tp = p[c] + yp;
-        cp[c] = (p[c] - tp) + yp;
-        p[c] = tp;
+        let (tq, tp) = commit_one(base[c], dq[c], dp, (&mut q[c], &mut cq[c]), (&mut p[c], &mut cp[c]));
         finite &= tp.is_finite() & tq.is_finite();
         dq_next[c] = h2 * tp + half_h2 * f1[c];
         y[c] = tq + dq_next[c];
     }
     finite
+}
+
+/// One component of `RunState::commit`: q = base + dq and p += dp by compensated summation
+/// (the compensation terms cq, cp); returns the new (q, p).
+#[inline(always)]
+fn commit_one(base: f64, dq: f64, dp: f64, (q, cq): (&mut f64, &mut f64), (p, cp): (&mut f64, &mut f64)) -> (f64, f64) {
+    let yq = dq + *cq;
+    let tq = base + yq;
+    *cq = (base - tq) + yq;
+    *q = tq;
+    let yp = dp + *cp;
+    let tp = *p + yp;
+    *cp = (*p - tp) + yp;
+    *p = tp;
+    (tq, tp)
 }
 
 /// `RunState::commit` alone (the last step of a call). Whether the new node is finite.
@@ -179,15 +186,7 @@ fn update(s: Carried<'_>, h: f64, [f0, f1]: [&[f64]; 2], dq: &[f64]) -> bool {
     let mut finite = true;
     for c in 0..n {
         let dp = 0.5 * h * (f0[c] + f1[c]);
-        let b = base[c];
-        let yq = dq[c] + cq[c];
-        let tq = b + yq;
-        cq[c] = (b - tq) + yq;
-        q[c] = tq;
-        let yp = dp + cp[c];
-        let tp = p[c] + yp;
-        cp[c] = (p[c] - tp) + yp;
-        p[c] = tp;
+        let (tq, tp) = commit_one(base[c], dq[c], dp, (&mut q[c], &mut cq[c]), (&mut p[c], &mut cp[c]));
         finite &= tp.is_finite() & tq.is_finite();
     }
     finite
