@@ -37,12 +37,19 @@ pub(super) struct Fast {
     pub(super) first: Option<Tape>,
     /// L, ∂L/∂z and ∂²L/∂z_a∂z_b for a ≤ b (row by row): 1 + m + m(m + 1)/2 outputs.
     pub(super) second: Option<Tape>,
+    /// The program's f64 value as machine code (equal to `Program::eval` bit for bit).
+    #[cfg(feature = "jit")]
+    pub(super) value: Option<std::sync::Arc<super::native::Native>>,
 }
 
 impl Fast {
     /// Compiles what fits the budgets for `program` over t, q and v of dimension n.
     pub(super) fn new(program: &Program, n: usize) -> Self {
         let mut fast = Self::default();
+        #[cfg(feature = "jit")]
+        {
+            fast.value = super::native::compile_program(program.ops(), n).map(std::sync::Arc::new);
+        }
         let mut dag = Dag::default();
         let Some(root) = dag.add_program(program.ops()) else {
             return fast;

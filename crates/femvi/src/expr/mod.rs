@@ -9,7 +9,8 @@
 //! expression of the form L = ½vᵀMv − V(t, q) with constant positive definite M
 //! (`structure.rs`) reports M and a compiled force −∂V/∂q, so the fixed-point and explicit
 //! solvers apply to it as to the built-in models. Expressions too large for the budgets keep
-//! automatic differentiation.
+//! automatic differentiation. With the `jit` feature (default) every tape, and the f64 value,
+//! also runs as machine code (`native.rs`, Cranelift), bit for bit the interpreter's results.
 //!
 //! Hostile input is safe: sums and products of any length compile and evaluate without
 //! recursion (`parse.rs` emits postfix items, `compile.rs` folds them in one loop), and
@@ -23,6 +24,8 @@ mod compile;
 mod dag;
 mod diff;
 mod fast;
+#[cfg(feature = "jit")]
+mod native;
 mod parse;
 mod program;
 mod structure;
@@ -265,6 +268,14 @@ impl Lagrangian for ExprLagrangian {
 
     fn value<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
         let n = self.coordinates.len();
+        // A scalar without derivative parts (f64: the energy at every node of a run) takes
+        // the program's machine code, equal to `Program::eval` bit for bit.
+        #[cfg(feature = "jit")]
+        if D::NDERIV == 0 {
+            if let Some(x) = self.fast.value.as_deref().and_then(|code| native_value(code, t, q, v)) {
+                return D::from(x);
+            }
+        }
         // q and v have n entries when the library calls; a shorter slice reads NaN.
         let nan = D::from(f64::NAN);
         self.program.eval(|i| {
@@ -277,6 +288,19 @@ impl Lagrangian for ExprLagrangian {
             }
         })
     }
+}
+
+/// The value from machine code, for q and v of at most 16 entries (copied to f64 arrays);
+/// `None` otherwise, or when they are shorter than the code reads.
+#[cfg(feature = "jit")]
+fn native_value<D: Scalar>(code: &native::Native, t: D, q: &[D], v: &[D]) -> Option<f64> {
+    const MAX: usize = 16;
+    let (mut qb, mut vb) = ([0.0; MAX], [0.0; MAX]);
+    let (qb, vb) = (qb.get_mut(..q.len())?, vb.get_mut(..v.len())?);
+    qb.iter_mut().zip(q).for_each(|(b, x)| *b = x.re());
+    vb.iter_mut().zip(v).for_each(|(b, x)| *b = x.re());
+    let mut out = [0.0];
+    code.call(t.re(), qb, vb, &mut out).then_some(out[0])
 }
 
 /// Whether `out` holds buffers for dimension n and q, v have n entries; if not, its value and

@@ -11,7 +11,7 @@ use std::collections::HashMap;
 /// An instruction on registers; the most common operations have their own variants so that
 /// the evaluation loop dispatches once.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Instr {
+pub(super) enum Instr {
     Add(u32, u32),
     Sub(u32, u32),
     Mul(u32, u32),
@@ -47,15 +47,28 @@ impl Instr {
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Tape {
     /// The constants, in registers 0..consts.len().
-    consts: Vec<f64>,
+    pub(super) consts: Vec<f64>,
     /// The variables loaded next: (register, variable index).
-    loads: Vec<(u32, u32)>,
-    code: Vec<Instr>,
+    pub(super) loads: Vec<(u32, u32)>,
+    pub(super) code: Vec<Instr>,
     /// The register of each output.
-    outputs: Vec<u32>,
-    registers: usize,
+    pub(super) outputs: Vec<u32>,
+    pub(super) registers: usize,
     /// The dimension n of q and v.
-    n: usize,
+    pub(super) n: usize,
+    /// The same tape as machine code, when it could be compiled (same results, bit for bit).
+    native: NativeSlot,
+}
+
+/// A tape's machine code, shared by its clones (compared as equal: it is a function of the
+/// tape).
+#[derive(Debug, Clone, Default)]
+struct NativeSlot(#[cfg(feature = "jit")] Option<std::sync::Arc<super::native::Native>>);
+
+impl PartialEq for NativeSlot {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// Points evaluated together by [`Tape::eval_points`]: each instruction is decoded once and
@@ -109,20 +122,68 @@ impl Tape {
             code.push(ins);
         }
         let outputs = outputs.iter().map(|o| reg.get(o).copied().unwrap_or(0)).collect();
-        Self {
+        let mut tape = Self {
             registers: base + code.len(),
             consts,
             loads,
             code,
             outputs,
             n,
+            native: NativeSlot::default(),
+        };
+        #[cfg(feature = "jit")]
+        {
+            tape.native.0 = super::native::compile(&tape).map(std::sync::Arc::new);
         }
+        tape
+    }
+
+    /// The interpreted tape alone (no machine code), for comparisons.
+    #[cfg(all(test, feature = "jit"))]
+    pub(super) fn interpreted(&self) -> Self {
+        Self {
+            native: NativeSlot::default(),
+            ..self.clone()
+        }
+    }
+
+    /// Whether the tape runs as machine code.
+    #[cfg(all(test, feature = "jit"))]
+    pub(super) fn is_native(&self) -> bool {
+        self.native.0.is_some()
     }
 
     /// Evaluates at z = (t, q, v) and hands the output values, in order, to `out`.
     /// A variable beyond the slices reads NaN.
     #[inline]
-    pub(super) fn eval(&self, t: f64, q: &[f64], v: &[f64], out: impl FnMut(usize, f64)) {
+    pub(super) fn eval(&self, t: f64, q: &[f64], v: &[f64], mut out: impl FnMut(usize, f64)) {
+        #[cfg(feature = "jit")]
+        if let Some(native) = &self.native.0 {
+            let k = self.outputs.len();
+            let mut buf = [0.0; TINY];
+            if let Some(buf) = buf.get_mut(..k) {
+                if native.call(t, q, v, buf) {
+                    return buf.iter().enumerate().for_each(|(j, &x)| out(j, x));
+                }
+            } else {
+                let done = REGISTERS.with(|cell| match cell.try_borrow_mut() {
+                    Ok(mut regs) => {
+                        if regs.len() < k {
+                            regs.resize(k, 0.0);
+                        }
+                        let ok = native.call(t, q, v, &mut regs[..k]);
+                        if ok {
+                            regs[..k].iter().enumerate().for_each(|(j, &x)| out(j, x));
+                        }
+                        ok
+                    }
+                    Err(_) => false,
+                });
+                if done {
+                    return;
+                }
+            }
+        }
         REGISTERS.with(|cell| match cell.try_borrow_mut() {
             Ok(mut regs) => self.eval_in(&mut regs, t, q, v, out),
             Err(_) => self.eval_in(&mut Vec::new(), t, q, v, out),
@@ -175,6 +236,12 @@ impl Tape {
     /// NaN), and its outputs go to `out[j k..(j + 1) k]` for k outputs. Points are taken
     /// [`LANES`] at a time, each instruction decoded once per group.
     pub(super) fn eval_points(&self, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+        #[cfg(feature = "jit")]
+        if let Some(native) = &self.native.0 {
+            if native.call_points(self.n, t, q, v, out) {
+                return;
+            }
+        }
         if t.len() <= FEW_LANES {
             self.eval_points_with::<FEW_LANES>(&FEW_LANE_REGISTERS, t, q, v, out);
         } else {

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Expressions against the built-in models through `femvi run` (issue 15's first Must-show):
+# the README pendulum example (examples/pendulum.toml, degree 2, Gauss 3, h = 0.01) with its
+# expression against `model = "pendulum"`, 2·10⁶ steps; Kepler (e = 0.6, h = 2π/1000) as the
+# expression 0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) against `model = "kepler"`, degree 2
+# with Gauss 2 and degree 4 with Gauss 4, 10⁶ steps. Every 10 000th node written, --quiet.
+# Process CPU time, K alternating rounds (default 5), medians (alternate.py); the ratios to
+# read are each expression's median over its model's. FEMVI=path/to/femvi skips the build.
+# Run by hand, not by CI.
+set -euo pipefail
+cd "$(dirname "$0")"
+root=$(cd ../.. && pwd)
+k=${1:-5}
+if [ -z "${FEMVI:-}" ]; then
+  cargo build --release -q -p femvi-cli --manifest-path "$root/Cargo.toml"
+  FEMVI="${CARGO_TARGET_DIR:-$root/target}/release/femvi"
+fi
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+sed -e 's/^coordinates = .*$//' -e 's/^lagrangian = .*$/model = "pendulum"/' \
+  -e 's/^parameters = .*$/parameters = { m = 1.0, g = 9.81, l = 1.0 }/' \
+  "$root/examples/pendulum.toml" > "$work/pendulum_model.toml"
+kepler() {
+  cat <<TOML
+name = "kepler"
+[system]
+$1
+[initial]
+q = [0.4, 0.0]
+p = [0.0, 2.0]
+[scheme]
+degree = 2
+quadrature = "gauss-legendre"
+points = 2
+[time]
+step = 0.006283185307179587
+end = 6283.185307179586
+[output]
+every = 10000
+TOML
+}
+kepler 'coordinates = ["x", "y"]
+lagrangian = "0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)"' > "$work/kepler_expr.toml"
+kepler 'model = "kepler"
+parameters = { mu = 1.0 }' > "$work/kepler_model.toml"
+run="run --quiet --set time.end=20000.0 --set output.every=10000"
+deg4="--set scheme.degree=4 --set scheme.points=4"
+python3 alternate.py "$k" \
+  "pendulum_model=$FEMVI $run --out $work/o1 $work/pendulum_model.toml" \
+  "pendulum_expr=$FEMVI $run --out $work/o2 $root/examples/pendulum.toml" \
+  "kepler2_model=$FEMVI run --quiet --out $work/o3 $work/kepler_model.toml" \
+  "kepler2_expr=$FEMVI run --quiet --out $work/o4 $work/kepler_expr.toml" \
+  "kepler4_model=$FEMVI run --quiet $deg4 --out $work/o5 $work/kepler_model.toml" \
+  "kepler4_expr=$FEMVI run --quiet $deg4 --out $work/o6 $work/kepler_expr.toml"
