@@ -5,7 +5,9 @@
 # expression 0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) against `model = "kepler"`, degree 2
 # with Gauss 2 and degree 4 with Gauss 4, 10⁶ steps. Every 10 000th node written, --quiet.
 # Process CPU time, K alternating rounds (default 5), medians (alternate.py); the ratios to
-# read are each expression's median over its model's. FEMVI=path/to/femvi skips the build.
+# read are each expression's median over its model's. FEMVI=path/to/femvi skips the build;
+# EXTRA=label=/other/femvi adds that build's three expression runs (A/B, e.g. a build with
+# --no-default-features, whose expressions are interpreted).
 # Run by hand, not by CI.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -45,10 +47,19 @@ kepler 'model = "kepler"
 parameters = { mu = 1.0 }' > "$work/kepler_model.toml"
 run="run --quiet --set time.end=20000.0 --set output.every=10000"
 deg4="--set scheme.degree=4 --set scheme.points=4"
+extra=()
+if [ -n "${EXTRA:-}" ]; then
+  label=${EXTRA%%=*}
+  other=${EXTRA#*=}
+  extra=("pendulum_expr_$label=$other $run --out $work/o7 $root/examples/pendulum.toml"
+    "kepler2_expr_$label=$other run --quiet --out $work/o8 $work/kepler_expr.toml"
+    "kepler4_expr_$label=$other run --quiet $deg4 --out $work/o9 $work/kepler_expr.toml")
+fi
 python3 alternate.py "$k" \
   "pendulum_model=$FEMVI $run --out $work/o1 $work/pendulum_model.toml" \
   "pendulum_expr=$FEMVI $run --out $work/o2 $root/examples/pendulum.toml" \
   "kepler2_model=$FEMVI run --quiet --out $work/o3 $work/kepler_model.toml" \
   "kepler2_expr=$FEMVI run --quiet --out $work/o4 $work/kepler_expr.toml" \
   "kepler4_model=$FEMVI run --quiet $deg4 --out $work/o5 $work/kepler_model.toml" \
-  "kepler4_expr=$FEMVI run --quiet $deg4 --out $work/o6 $work/kepler_expr.toml"
+  "kepler4_expr=$FEMVI run --quiet $deg4 --out $work/o6 $work/kepler_expr.toml" \
+  "${extra[@]}"
