@@ -1,0 +1,117 @@
+//! The code of one tape instruction: inline where the machine instruction is exact (the four
+//! operations, square root, absolute value, negation, sign, min/max), a call of the
+//! interpreter's own Rust function otherwise.
+
+use super::super::dag::{Bin, Un};
+use super::super::program::F1;
+use super::super::tape::Instr;
+use super::functions::{acos, asin, atan, atan2, cos, cosh, exp, ln, powf, powi, sin, sinh, tan, tanh};
+use cranelift_codegen::ir::condcodes::FloatCC;
+use cranelift_codegen::ir::{types, AbiParam, InstBuilder, Signature, Value};
+use cranelift_frontend::FunctionBuilder;
+
+/// Signatures of the Rust functions the code calls: f64 → f64, (f64, f64) → f64 and
+/// (f64, i32) → f64.
+pub(super) struct Calls {
+    pub(super) ptr: types::Type,
+    pub(super) un: Signature,
+    pub(super) bin: Signature,
+    pub(super) powi: Signature,
+}
+
+impl Calls {
+    pub(super) fn new(ptr: types::Type, base: Signature) -> Self {
+        let mut un = base.clone();
+        un.params.push(AbiParam::new(types::F64));
+        un.returns.push(AbiParam::new(types::F64));
+        let mut bin = un.clone();
+        bin.params.push(AbiParam::new(types::F64));
+        let mut powi = un.clone();
+        powi.params.push(AbiParam::new(types::I32));
+        Self { ptr, un, bin, powi }
+    }
+
+    /// Calls the function at `addr` with signature `sig` on `args`.
+    pub(super) fn call(&self, b: &mut FunctionBuilder, sig: &Signature, addr: usize, args: &[Value]) -> Option<Value> {
+        let sig = b.import_signature(sig.clone());
+        let callee = b.ins().iconst(self.ptr, i64::try_from(addr).ok()?);
+        let call = b.ins().call_indirect(sig, callee, args);
+        b.inst_results(call).first().copied()
+    }
+}
+
+/// The code of one instruction over the values of the registers so far.
+pub(super) fn emit(b: &mut FunctionBuilder, calls: &Calls, regs: &[Value], ins: Instr) -> Option<Value> {
+    let r = |a: u32| regs.get(a as usize).copied();
+    Some(match ins {
+        Instr::Add(x, y) => b.ins().fadd(r(x)?, r(y)?),
+        Instr::Sub(x, y) => b.ins().fsub(r(x)?, r(y)?),
+        Instr::Mul(x, y) => b.ins().fmul(r(x)?, r(y)?),
+        Instr::Div(x, y) => b.ins().fdiv(r(x)?, r(y)?),
+        Instr::Neg(x) => b.ins().fneg(r(x)?),
+        Instr::Square(x) => {
+            let x = r(x)?;
+            b.ins().fmul(x, x)
+        }
+        Instr::Sqrt(x) => b.ins().sqrt(r(x)?),
+        Instr::Un(op, x) => emit_un(b, calls, op, r(x)?)?,
+        Instr::Bin(op, x, y) => {
+            let f: extern "C" fn(f64, f64) -> f64 = match op {
+                Bin::Add => return Some(b.ins().fadd(r(x)?, r(y)?)),
+                Bin::Sub => return Some(b.ins().fsub(r(x)?, r(y)?)),
+                Bin::Mul => return Some(b.ins().fmul(r(x)?, r(y)?)),
+                Bin::Div => return Some(b.ins().fdiv(r(x)?, r(y)?)),
+                Bin::Atan2 => atan2,
+                Bin::Pow => powf,
+            };
+            let sig = calls.bin.clone();
+            calls.call(b, &sig, f as usize, &[r(x)?, r(y)?])?
+        }
+        Instr::Pick(max, p, q, x, y) => {
+            let cc = if max { FloatCC::GreaterThan } else { FloatCC::LessThan };
+            let second = b.ins().fcmp(cc, r(q)?, r(p)?);
+            b.ins().select(second, r(y)?, r(x)?)
+        }
+    })
+}
+
+/// The code of a one-operand operation: inline where the instruction is exact, else a call.
+fn emit_un(b: &mut FunctionBuilder, calls: &Calls, op: Un, x: Value) -> Option<Value> {
+    let f: extern "C" fn(f64) -> f64 = match op {
+        Un::Neg => return Some(b.ins().fneg(x)),
+        Un::F(F1::Sqrt) => return Some(b.ins().sqrt(x)),
+        Un::F(F1::Abs) => return Some(b.ins().fabs(x)),
+        Un::Sign => {
+            let zero = b.ins().f64const(0.0);
+            let positive = b.ins().fcmp(FloatCC::GreaterThan, x, zero);
+            let (one, minus) = (b.ins().f64const(1.0), b.ins().f64const(-1.0));
+            return Some(b.ins().select(positive, one, minus));
+        }
+        Un::PowI(e) => {
+            let e = b.ins().iconst(types::I32, i64::from(e));
+            let sig = calls.powi.clone();
+            return calls.call(b, &sig, powi as *const () as usize, &[x, e]);
+        }
+        Un::PowF(bits) => {
+            let y = b.ins().f64const(f64::from_bits(bits));
+            let sig = calls.bin.clone();
+            return calls.call(b, &sig, powf as *const () as usize, &[x, y]);
+        }
+        Un::F(f) => match f {
+            F1::Sin => sin,
+            F1::Cos => cos,
+            F1::Tan => tan,
+            F1::Exp => exp,
+            F1::Ln => ln,
+            F1::Sinh => sinh,
+            F1::Cosh => cosh,
+            F1::Tanh => tanh,
+            F1::Asin => asin,
+            F1::Acos => acos,
+            F1::Atan => atan,
+            F1::Sqrt | F1::Abs => return None,
+        },
+    };
+    let sig = calls.un.clone();
+    calls.call(b, &sig, f as usize, &[x])
+}
