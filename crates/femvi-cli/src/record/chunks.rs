@@ -19,9 +19,12 @@ use std::time::{Duration, Instant};
 /// The longest chunk (steps).
 const MAX_CHUNK: usize = 1 << 22;
 /// Chunks faster than this grow (×2).
-const SHORT: Duration = Duration::from_millis(1);
-/// Chunks slower than this shrink (÷2).
-const LONG: Duration = Duration::from_millis(10);
+const SHORT: Duration = Duration::from_millis(10);
+/// Chunks slower than this shrink (÷2). Long enough for tens of steps of a chain of 10⁶
+/// masses (a few ms each): a call of the explicit loop for large n keeps its start (about
+/// one step's memory traffic) to take its steps in place; short enough for the progress bar
+/// and for a signal to be noticed within a fraction of a second.
+const LONG: Duration = Duration::from_millis(100);
 
 /// The length limit of the chunks, adapted to their time.
 struct Cap {

@@ -83,7 +83,8 @@ impl ExplicitStep {
             (done, End::NonFinite) => {
                 // The failing step again, out of place: its error and the state it leaves.
                 self.restore(start, state, last);
-                self.run(lag, grid, state, last, done + 1, &mut |_| true).map(|(d, _)| d)
+                self.run(lag, grid, state, last, done + 1, &mut |_| true)
+                    .map(|(d, _)| d)
             }
         }
     }
@@ -94,7 +95,10 @@ impl ExplicitStep {
         let n = state.n;
         last.base.copy_from_slice(&state.q);
         let Self {
-            force, fsal_slot, start, ..
+            force,
+            fsal_slot,
+            start,
+            ..
         } = self;
         start.resize(4 * n, 0.0);
         let [cq, p, cp, f] = [0, 1, 2, 3].map(|i| i * n);
@@ -138,7 +142,9 @@ impl ExplicitStep {
         let Some((mut h, mut t_next)) = (max_steps > 0).then(|| grid.next(state.k, state.t)).flatten() else {
             return Ok((0, End::Kept));
         };
-        let Self { force, fsal_slot, y, .. } = self;
+        let Self {
+            force, fsal_slot, y, ..
+        } = self;
         let (lo, hi) = force.split_at_mut(n);
         let (mut f0, mut f1) = if *fsal_slot == 0 { (lo, hi) } else { (hi, lo) };
         drift(h, &state.p, f0, &state.q, y);
