@@ -1,6 +1,6 @@
 //! How `femvi run` drives a run (issue 15, item 4): in chunks of steps through
 //! [`Integrator::advance_observed`] up to the next node the trajectory keeps, the next
-//! checkpoint due by step count, or a length that keeps the chunks a few milliseconds long.
+//! checkpoint due by step count, or a length that keeps the chunks 10–100 milliseconds long.
 //! Every node still gets its energy, its finiteness check and its place as the last good node
 //! ([`Recorders::each_node`], which the explicit fast path runs inside its loop, or its
 //! call-free twin [`Recorders::each_node_lean`] where the energy is ½|p|² + V); the outputs,
