@@ -7,8 +7,10 @@ step, the per-step cost = the difference / S. Process CPU time (user + system) a
 resident memory of each run (os.wait4), K rounds alternating the sizes, medians. With the C
 FPU loop (fpu.c, gcc -O2) at the same sizes for the per-step cost per degree of freedom.
 
-Usage: python3 cli_scale.py [K] (FEMVI=path/to/femvi, default target/release/femvi). By hand,
-not CI; the machine is shared: repeat and read the ranges.
+Usage: python3 cli_scale.py [K] [fpu] (FEMVI=path/to/femvi, default target/release/femvi; several
+paths separated by ':' are run in turn within each round, one table each, for A/B comparisons;
+"fpu" leaves out the n-body cases). By hand, not CI; the machine is shared: repeat and read the
+ranges.
 """
 
 import math
@@ -20,7 +22,7 @@ import sys
 import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FEMVI = os.environ.get("FEMVI", os.path.join(HERE, "..", "..", "target", "release", "femvi"))
+FEMVIS = os.environ.get("FEMVI", os.path.join(HERE, "..", "..", "target", "release", "femvi")).split(":")
 
 
 def fpu_file(path, n, steps):
@@ -68,33 +70,41 @@ def main():
     # About 2·10^7 degrees of freedom × steps (fpu) and 2·10^8 pairs × steps (n-body) between
     # the two runs of a problem.
     cases = [("fpu", n, max(100, 20_000_000 // n)) for n in (1000, 10_000, 100_000, 1_000_000)]
-    cases += [("n-body", b, max(2, 200_000_000 // (b * b))) for b in (100, 1000, 10_000)]
+    if "fpu" not in sys.argv[2:]:
+        cases += [("n-body", b, max(2, 200_000_000 // (b * b))) for b in (100, 1000, 10_000)]
     files = {}
     for kind, size, extra in cases:
         for steps in (1, 1 + extra):
             path = os.path.join(work, f"{kind}{size}_{steps}.toml")
             (fpu_file if kind == "fpu" else nbody_file)(path, size, steps)
             files[(kind, size, steps)] = path
-    res = {key: [] for key in files}
+    res = {(exe, key): [] for key in files for exe in FEMVIS}
     cres = {n: [] for _, n, _ in cases[:4]}
     for r in range(k):
         for key, path in files.items():
-            res[key].append(run([FEMVI, "run", "--quiet", path]))
+            for exe in FEMVIS:
+                res[(exe, key)].append(run([exe, "run", "--quiet", path]))
         for n in cres:
             out = subprocess.run([cloop, str(n)], capture_output=True, text=True, check=True).stdout
             cres[n].append(float(out.strip().split(",")[-1]))
         print(f"round {r + 1} done", file=sys.stderr, flush=True)
+    for exe in FEMVIS:
+        if len(FEMVIS) > 1:
+            print(f"\n{exe}\n")
+        table(exe, cases, res, cres)
+
+
+def table(exe, cases, res, cres):
     print("| system | size | set-up (s) | step (s) | step per dof (ns) | C loop per dof (ns) | peak RSS (MiB) |")
     print("|---|---|---|---|---|---|---|")
     for kind, size, extra in cases:
-        one = statistics.median(t for t, _ in res[(kind, size, 1)])
-        more = statistics.median(t for t, _ in res[(kind, size, 1 + extra)])
+        one = statistics.median(t for t, _ in res[(exe, (kind, size, 1))])
+        more = statistics.median(t for t, _ in res[(exe, (kind, size, 1 + extra))])
         step = (more - one) / extra
-        rss = max(m for _, m in res[(kind, size, 1 + extra)])
+        rss = max(m for _, m in res[(exe, (kind, size, 1 + extra))])
         dof = size if kind == "fpu" else 3 * size
         c = f"{statistics.median(cres[size]):.2f}" if kind == "fpu" else "-"
         print(f"| {kind} | {size} | {one - step:.3f} | {step:.2e} | {step / dof * 1e9:.2f} | {c} | {rss:.0f} |")
-
 
 if __name__ == "__main__":
     main()

@@ -1,6 +1,6 @@
 //! How `femvi run` drives a run (issue 15, item 4): in chunks of steps through
 //! [`Integrator::advance_observed`] up to the next node the trajectory keeps, the next
-//! checkpoint due by step count, or a length that keeps the chunks a few milliseconds long.
+//! checkpoint due by step count, or a length that keeps the chunks 10–100 milliseconds long.
 //! Every node still gets its energy, its finiteness check and its place as the last good node
 //! ([`Recorders::each_node`], which the explicit fast path runs inside its loop, or its
 //! call-free twin [`Recorders::each_node_lean`] where the energy is ½|p|² + V); the outputs,
@@ -19,9 +19,12 @@ use std::time::{Duration, Instant};
 /// The longest chunk (steps).
 const MAX_CHUNK: usize = 1 << 22;
 /// Chunks faster than this grow (×2).
-const SHORT: Duration = Duration::from_millis(1);
-/// Chunks slower than this shrink (÷2).
-const LONG: Duration = Duration::from_millis(10);
+const SHORT: Duration = Duration::from_millis(10);
+/// Chunks slower than this shrink (÷2). Long enough for tens of steps of a chain of 10⁶
+/// masses (a few ms each): a call of the explicit loop for large n keeps its start (about
+/// one step's memory traffic) to take its steps in place; short enough for the progress bar
+/// and for a signal to be noticed within a fraction of a second.
+const LONG: Duration = Duration::from_millis(100);
 
 /// The length limit of the chunks, adapted to their time.
 struct Cap {

@@ -35,6 +35,10 @@ struct Good {
     t: f64,
     q: Vec<f64>,
     p: Vec<f64>,
+    /// Where [`Recorders::each_node_lean`] copies a node while it checks that it is finite
+    /// (one pass over q and p, not two); swapped with q and p if it is.
+    next_q: Vec<f64>,
+    next_p: Vec<f64>,
 }
 
 /// The observers of one run.
@@ -145,6 +149,8 @@ impl<'a> Recorders<'a> {
                 t: f64::NAN,
                 q: vec![],
                 p: vec![],
+                next_q: vec![],
+                next_p: vec![],
             },
             signal: None,
         })
@@ -212,6 +218,8 @@ impl<'a> Recorders<'a> {
                 t: cp.integrator.t,
                 q: vec![],
                 p: vec![],
+                next_q: vec![],
+                next_p: vec![],
             },
             signal: None,
         })
@@ -295,6 +303,8 @@ impl<'a> Recorders<'a> {
         } else {
             self.good.q = node.q.to_vec();
             self.good.p = node.p.to_vec();
+            self.good.next_q = node.q.to_vec();
+            self.good.next_p = node.p.to_vec();
         }
         Ok(())
     }
@@ -308,6 +318,8 @@ impl<'a> Recorders<'a> {
             && self.first_k.is_some()
             && self.good.q.len() == dim
             && self.good.p.len() == dim
+            && self.good.next_q.len() == dim
+            && self.good.next_p.len() == dim
             && self.energy.lean(lag)
     }
 
@@ -321,25 +333,23 @@ impl<'a> Recorders<'a> {
         let Some(h) = self.energy.at_lean(lag, node) else {
             return false;
         };
-        // As `check_finite`: x·0 is NaN exactly when x is not finite.
-        let probe = node
-            .q
-            .iter()
-            .chain(node.p)
-            .fold(node.t * 0.0 + h * 0.0, |s, x| s + x * 0.0);
-        if probe.is_nan() {
-            return false;
-        }
-        self.good.steps = self.steps_at(node.k);
-        self.good.t = node.t;
         // Copies whose length is the node's, a constant in the fast loop: a few moves, where
         // a loop over `good`'s length becomes a call to memcpy (`lean` checked the lengths).
-        if let Some(g) = self.good.q.get_mut(..node.q.len()) {
-            g.copy_from_slice(node.q);
+        // The copy and the test that the node is finite (as `check_finite`) in one pass, into
+        // the spare buffers, which become the last good node if it is.
+        let (Some(gq), Some(gp)) = (
+            self.good.next_q.get_mut(..node.q.len()),
+            self.good.next_p.get_mut(..node.p.len()),
+        ) else {
+            return false;
+        };
+        if !(node.t.is_finite() & h.is_finite() & copy_finite(gq, node.q) & copy_finite(gp, node.p)) {
+            return false;
         }
-        if let Some(g) = self.good.p.get_mut(..node.p.len()) {
-            g.copy_from_slice(node.p);
-        }
+        std::mem::swap(&mut self.good.q, &mut self.good.next_q);
+        std::mem::swap(&mut self.good.p, &mut self.good.next_p);
+        self.good.steps = self.steps_at(node.k);
+        self.good.t = node.t;
         true
     }
 
@@ -443,16 +453,30 @@ fn discrete_energy<L: Lagrangian>(it: &Integrator<'_, L>) -> f64 {
 /// An error if `node`, its energy `h` or the discrete energy is not finite.
 #[inline(always)]
 fn check_finite(node: &Node<'_>, h: f64, discrete: f64) -> femvi::Result<()> {
-    // x·0 is NaN exactly when x is not finite: one sum tells whether all are.
-    let probe = node
-        .q
-        .iter()
-        .chain(node.p)
-        .fold(node.t * 0.0 + h * 0.0 + discrete * 0.0, |s, x| s + x * 0.0);
-    if !probe.is_nan() {
+    if all_finite(node, [h, discrete]) {
         return Ok(());
     }
     not_finite(node, h, discrete)
+}
+
+/// Copies `x` into `to` (of the same length); whether all of `x` is finite. One pass, which
+/// the compiler vectorises.
+#[inline(always)]
+fn copy_finite(to: &mut [f64], x: &[f64]) -> bool {
+    to.iter_mut().zip(x).fold(true, |all, (t, x)| {
+        *t = *x;
+        all & x.is_finite()
+    })
+}
+
+/// Whether the node's t, q and p and the two numbers are all finite: an and of the
+/// elements' tests, which the compiler vectorises (a sum of x·0, NaN exactly when some x is
+/// not finite, is one chain of dependent additions, 2n latencies per node: more than the
+/// step itself of a large chain).
+#[inline(always)]
+fn all_finite(node: &Node<'_>, [a, b]: [f64; 2]) -> bool {
+    let each = |v: &[f64]| v.iter().fold(true, |all, x| all & x.is_finite());
+    node.t.is_finite() & a.is_finite() & b.is_finite() & each(node.q) & each(node.p)
 }
 
 /// The error of [`check_finite`].

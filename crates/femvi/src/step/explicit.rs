@@ -35,6 +35,9 @@ pub(crate) struct ExplicitStep {
     lazy_pending: Vec<f64>,
     lazy_fprev: Vec<f64>,
     lazy_hprev: f64,
+    /// The start of a call of the wide loop (`explicit_wide.rs`): compensation of q, p,
+    /// compensation of p, carried force; empty until that loop needs it.
+    start: Vec<f64>,
 }
 
 /// The fast path's carried values in fixed-size arrays.
@@ -71,6 +74,7 @@ impl ExplicitStep {
             lazy_pending: vec![0.0; n],
             lazy_fprev: vec![0.0; n],
             lazy_hprev: 0.0,
+            start: Vec::new(),
         }
     }
 

@@ -2,18 +2,48 @@
 //! n = 10³ to 10⁶): Störmer–Verlet with M = I for any n, the step of [`ExplicitStep::step`]
 //! followed by the compensated update of `RunState::commit`, with the same operations on
 //! each element in the same order, so the same bits. At large n a step is memory-bound;
-//! the step and the commit go through 11 arrays of n numbers in four passes (drift, force,
+//! `step` and `commit` go through 11 arrays of n numbers in four passes (drift, force,
 //! momentum increment, update), where this loop makes two per step: the force, and one pass
-//! that updates q and p with their compensation terms and at once drifts to the next step's
-//! force point (dq_{k+1} = h P_{k+1} + ½h² f_{k+1}, y = q_{k+1} + dq_{k+1}). The last
-//! element's increment (the step's dq) is kept in one of two buffers that alternate and
-//! copied into place when the call returns.
+//! that updates q and p with their compensation terms in place and at once drifts to the
+//! next step's force point (y = q_{k+1} + h P_{k+1} + ½h² f_{k+1}). That pass reads six
+//! arrays (q, p, their compensations, the two forces) and writes five (the four in place and
+//! y); the step's increment dq = h p_k + ½h² f_k is recomputed from p_k and f_k where it is
+//! needed (the same expression, so the same bits) instead of being stored.
+//!
+//! Updating q in place loses q_k, the base of the last element, which the run must show
+//! after every call. The last step of a call is therefore taken out of place (q_{k+1} into
+//! the last element's buffer, the buffers then swapped, as `commit` does), and a call of
+//! more than one step first keeps its start (q in the last element's base, the
+//! compensations, p and the carried force in `start`). When a call ends after a step taken
+//! in place (the callback said stop, or the node is not finite), it goes back to that start
+//! and replays the steps without the callback, the last of them out of place: the same
+//! operations, so the same bits, and the last element of the step that ended the call.
 
 use super::ExplicitStep;
 use crate::error::{Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
 use crate::step::grid::TimeGrid;
 use crate::step::state::{LastElement, Node, RunState};
+
+/// How a run of steps ended.
+enum End {
+    /// After a step taken out of place: the last element is that step's.
+    Kept,
+    /// The callback said stop after a step taken in place.
+    Stopped,
+    /// A step taken in place gave a node that is not finite.
+    NonFinite,
+}
+
+/// Where a call started: what [`ExplicitStep::restore`] puts back (the rest is in
+/// `ExplicitStep::start` and the last element's base).
+#[derive(Clone, Copy)]
+struct Start {
+    k: usize,
+    t: f64,
+    steps: usize,
+    slot: usize,
+}
 
 impl ExplicitStep {
     /// Up to `max_steps` steps with M = I (the caller checks), showing every node reached to
@@ -31,51 +61,130 @@ impl ExplicitStep {
         at_node: &mut F,
     ) -> Result<usize> {
         let n = state.n;
-        let Some((mut h, mut t_next)) = (max_steps > 0).then(|| grid.next(state.k, state.t)).flatten() else {
+        let Some((_, t_next)) = (max_steps > 0).then(|| grid.next(state.k, state.t)).flatten() else {
             return Ok(0);
         };
+        if !self.force0_valid {
+            let (lo, hi) = self.force.split_at_mut(n);
+            lag.force(state.t, &state.q, if self.fsal_slot == 0 { lo } else { hi });
+            self.force0_valid = true;
+        }
+        // One step, or the grid's last: out of place, nothing to keep.
+        if max_steps == 1 || grid.next(state.k + 1, t_next).is_none() {
+            return self.run(lag, grid, state, last, 1, at_node).map(|(done, _)| done);
+        }
+        let start = self.keep(state, last);
+        match self.run(lag, grid, state, last, max_steps, at_node)? {
+            (done, End::Kept) => Ok(done),
+            (done, End::Stopped) => {
+                self.restore(start, state, last);
+                self.run(lag, grid, state, last, done, &mut |_| true).map(|(d, _)| d)
+            }
+            (done, End::NonFinite) => {
+                // The failing step again, out of place: its error and the state it leaves.
+                self.restore(start, state, last);
+                self.run(lag, grid, state, last, done + 1, &mut |_| true)
+                    .map(|(d, _)| d)
+            }
+        }
+    }
+
+    /// Keeps the start of a call: q in the last element's base (which the call's last step
+    /// overwrites anyway), the compensations, p and the carried force in `start`.
+    fn keep(&mut self, state: &RunState, last: &mut LastElement) -> Start {
+        let n = state.n;
+        last.base.copy_from_slice(&state.q);
         let Self {
             force,
             fsal_slot,
-            force0_valid,
-            y,
-            u: dq,
-            tmp: dq_next,
+            start,
             ..
+        } = self;
+        start.resize(4 * n, 0.0);
+        let [cq, p, cp, f] = [0, 1, 2, 3].map(|i| i * n);
+        start[cq..p].copy_from_slice(&state.comp_q);
+        start[p..cp].copy_from_slice(&state.p);
+        start[cp..f].copy_from_slice(&state.comp_p);
+        start[f..].copy_from_slice(&force[*fsal_slot * n..(*fsal_slot + 1) * n]);
+        Start {
+            k: state.k,
+            t: state.t,
+            steps: state.steps,
+            slot: self.fsal_slot,
+        }
+    }
+
+    /// Puts back what [`Self::keep`] kept.
+    fn restore(&mut self, s: Start, state: &mut RunState, last: &LastElement) {
+        let n = state.n;
+        state.q.copy_from_slice(&last.base);
+        let [cq, p, cp, f] = [0, 1, 2, 3].map(|i| i * n);
+        state.comp_q.copy_from_slice(&self.start[cq..p]);
+        state.p.copy_from_slice(&self.start[p..cp]);
+        state.comp_p.copy_from_slice(&self.start[cp..f]);
+        (state.k, state.t, state.steps) = (s.k, s.t, s.steps);
+        self.fsal_slot = s.slot;
+        self.force[s.slot * n..(s.slot + 1) * n].copy_from_slice(&self.start[f..]);
+    }
+
+    /// Up to `max_steps` steps (the carried force valid), all but the last of the call in
+    /// place; how many, and how the run ended. Errors: a non-finite node from the last step.
+    fn run<L: Lagrangian, F: FnMut(Node<'_>) -> bool>(
+        &mut self,
+        lag: &L,
+        grid: &TimeGrid,
+        state: &mut RunState,
+        last: &mut LastElement,
+        max_steps: usize,
+        at_node: &mut F,
+    ) -> Result<(usize, End)> {
+        let n = state.n;
+        let Some((mut h, mut t_next)) = (max_steps > 0).then(|| grid.next(state.k, state.t)).flatten() else {
+            return Ok((0, End::Kept));
+        };
+        let Self {
+            force, fsal_slot, y, ..
         } = self;
         let (lo, hi) = force.split_at_mut(n);
         let (mut f0, mut f1) = if *fsal_slot == 0 { (lo, hi) } else { (hi, lo) };
-        if !*force0_valid {
-            lag.force(state.t, &state.q, f0);
-        }
-        drift(h, &state.p, f0, &state.q, dq, y);
+        drift(h, &state.p, f0, &state.q, y);
         let mut done = 0;
         loop {
             lag.force(state.t + h, &y[..n], f1);
             *fsal_slot ^= 1;
-            *force0_valid = true;
             let next = if done + 1 < max_steps {
                 grid.next(state.k + 1, t_next)
             } else {
                 None
             };
-            last.valid = true;
-            last.t = state.t;
-            last.h = h;
-            std::mem::swap(&mut state.q, &mut last.base);
-            let carried = Carried {
-                base: &last.base,
-                q: &mut state.q,
-                cq: &mut state.comp_q,
-                p: &mut state.p,
-                cp: &mut state.comp_p,
-            };
             let finite = match next {
-                Some((h2, _)) => update_and_drift(carried, [h, h2], [&*f0, &*f1], dq, dq_next, y),
-                None => update(carried, h, [&*f0, &*f1], dq),
+                Some((h2, _)) => {
+                    let s = InPlace {
+                        q: &mut state.q,
+                        cq: &mut state.comp_q,
+                        p: &mut state.p,
+                        cp: &mut state.comp_p,
+                    };
+                    update_and_drift(s, [h, h2], [&*f0, &*f1], y)
+                }
+                None => {
+                    last.valid = true;
+                    last.t = state.t;
+                    last.h = h;
+                    std::mem::swap(&mut state.q, &mut last.base);
+                    let s = InPlace {
+                        q: &mut state.q,
+                        cq: &mut state.comp_q,
+                        p: &mut state.p,
+                        cp: &mut state.comp_p,
+                    };
+                    update(s, &last.base, h, [&*f0, &*f1], &mut last.incr[n..2 * n])
+                }
             };
             if !finite {
-                last.incr[n..2 * n].copy_from_slice(dq);
+                if next.is_some() {
+                    return Ok((done, End::NonFinite));
+                }
                 return Err(Error::Step(StepError {
                     step: state.k,
                     t: state.t,
@@ -92,67 +201,50 @@ impl ExplicitStep {
             match next {
                 Some((h2, t2)) if go => {
                     (h, t_next) = (h2, t2);
-                    std::mem::swap(dq, dq_next);
                     std::mem::swap(&mut f0, &mut f1);
                 }
-                _ => {
-                    last.incr[n..2 * n].copy_from_slice(dq);
-                    return Ok(done);
-                }
+                Some(_) => return Ok((done, End::Stopped)),
+                None => return Ok((done, End::Kept)),
             }
         }
     }
 }
 
-/// The state a step updates: q goes from `base` (q_k) into `q`, the others in place.
-struct Carried<'a> {
-    base: &'a [f64],
+/// The state a step updates in place (q from `base` in [`update`]).
+struct InPlace<'a> {
     q: &'a mut [f64],
     cq: &'a mut [f64],
     p: &'a mut [f64],
     cp: &'a mut [f64],
 }
 
-/// The drift of `ExplicitStep::step`: dq = h p + ½h² f, y = q + dq.
-fn drift(h: f64, p: &[f64], f: &[f64], q: &[f64], dq: &mut [f64], y: &mut [f64]) {
-    let n = dq.len();
+/// The drift of `ExplicitStep::step`: y = q + (h p + ½h² f).
+fn drift(h: f64, p: &[f64], f: &[f64], q: &[f64], y: &mut [f64]) {
+    let n = y.len().min(q.len());
     let (p, f, q, y) = (&p[..n], &f[..n], &q[..n], &mut y[..n]);
     let half_h2 = 0.5 * h * h;
     for c in 0..n {
-        dq[c] = h * p[c] + half_h2 * f[c];
-        y[c] = q[c] + dq[c];
+        y[c] = q[c] + (h * p[c] + half_h2 * f[c]);
     }
 }
 
-/// `RunState::commit` of a step of size h with the increments dq and ½h(f0 + f1), and the
-/// drift of the next step (size h2, force f1) into `dq_next` and `y`. Whether the new node
-/// is finite.
+/// `RunState::commit` of a step of size h in place, with the increments dq = h p + ½h² f0
+/// and ½h(f0 + f1), and the drift of the next step (size h2, force f1) into `y`. Whether
+/// the new node is finite.
 #[inline(always)]
-fn update_and_drift(
-    s: Carried<'_>,
-    [h, h2]: [f64; 2],
-    [f0, f1]: [&[f64]; 2],
-    dq: &[f64],
-    dq_next: &mut [f64],
-    y: &mut [f64],
-) -> bool {
-    let n = dq.len();
-    let (base, q, cq, p, cp) = (
-        &s.base[..n],
-        &mut s.q[..n],
-        &mut s.cq[..n],
-        &mut s.p[..n],
-        &mut s.cp[..n],
-    );
-    let (f0, f1, dq_next, y) = (&f0[..n], &f1[..n], &mut dq_next[..n], &mut y[..n]);
-    let half_h2 = 0.5 * h2 * h2;
+fn update_and_drift(s: InPlace<'_>, [h, h2]: [f64; 2], [f0, f1]: [&[f64]; 2], y: &mut [f64]) -> bool {
+    let n = s.q.len();
+    let (q, cq, p, cp) = (&mut s.q[..n], &mut s.cq[..n], &mut s.p[..n], &mut s.cp[..n]);
+    let (f0, f1, y) = (&f0[..n], &f1[..n], &mut y[..n]);
+    let half_h2 = 0.5 * h * h;
+    let half_h2_next = 0.5 * h2 * h2;
     let mut finite = true;
     for c in 0..n {
+        let dq = h * p[c] + half_h2 * f0[c];
         let dp = 0.5 * h * (f0[c] + f1[c]);
-        let (tq, tp) = commit_one(base[c], dq[c], dp, (&mut q[c], &mut cq[c]), (&mut p[c], &mut cp[c]));
+        let (tq, tp) = commit_one(q[c], dq, dp, (&mut q[c], &mut cq[c]), (&mut p[c], &mut cp[c]));
         finite &= tp.is_finite() & tq.is_finite();
-        dq_next[c] = h2 * tp + half_h2 * f1[c];
-        y[c] = tq + dq_next[c];
+        y[c] = tq + (h2 * tp + half_h2_next * f1[c]);
     }
     finite
 }
@@ -172,21 +264,19 @@ fn commit_one(base: f64, dq: f64, dp: f64, (q, cq): (&mut f64, &mut f64), (p, cp
     (tq, tp)
 }
 
-/// `RunState::commit` alone (the last step of a call). Whether the new node is finite.
-fn update(s: Carried<'_>, h: f64, [f0, f1]: [&[f64]; 2], dq: &[f64]) -> bool {
-    let n = dq.len();
-    let (base, q, cq, p, cp) = (
-        &s.base[..n],
-        &mut s.q[..n],
-        &mut s.cq[..n],
-        &mut s.p[..n],
-        &mut s.cp[..n],
-    );
-    let (f0, f1) = (&f0[..n], &f1[..n]);
+/// `RunState::commit` alone (the last step of a call), q from `base`, the step's dq into
+/// `incr` (the last element's end increment). Whether the new node is finite.
+fn update(s: InPlace<'_>, base: &[f64], h: f64, [f0, f1]: [&[f64]; 2], incr: &mut [f64]) -> bool {
+    let n = s.q.len();
+    let (q, cq, p, cp) = (&mut s.q[..n], &mut s.cq[..n], &mut s.p[..n], &mut s.cp[..n]);
+    let (base, f0, f1, incr) = (&base[..n], &f0[..n], &f1[..n], &mut incr[..n]);
+    let half_h2 = 0.5 * h * h;
     let mut finite = true;
     for c in 0..n {
+        let dq = h * p[c] + half_h2 * f0[c];
+        incr[c] = dq;
         let dp = 0.5 * h * (f0[c] + f1[c]);
-        let (tq, tp) = commit_one(base[c], dq[c], dp, (&mut q[c], &mut cq[c]), (&mut p[c], &mut cp[c]));
+        let (tq, tp) = commit_one(base[c], dq, dp, (&mut q[c], &mut cq[c]), (&mut p[c], &mut cp[c]));
         finite &= tp.is_finite() & tq.is_finite();
     }
     finite
