@@ -14,7 +14,7 @@
 //! failures, evaluate their own), and one that fails even so is solved again from the
 //! prediction by full Newton with a line search ([`newton_dense`], what `Method::FullNewton`
 //! always uses), so that whatever converged before still does. Its residual rows are
-//! assembled with the arithmetic of full Newton's ([`simplified_residual`]) and it iterates to
+//! assembled with the arithmetic of full Newton's (`newton_residual.rs`) and it iterates to
 //! the round-off of the unknowns: without both, its iterates carried a bias that drifted the
 //! angular momentum and energy of long runs (issue 15). Checkpoints keep the point at which
 //! the kept Jacobian was evaluated, the last θ and the refresh back-off, and a restored run
@@ -23,6 +23,7 @@
 use super::checkpoint::{Reader, Words};
 use super::element_work::{buffers, check_dense_newton, ElementBuffers};
 use super::guess::Guess;
+use super::newton_residual::{simplified_residual, ResidualTables};
 use super::options::Method;
 use super::solver::StepContext;
 use super::state::{Increments, LastElement, RunState};
@@ -51,6 +52,8 @@ pub(crate) struct NewtonStep {
     /// Full Newton's buffers: empty until first used (fallback or `Method::FullNewton`).
     newton: DenseNewtonWork,
     frozen: FrozenJacobian,
+    /// The basis tables of the residual for the current step size.
+    tables: ResidualTables,
     /// Where the kept Jacobian was evaluated: (t_k, h, q_k, X) (empty: none kept).
     at: Vec<f64>,
     /// The kept Jacobian must be evaluated again at `at` (after a checkpoint restore).
@@ -140,59 +143,6 @@ fn residual_from_rows<L: Lagrangian>(
     }
 }
 
-/// The residual R(X) of the simplified iteration into `r`. The rows are assembled as
-/// b_i (h φ_j(c_i) ∂L/∂q + φ_j'(c_i) ∂L/∂v), the arithmetic of the gradient inside
-/// [`Element::hessian_in_place`] (whose rows full Newton drives to zero), not with the
-/// per-step coefficients b_i h φ_j and b_i φ_j' of [`Element::gradient_in_place`]: those are
-/// rounded once for a whole run of equal steps, so their rounding biases every step the
-/// same way, and an iteration that drove those rows to zero drifted the angular momentum
-/// of `tests/adaptive_drift.rs` by 2e-13 over 2 000 periods (−6e-15 with these rows).
-///
-/// [`Element::hessian_in_place`]: crate::discrete::Element::hessian_in_place
-/// [`Element::gradient_in_place`]: crate::discrete::Element::gradient_in_place
-#[allow(clippy::too_many_arguments)]
-fn simplified_residual<L: Lagrangian>(
-    cx: &StepContext<'_, L>,
-    bufs: &mut ElementBuffers,
-    (t0, h): (f64, f64),
-    q: &[f64],
-    p: &[f64],
-    incr: &mut [f64],
-    x: &[f64],
-    r: &mut [f64],
-) {
-    let (lag, element, n) = (cx.lag, cx.element, q.len());
-    let w = element.degree() + 1;
-    incr[..n].iter_mut().for_each(|v| *v = 0.0);
-    incr[n..].copy_from_slice(x);
-    let (ework, grad) = (&mut bufs.ework, &mut bufs.grad);
-    element.points_in_place(t0, h, q, incr, ework);
-    grad.iter_mut().for_each(|g| *g = 0.0);
-    for i in 0..element.points() {
-        let pd = &mut ework.pts[i];
-        lag.first_derivatives(
-            ework.tc[i],
-            &ework.qc[i * n..(i + 1) * n],
-            &ework.vc[i * n..(i + 1) * n],
-            false,
-            pd,
-        );
-        let b = element.rule.weights[i];
-        let (lq, lv) = (pd.l_q(), pd.l_v());
-        if lq.len() != n || lv.len() != n || grad.len() != w * n {
-            grad.iter_mut().for_each(|g| *g = f64::NAN);
-            break;
-        }
-        for (j, gj) in grad.chunks_exact_mut(n).enumerate() {
-            let (aj, dj) = (element.phi(i, j), element.dphi(i, j));
-            for ((g, lq), lv) in gj.iter_mut().zip(lq).zip(lv) {
-                *g += b * (h * aj * lq + dj * lv);
-            }
-        }
-    }
-    residual_from_rows(cx, ework, grad, h, Some(p), r);
-}
-
 /// The Jacobian ∂R/∂X (row-major, dim = s·n) at X: the block of the element Hessian
 /// ∂²L_d/∂Q^j∂Q^m (j < s, m ≥ 1) that [`Element::hessian_in_place`] assembles, by the same
 /// arithmetic (same bits), without its other rows and columns and the gradient.
@@ -259,6 +209,7 @@ impl NewtonStep {
             guess: Guess::new(s, n),
             newton: DenseNewtonWork::new(0),
             frozen: FrozenJacobian::new(s * n),
+            tables: ResidualTables::new(),
             at: Vec::new(),
             rebuild: false,
             theta: f64::INFINITY,
@@ -384,7 +335,10 @@ impl NewtonStep {
                 budget,
                 scale,
                 &mut self.frozen,
-                |x, r| simplified_residual(cx, bufs, (t0, h), q, p, incr, x, r),
+                |x, r| {
+                    let (work, grad) = (&mut bufs.ework, &mut bufs.grad);
+                    simplified_residual(cx.lag, cx.element, &mut self.tables, work, grad, (t0, h), (q, p), x, r)
+                },
             );
             match out {
                 Simplified::Converged { iterations, theta } => {
