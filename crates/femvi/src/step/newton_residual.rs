@@ -163,6 +163,8 @@ fn residual_fixed<const N: usize, L: Lagrangian>(
         return false;
     }
     grad.iter_mut().for_each(|g| *g = 0.0);
+    // Σ_i b_i ∂L/∂q(c_i), summed in the order of `finish` (an f64 sum starts at −0.0).
+    let mut lq_sum = [-0.0; N];
     for i in 0..pts {
         let t = t0 + element.rule.nodes[i] * h;
         work.tc[i] = t;
@@ -182,6 +184,9 @@ fn residual_fixed<const N: usize, L: Lagrangian>(
             return true;
         };
         let b = element.rule.weights[i];
+        for c in 0..N {
+            lq_sum[c] += b * lq[c];
+        }
         for j in 0..=s {
             let (haj, dj) = (tables.ha[i * (s + 1) + j], tables.d[i * (s + 1) + j]);
             let g = &mut grad[j * N..(j + 1) * N];
@@ -190,7 +195,14 @@ fn residual_fixed<const N: usize, L: Lagrangian>(
             }
         }
     }
-    finish(element, work, grad, h, p, r);
+    r.copy_from_slice(&grad[..s * N]);
+    for c in 0..N {
+        let mut rows = -0.0;
+        for j in 1..=s {
+            rows += grad[j * N + c];
+        }
+        r[c] = p[c] + (h * lq_sum[c] - rows);
+    }
     true
 }
 

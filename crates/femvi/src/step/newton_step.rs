@@ -34,7 +34,7 @@ use crate::solve::{newton_dense, simplified_newton, DenseNewtonWork, FrozenJacob
 
 /// The largest contraction θ of a step after which its Jacobian is kept for the next step
 /// (above it, the next step evaluates a fresh one at its predicted start).
-pub(crate) const THETA_KEEP: f64 = 0.01;
+pub(crate) const THETA_KEEP: f64 = 0.003;
 
 /// The longest run of steps that evaluate a fresh Jacobian without trying the kept one,
 /// after kept Jacobians failed again and again (the adaptive Kepler orbit: a Jacobian from
@@ -64,6 +64,19 @@ pub(crate) struct NewtonStep {
     start: Vec<f64>,
     /// Steps left that evaluate a fresh Jacobian without trying the kept one.
     skip: usize,
+    /// The extrapolation of the last element over this step, before any correction.
+    raw: Vec<f64>,
+    /// The extrapolation's error at the last step solved by the simplified iteration
+    /// (solution − `raw`), see [`NewtonStep::correct`].
+    err: Vec<f64>,
+    /// The same at the step before (valid with `depth` 2).
+    err2: Vec<f64>,
+    /// How many consecutive steps of equal h `err` and `err2` hold (0, 1 or 2).
+    depth: usize,
+    /// The bits of (t_k, h) of the step `err` belongs to.
+    err_key: (u64, u64),
+    /// Whether the current step's guess was corrected (its error continues the sequence).
+    follows: bool,
     /// The skip set after the next failure of a kept Jacobian (doubles up to [`MAX_SKIP`],
     /// 0 again after a kept Jacobian converges).
     backoff: usize,
@@ -216,6 +229,12 @@ impl NewtonStep {
             start: vec![0.0; s * n],
             skip: 0,
             backoff: 1,
+            raw: vec![0.0; s * n],
+            err: vec![0.0; s * n],
+            err2: vec![0.0; s * n],
+            depth: 0,
+            err_key: (0, 0),
+            follows: false,
         })
     }
 
@@ -252,7 +271,10 @@ impl NewtonStep {
         let s = element.degree();
         let bufs = buffers(bufs, element, n);
         let iterations = if cx.opts.method != Method::FullNewton {
-            self.simplified(cx, state, bufs, h, &mut out.incr)?
+            self.correct(last, h);
+            let iterations = self.simplified(cx, state, bufs, h, &mut out.incr)?;
+            self.keep_error(state.t, h);
+            iterations
         } else {
             self.full(cx, state, bufs, h, &mut out.incr)?
         };
@@ -269,6 +291,46 @@ impl NewtonStep {
                     .sum::<f64>();
         }
         Ok(iterations)
+    }
+
+    /// Corrects the extrapolated guess by the extrapolation's errors at the last steps, when
+    /// they were the last elements and had the same h: the error of extrapolating the last
+    /// element's polynomial, O(h^(s+1)), is a smooth function of the step's start, so it is
+    /// itself extrapolated, linearly (2e_{k−1} − e_{k−2}) when two such steps are known, else
+    /// as constant (e_{k−1}). The relativistic Kepler run of `benches/general.rs` (degree 2):
+    /// the guess's relative error, 1e-5 uncorrected, is 1e-7 with the constant correction,
+    /// and the residual evaluations per step go from 6.5 to 5.2 with the linear one. Keeps
+    /// the uncorrected guess in `raw`.
+    fn correct(&mut self, last: &LastElement, h: f64) {
+        self.raw.copy_from_slice(&self.guess.x);
+        let key = (last.t.to_bits(), h.to_bits());
+        self.follows = last.valid && last.h.to_bits() == h.to_bits() && self.depth > 0 && self.err_key == key;
+        if !self.follows {
+            return;
+        }
+        if self.depth >= 2 {
+            for ((x, e), e2) in self.guess.x.iter_mut().zip(&self.err).zip(&self.err2) {
+                *x += 2.0 * e - e2;
+            }
+        } else {
+            for (x, e) in self.guess.x.iter_mut().zip(&self.err) {
+                *x += e;
+            }
+        }
+    }
+
+    /// Keeps the extrapolation's error of the step just solved from t0 with step h.
+    fn keep_error(&mut self, t0: f64, h: f64) {
+        if self.follows {
+            std::mem::swap(&mut self.err, &mut self.err2);
+            self.depth = (self.depth + 1).min(2);
+        } else {
+            self.depth = 1;
+        }
+        for ((e, x), r) in self.err.iter_mut().zip(&self.guess.x).zip(&self.raw) {
+            *e = x - r;
+        }
+        self.err_key = (t0.to_bits(), h.to_bits());
     }
 
     /// Full Newton with a line search from the guess.
@@ -374,8 +436,8 @@ impl NewtonStep {
         Ok(spent + self.full(cx, state, bufs, h, incr)?)
     }
 
-    /// Writes the point of the kept Jacobian, the last θ and the refresh back-off (nothing
-    /// else is kept).
+    /// Writes the point of the kept Jacobian, the last θ, the refresh back-off and the
+    /// predictor's correction (nothing else is kept).
     pub(crate) fn save(&self, w: &mut Words) {
         let kept = self.frozen.is_factored() || self.rebuild;
         w.b(kept);
@@ -385,6 +447,13 @@ impl NewtonStep {
         w.f(self.theta);
         w.u(self.skip);
         w.u(self.backoff);
+        w.u(self.depth);
+        if self.depth > 0 {
+            w.f(f64::from_bits(self.err_key.0));
+            w.f(f64::from_bits(self.err_key.1));
+            w.fs(&self.err);
+            w.fs(&self.err2);
+        }
     }
 
     /// Reads what [`NewtonStep::save`] wrote; the Jacobian is evaluated again at the next step.
@@ -403,6 +472,19 @@ impl NewtonStep {
         self.theta = r.f()?;
         self.skip = r.u()?.min(MAX_SKIP);
         self.backoff = r.u()?.clamp(1, MAX_SKIP);
+        self.depth = r.u()?;
+        if self.depth > 2 {
+            return Err(invalid("checkpoint", "a predictor depth past 2"));
+        }
+        if self.depth > 0 {
+            let (t, h) = (r.f()?, r.f()?);
+            r.fs(&mut self.err)?;
+            r.fs(&mut self.err2)?;
+            if !self.err.iter().chain(&self.err2).all(|v| v.is_finite()) {
+                return Err(invalid("checkpoint", "a non-finite predictor correction"));
+            }
+            self.err_key = (t.to_bits(), h.to_bits());
+        }
         Ok(())
     }
 }
