@@ -4,7 +4,9 @@
 //! argument `kepler`, the Kepler model's fixed-point step instead (the yardstick). For
 //! callgrind or `perf stat`.
 
-use femvi::{Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid};
+use femvi::{
+    Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid,
+};
 
 struct RelativisticKepler {
     c: f64,

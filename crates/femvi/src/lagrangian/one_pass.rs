@@ -61,7 +61,10 @@ fn gradient_k<const K: usize, L: Lagrangian + ?Sized>(
     // half of this function's own cost beside L: callgrind, relativistic Kepler).
     let z: [DualSVec64<K>; K] = std::array::from_fn(|a| {
         let x = if a < n { q[a] } else { v[a - n] };
-        DualSVec64::new(x, Derivative::some(SVector::from_fn(|i, _| if i == a { 1.0 } else { 0.0 })))
+        DualSVec64::new(
+            x,
+            Derivative::some(SVector::from_fn(|i, _| if i == a { 1.0 } else { 0.0 })),
+        )
     });
     let r = lag.value(DualSVec64::from_re(t), &z[..n], &z[n..]);
     match r.eps.0 {

@@ -244,7 +244,10 @@ fn residual_any<L: Lagrangian>(
             return;
         }
         let b = element.rule.weights[i];
-        let (ha, d) = (&tables.ha[i * (s + 1)..(i + 1) * (s + 1)], &tables.d[i * (s + 1)..(i + 1) * (s + 1)]);
+        let (ha, d) = (
+            &tables.ha[i * (s + 1)..(i + 1) * (s + 1)],
+            &tables.d[i * (s + 1)..(i + 1) * (s + 1)],
+        );
         for ((gj, &haj), &dj) in grad.chunks_exact_mut(n).zip(ha).zip(d) {
             for ((g, lq), lv) in gj.iter_mut().zip(lq).zip(lv) {
                 *g += b * (haj * lq + dj * lv);
