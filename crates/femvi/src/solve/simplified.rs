@@ -269,7 +269,9 @@ where
             None => dn,
             Some(t) => {
                 // The rate the caller keeps the Jacobian by: ratios of corrections near
-                // round-off measure its noise, not the contraction.
+                // round-off measure its noise, not the contraction, whichever of the two is
+                // near it (with a guess close to the solution, the second correction often
+                // is: counting it refreshed 225 Jacobians in 2 000 degree-4 steps, not 26).
                 if dn > NOISE * floor && previous.is_some_and(|p| p > NOISE * floor) {
                     theta_max = theta_max.max(t);
                 }
