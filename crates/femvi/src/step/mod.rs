@@ -56,6 +56,7 @@ pub mod grid;
 mod guess;
 mod gyroscopic;
 pub mod integrator;
+mod newton_residual;
 mod newton_step;
 pub mod options;
 mod solver;

@@ -1,0 +1,61 @@
+//! Profiling aid for the general path (issue 15 item 2): the relativistic Kepler run of
+//! `benches/general.rs` (2 000 steps, Method::Newton) at the degree given as the first
+//! argument (default 2), repeated as many times as the second (default 1); with a third
+//! argument `kepler`, the Kepler model's fixed-point step instead (the yardstick). For
+//! callgrind or `perf stat`.
+
+use femvi::{
+    Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid,
+};
+
+struct RelativisticKepler {
+    c: f64,
+}
+impl Lagrangian for RelativisticKepler {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
+    fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
+        let c2 = self.c * self.c;
+        let w = (v[0] * v[0] + v[1] * v[1]) * (-1.0 / c2) + 1.0;
+        -(w.sqrt() * c2) + (q[0] * q[0] + q[1] * q[1]).sqrt().recip()
+    }
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let s: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(2);
+    let reps: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(1);
+    let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).unwrap();
+    let h = 2.0 * std::f64::consts::PI / 1000.0;
+    let kepler = args.next().is_some_and(|a| a == "kepler");
+    for _ in 0..reps {
+        if kepler {
+            let x = run(&femvi::models::kepler(1.0).unwrap(), &el, h, Method::Auto);
+            println!("{x:?}");
+        } else {
+            println!("{:?}", run(&RelativisticKepler { c: 10.0 }, &el, h, Method::Newton));
+        }
+    }
+}
+
+/// 2 000 steps of h from (q, p) = ((0.4, 0), (0, 2)); the final q.
+fn run<L: Lagrangian>(lag: &L, el: &Element, h: f64, method: Method) -> Vec<f64> {
+    {
+        let start = Start::Momentum {
+            q: vec![0.4, 0.0],
+            p: vec![0.0, 2.0],
+        };
+        let grid = TimeGrid::uniform(0.0, h, h * 2000.0).unwrap();
+        let opts = SolverOptions {
+            method,
+            ..Default::default()
+        };
+        let mut it = Integrator::new(lag, el, grid, start, opts).unwrap();
+        while it.advance(usize::MAX).unwrap() > 0 {}
+        it.node().q.to_vec()
+    }
+}
