@@ -20,25 +20,6 @@ use femvi::{
 
 const STEPS: usize = 2_000;
 
-/// Relativistic Kepler, L = −c²√(1 − |v|²/c²) + 1/|q|: velocity-dependent, not gyroscopic,
-/// written only through `value`.
-struct RelativisticKepler {
-    c: f64,
-}
-impl Lagrangian for RelativisticKepler {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn is_autonomous(&self) -> bool {
-        true
-    }
-    fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
-        let c2 = self.c * self.c;
-        let w = (v[0] * v[0] + v[1] * v[1]) * (-1.0 / c2) + 1.0;
-        -(w.sqrt() * c2) + (q[0] * q[0] + q[1] * q[1]).sqrt().recip()
-    }
-}
-
 /// The per-direction and per-pair AD passes whatever n (the path before the one-pass vector
 /// duals).
 struct PerPair<L>(L);
@@ -78,8 +59,8 @@ fn run<L: Lagrangian>(lag: &L, el: &Element, h: f64, method: Method) -> f64 {
 
 fn bench(c: &mut Criterion) {
     let kep = models::kepler(1.0).unwrap();
-    let rel = RelativisticKepler { c: 10.0 };
-    let before = PerPair(RelativisticKepler { c: 10.0 });
+    let rel = models::RelativisticKepler { c: 10.0 };
+    let before = PerPair(models::RelativisticKepler { c: 10.0 });
     let h = 2.0 * std::f64::consts::PI / 1000.0;
     for s in [2, 4] {
         let el = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s)).unwrap();

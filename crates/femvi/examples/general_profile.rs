@@ -4,26 +4,8 @@
 //! argument `kepler`, the Kepler model's fixed-point step instead (the yardstick). For
 //! callgrind or `perf stat`.
 
-use femvi::{
-    Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid,
-};
-
-struct RelativisticKepler {
-    c: f64,
-}
-impl Lagrangian for RelativisticKepler {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn is_autonomous(&self) -> bool {
-        true
-    }
-    fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
-        let c2 = self.c * self.c;
-        let w = (v[0] * v[0] + v[1] * v[1]) * (-1.0 / c2) + 1.0;
-        -(w.sqrt() * c2) + (q[0] * q[0] + q[1] * q[1]).sqrt().recip()
-    }
-}
+use femvi::models::RelativisticKepler;
+use femvi::{Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
 
 fn main() {
     let mut args = std::env::args().skip(1);

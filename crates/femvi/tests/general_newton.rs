@@ -4,26 +4,9 @@
 //! with its order, a variable grid, a strongly nonlinear case, checkpoints and hostile input.
 
 use femvi::lagrangian::PointDerivatives;
+use femvi::models::RelativisticKepler;
 use femvi::solve::{simplified_newton, FrozenJacobian, Simplified};
 use femvi::{Element, Error, Integrator, Lagrangian, Method, Scalar, SolverOptions, Start, TimeGrid};
-
-/// Relativistic Kepler, L = −c²√(1 − |v|²/c²) + 1/|q| in the plane.
-struct Relativistic {
-    c: f64,
-}
-impl Lagrangian for Relativistic {
-    fn dim(&self) -> usize {
-        2
-    }
-    fn is_autonomous(&self) -> bool {
-        true
-    }
-    fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
-        let c2 = self.c * self.c;
-        let w = (v[0] * v[0] + v[1] * v[1]) * (-1.0 / c2) + 1.0;
-        -(w.sqrt() * c2) + (q[0] * q[0] + q[1] * q[1]).sqrt().recip()
-    }
-}
 
 /// A non-autonomous L of any dimension that mixes q, v and t in every way (for the AD tests).
 struct Mixed {
@@ -155,7 +138,7 @@ fn largest_difference(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
 
 #[test]
 fn simplified_newton_agrees_with_full_newton_at_every_node() {
-    let lag = Relativistic { c: 10.0 };
+    let lag = RelativisticKepler { c: 10.0 };
     let h = 2.0 * std::f64::consts::PI / 1000.0;
     for order in [2, 4, 6, 8] {
         let el = Element::with_order(order).unwrap();
@@ -170,7 +153,7 @@ fn simplified_newton_agrees_with_full_newton_at_every_node() {
 #[test]
 fn simplified_newton_follows_a_variable_grid() {
     // h changes at every step (a cycle of three): the kept Jacobian is refreshed each time.
-    let lag = Relativistic { c: 10.0 };
+    let lag = RelativisticKepler { c: 10.0 };
     let el = Element::with_order(4).unwrap();
     let grid = || TimeGrid::steps(0.0, vec![0.004, 0.007, 0.0055], 5.0).unwrap();
     let a = nodes(&lag, &el, grid(), p1(), Method::SimplifiedNewton).unwrap();
@@ -184,7 +167,7 @@ fn simplified_newton_follows_a_variable_grid() {
 fn strongly_nonlinear_steps_refresh_and_still_agree() {
     // c = 2.2 with speeds up to 2: γ reaches ~2.4 near pericentre, and a large step (h = T/150)
     // makes the Jacobian of one step a poor one for the next.
-    let lag = Relativistic { c: 2.2 };
+    let lag = RelativisticKepler { c: 2.2 };
     let el = Element::with_order(6).unwrap();
     let grid = || TimeGrid::uniform(0.0, 0.04, 12.0).unwrap();
     let a = nodes(&lag, &el, grid(), p1(), Method::SimplifiedNewton).unwrap();
@@ -242,7 +225,7 @@ fn slope(hs: &[f64], errs: &[f64]) -> f64 {
 
 #[test]
 fn order_is_2s_for_a_velocity_dependent_lagrangian() {
-    let lag = Relativistic { c: 3.0 };
+    let lag = RelativisticKepler { c: 3.0 };
     let end = 1.0;
     let final_q = |order: usize, steps: usize| {
         let el = Element::with_order(order).unwrap();
@@ -286,7 +269,7 @@ fn order_is_2s_for_a_velocity_dependent_lagrangian() {
 
 #[test]
 fn a_resumed_newton_run_equals_the_uninterrupted_one_bit_for_bit() {
-    let lag = Relativistic { c: 10.0 };
+    let lag = RelativisticKepler { c: 10.0 };
     let el = Element::with_order(4).unwrap();
     let h = 2.0 * std::f64::consts::PI / 1000.0;
     let new = || {

@@ -18,6 +18,7 @@ mod forced;
 mod fpu;
 mod gravity;
 pub mod outer_solar_system;
+mod relativistic;
 mod simple;
 
 pub use constrained::{chain, Chain, UniformGravity};
@@ -25,6 +26,7 @@ pub use double_pendulum::DoublePendulum;
 pub use forced::{forced_oscillator, ForcedPotential};
 pub use fpu::{fpu, FpuPotential};
 pub use gravity::{n_body, outer_solar_system, GravityPotential};
+pub use relativistic::RelativisticKepler;
 pub use simple::{
     harmonic, henon_heiles, kepler, pendulum, HarmonicPotential, HenonHeilesPotential, KeplerPotential,
     PendulumPotential,
