@@ -122,7 +122,7 @@ impl Tape {
             code.push(ins);
         }
         let outputs = outputs.iter().map(|o| reg.get(o).copied().unwrap_or(0)).collect();
-        let mut tape = Self {
+        let tape = Self {
             registers: base + code.len(),
             consts,
             loads,
@@ -132,9 +132,10 @@ impl Tape {
             native: NativeSlot::default(),
         };
         #[cfg(feature = "jit")]
-        {
-            tape.native.0 = super::native::compile(&tape).map(std::sync::Arc::new);
-        }
+        let tape = Self {
+            native: NativeSlot(super::native::compile(&tape).map(std::sync::Arc::new)),
+            ..tape
+        };
         tape
     }
 
@@ -156,7 +157,13 @@ impl Tape {
     /// Evaluates at z = (t, q, v) and hands the output values, in order, to `out`.
     /// A variable beyond the slices reads NaN.
     #[inline]
-    pub(super) fn eval(&self, t: f64, q: &[f64], v: &[f64], mut out: impl FnMut(usize, f64)) {
+    pub(super) fn eval(
+        &self,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        #[cfg_attr(not(feature = "jit"), allow(unused_mut))] mut out: impl FnMut(usize, f64),
+    ) {
         #[cfg(feature = "jit")]
         if let Some(native) = &self.native.0 {
             let k = self.outputs.len();
