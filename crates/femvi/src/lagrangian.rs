@@ -5,6 +5,7 @@
 //! mechanical structure, L = ½vᵀMv − V(t, q) with constant M ([`Mechanical`]): then the fast
 //! solvers need only the force −∇V, which the user may hand-code for large systems.
 
+mod legendre;
 mod mass;
 mod one_pass;
 mod point;
@@ -351,30 +352,7 @@ pub fn velocity_from_momentum<L: Lagrangian>(
         mass.solve(p, v);
         return Ok(());
     }
-    let mut hvv = nalgebra::DMatrix::zeros(n, n);
-    let mut rhs = nalgebra::DVector::zeros(n);
-    for _ in 0..50 {
-        lag.second_derivatives(t, q, v, false, work);
-        for i in 0..n {
-            rhs[i] = p[i] - work.l_v()[i];
-            for j in 0..n {
-                hvv[(i, j)] = work.h(1 + n + i, 1 + n + j);
-            }
-        }
-        let lu = hvv.clone().lu();
-        let dv = lu.solve(&rhs).ok_or(Error::DegenerateLagrangian { t })?;
-        let scale = v.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-        for i in 0..n {
-            v[i] += dv[i];
-        }
-        if !dv.iter().all(|x| x.is_finite()) {
-            return Err(Error::DegenerateLagrangian { t });
-        }
-        if dv.amax() <= 1e-15 * scale {
-            return Ok(());
-        }
-    }
-    Err(Error::DegenerateLagrangian { t })
+    legendre::newton(lag, t, (q, p), v, work)
 }
 
 /// The Hamiltonian H = p·v − L(t, q, v) with v from the inverse Legendre transform

@@ -64,8 +64,7 @@ pub(super) fn emit(b: &mut FunctionBuilder, calls: &Calls, regs: &[Value], ins: 
                 Bin::Atan2 => atan2,
                 Bin::Pow => powf,
             };
-            let sig = calls.bin.clone();
-            calls.call(b, &sig, f as usize, &[r(x)?, r(y)?])?
+            calls.call(b, &calls.bin, f as usize, &[r(x)?, r(y)?])?
         }
         Instr::Pick(max, p, q, x, y) => {
             let cc = if max { FloatCC::GreaterThan } else { FloatCC::LessThan };
@@ -89,13 +88,11 @@ fn emit_un(b: &mut FunctionBuilder, calls: &Calls, op: Un, x: Value) -> Option<V
         }
         Un::PowI(e) => {
             let e = b.ins().iconst(types::I32, i64::from(e));
-            let sig = calls.powi.clone();
-            return calls.call(b, &sig, powi as *const () as usize, &[x, e]);
+            return calls.call(b, &calls.powi, powi as *const () as usize, &[x, e]);
         }
         Un::PowF(bits) => {
             let y = b.ins().f64const(f64::from_bits(bits));
-            let sig = calls.bin.clone();
-            return calls.call(b, &sig, powf as *const () as usize, &[x, y]);
+            return calls.call(b, &calls.bin, powf as *const () as usize, &[x, y]);
         }
         Un::F(f) => match f {
             F1::Sin => sin,
@@ -112,6 +109,5 @@ fn emit_un(b: &mut FunctionBuilder, calls: &Calls, op: Un, x: Value) -> Option<V
             F1::Sqrt | F1::Abs => return None,
         },
     };
-    let sig = calls.un.clone();
-    calls.call(b, &sig, f as usize, &[x])
+    calls.call(b, &calls.un, f as usize, &[x])
 }
