@@ -7,14 +7,8 @@
 # adds another build's `femvi run` on the same problem (A/B). Run by hand, not by CI.
 set -euo pipefail
 cd "$(dirname "$0")"
-root=$(cd ../.. && pwd)
 k=${1:-5}
-if [ -z "${FEMVI:-}" ]; then
-  cargo build --release -q -p femvi-cli --manifest-path "$root/Cargo.toml"
-  FEMVI="${CARGO_TARGET_DIR:-$root/target}/release/femvi"
-fi
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+source ./femvi_env.sh
 gcc -O2 -o "$work/verlet" verlet.c -lm
 cat > "$work/kepler.toml" <<TOML
 name = "kepler-verlet"
