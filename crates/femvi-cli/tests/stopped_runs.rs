@@ -11,6 +11,13 @@ use std::time::{Duration, Instant};
 /// A Kepler orbit by fixed-point iteration: runs for long (it is stopped).
 const KEPLER: &str = "name = \"kepler\"\n[system]\nmodel = \"kepler\"\nparameters = { mu = 1.0 }\n[initial]\nq = [0.4, 0.0]\np = [0.0, 2.0]\n[scheme]\ndegree = 4\nquadrature = \"gauss-legendre\"\n[time]\nstep = 0.01\nend = 200000.0\n";
 
+/// The same run writing one row in 100 (2·10⁵ rows, ~30 MB): the runs below are stopped after
+/// a fraction of a second, and a run whose full output would not fit the free space is refused
+/// before it starts (CI machines may have only a few GB free).
+fn kepler_bounded() -> String {
+    format!("{KEPLER}[output]\nevery = 100\n")
+}
+
 fn femvi() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_femvi"));
     c.stdin(Stdio::null()).stdout(Stdio::null()).stderr(Stdio::piped());
@@ -37,7 +44,7 @@ fn complete_rows(csv: &str) -> bool {
 fn sigterm_and_sighup_stop_the_run_with_a_summary_and_exit_code() {
     for (sig, name, code) in [(libc::SIGTERM, "SIGTERM", 143), (libc::SIGHUP, "SIGHUP", 129)] {
         let tmp = tempfile::tempdir().unwrap();
-        let problem = write_problem(tmp.path(), KEPLER);
+        let problem = write_problem(tmp.path(), &kepler_bounded());
         let out = tmp.path().join("out");
         let child = femvi()
             .args(["run", "--quiet", "--out"])
@@ -115,7 +122,7 @@ fn rows_reach_the_disk_within_about_a_second() {
 #[test]
 fn a_stale_summary_is_replaced_at_the_start_of_a_run() {
     let tmp = tempfile::tempdir().unwrap();
-    let problem = write_problem(tmp.path(), KEPLER);
+    let problem = write_problem(tmp.path(), &kepler_bounded());
     let out = tmp.path().join("out");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("summary.json"), "{\"status\": \"done\", \"error\": null}\n").unwrap();
