@@ -100,6 +100,9 @@ fn solve_member<L: Lagrangian + Clone>(lag: &L, problem: &Problem, start: Start,
         every: 0,
         saveat: saveat.to_vec(),
         track_energy: true,
+        // A member keeps its first and last nodes only; its energy error is over every node,
+        // as `run_member`'s.
+        energy_nodes: femvi::solution::EnergyNodes::Every,
         ..femvi::SolveOptions::step(1.0)
     };
     let sol = match femvi::solve(&p, &problem.element, &options) {

@@ -31,6 +31,11 @@ pub struct Summary {
     pub final_p: Vec<f64>,
     /// Max over nodes of |H − H0|/|H0| (absolute if H0 = 0), H by the Legendre transform.
     pub max_rel_energy_error: f64,
+    /// Which nodes `max_rel_energy_error` is over: "every" node, or the "kept" ones (those
+    /// written; `[output] energy_nodes`, by default for Lagrangians without a constant mass
+    /// matrix, whose H needs a Newton solve per node).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy_nodes: Option<String>,
     /// Solver iterations per step (0 for explicit steps).
     pub mean_solver_iterations: f64,
     /// Run time.
@@ -141,6 +146,7 @@ pub(crate) fn run_summary(
         final_q: end.q,
         final_p: end.p,
         max_rel_energy_error: recorders.max_rel_energy_error(),
+        energy_nodes: Some(recorders.energy_nodes().name().into()),
         mean_solver_iterations: end.mean_iterations,
         wall_seconds: clock.elapsed().as_secs_f64(),
         error: end.error,
@@ -179,6 +185,7 @@ pub(crate) fn empty_summary(problem: &Problem, clock: Instant, error: String, co
         final_q: vec![],
         final_p: vec![],
         max_rel_energy_error: f64::NAN,
+        energy_nodes: None,
         mean_solver_iterations: 0.0,
         wall_seconds: clock.elapsed().as_secs_f64(),
         error: Some(error),

@@ -1,7 +1,9 @@
 //! `femvi run` drives its runs in chunks up to the next kept node (issue 15, item 4), with the
-//! energy still computed at every node: a run keeping every 7th node (chunks of up to 7 steps,
-//! or of up to the chunk cap when every node of 10⁵ is kept) writes exactly the rows of the
-//! run keeping every node at those nodes, and its summary (final state, steps, largest energy
+//! energy still computed at every node (`energy_nodes = "every"`, which the general Lagrangian
+//! below would not get by default; `cli::energy_nodes` tests the default): a run keeping
+//! every 7th node (chunks of up to 7 steps, or of up to the chunk cap when every node of 10⁵
+//! is kept) writes exactly the rows of the run keeping every node at those nodes, and its
+//! summary (final state, steps, largest energy
 //! error over all nodes, solver iterations) is the same bit for bit. Explicit fast path,
 //! fixed point, Newton on a general expression, and energy mode (driven node by node).
 
@@ -36,7 +38,12 @@ fn run(text: &str, every: usize, dir: &Path) -> (Vec<String>, serde_json::Value)
         .args(["run", "--quiet", "--out"])
         .arg(&out)
         .arg(&file)
-        .args(["--set", &format!("output.every={every}")])
+        .args([
+            "--set",
+            &format!("output.every={every}"),
+            "--set",
+            "output.energy_nodes=every",
+        ])
         .output()
         .unwrap();
     assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));

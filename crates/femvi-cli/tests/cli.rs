@@ -2,6 +2,9 @@
 //! input gives exit code 2 (bad input) or 1 (numerical failure), a message naming the problem,
 //! and no panic.
 
+#[path = "cli/energy_nodes.rs"]
+mod energy_nodes;
+
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 

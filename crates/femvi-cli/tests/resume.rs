@@ -20,7 +20,7 @@ struct Case {
     args: &'static [&'static str],
 }
 
-const CASES: [Case; 5] = [
+const CASES: [Case; 6] = [
     Case {
         name: "explicit",
         end: 20.0,
@@ -53,11 +53,20 @@ const CASES: [Case; 5] = [
         toml: "name = \"general\"\n[system]\ncoordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 0.5*b*(x*y_dot - y*x_dot) - 0.5*(x^2 + y^2)*(1 + 0.1*cos(t))\"\nparameters = { b = 1.0 }\n[initial]\nq = [1.0, 0.0]\nv = [0.0, 0.5]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 5\n",
         args: &["--checkpoint-every-seconds", "0.05"],
     },
+    // Velocity-dependent and autonomous: energies only at the kept nodes (energy_nodes =
+    // "kept" by default), checkpoints between them.
+    Case {
+        name: "kept",
+        end: 100.0,
+        toml: "name = \"kept\"\n[system]\ncoordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) + (x_dot^2 + y_dot^2)^2/800\"\n[initial]\nq = [0.4, 0.0]\np = [0.0, 2.0]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 7\n",
+        args: &["--checkpoint-every-steps", "101", "--checkpoint-every-seconds", "0.05"],
+    },
 ];
 
 /// The summary.json keys that describe the final state (not the wall time or command line).
-const FINAL_STATE: [&str; 13] = [
+const FINAL_STATE: [&str; 14] = [
     "status",
+    "energy_nodes",
     "error",
     "steps",
     "final_t",

@@ -85,6 +85,7 @@ pub fn run_on(
         dense: extras.dense,
         events,
         track_energy: true,
+        energy_nodes: problem.energy_nodes,
     };
     let mut r = go(&options).map_err(|e| format!("{}: {e}", path.display()))?;
     r.event_names = options.events.iter().map(|e| e.name.clone()).collect();
@@ -282,6 +283,9 @@ fn to_dict(
     d.set_item("steps", s.steps)?;
     d.set_item("mean_iterations", s.mean_iterations)?;
     d.set_item("max_rel_energy_error", r.max_rel_energy_error)?;
+    if let Some(report) = s.energy_report {
+        d.set_item("energy_nodes", report.nodes.name())?;
+    }
     d.set_item("stopped", s.stopped)?;
     if let Some(st) = s.energy_stats {
         let e = PyDict::new(py);

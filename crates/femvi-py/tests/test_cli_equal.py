@@ -9,6 +9,7 @@ from conftest import EXAMPLES
 PROBLEMS = [
     "kepler", "pendulum", "henon-heiles", "double-pendulum", "variable-steps",
     "energy-henon-heiles", "harmonic-q1-start", "kepler-accuracy", "henon-heiles-section",
+    "relativistic-kepler",
 ]
 
 
@@ -28,6 +29,7 @@ def test_equals_cli(name, run_cli):
     assert same(sol.q[-1], summary["final_q"]) and same(sol.p[-1], summary["final_p"])
     assert sol.t[-1] == summary["final_t"]
     assert sol.max_rel_energy_error == summary["max_rel_energy_error"]
+    assert sol.energy_nodes == summary["energy_nodes"]
     assert sol.mean_iterations == summary["mean_solver_iterations"]
     header, body = rows[0], rows[1:]
     n = len(sol.coordinates)

@@ -4,6 +4,8 @@
 //! `every`, `max_steps`, stopping events, and the prefix kept after a failure.
 
 mod common;
+#[path = "solution/energy_nodes.rs"]
+mod energy_nodes;
 use common::{fit_order, Errs};
 use femvi::solution::{Direction, Event};
 use femvi::{models, solve, Element, Problem, SolveOptions, Start, StepFailure};

@@ -92,6 +92,8 @@ pub struct Problem {
     pub directory: PathBuf,
     /// Write every n-th node.
     pub every: usize,
+    /// The nodes the energy error covers (`[output] energy_nodes`).
+    pub energy_nodes: femvi::solution::EnergyNodes,
     /// Time steps as variables (paper §3), with these bounds and policy.
     pub energy: Option<femvi::EnergyOptions>,
     /// Declared symmetries (from the file, or the built-in model's).
@@ -123,6 +125,7 @@ impl Problem {
             steps: self.steps.clone(),
             solver: self.options,
             every,
+            energy_nodes: self.energy_nodes,
             ..femvi::SolveOptions::step(1.0)
         }
     }
@@ -387,6 +390,7 @@ fn build_ivp(
         options: c.options,
         directory: c.directory,
         every,
+        energy_nodes: file.output.energy_nodes(src)?,
         energy,
         symmetries,
         model: c.system.model,

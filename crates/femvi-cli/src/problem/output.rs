@@ -15,6 +15,9 @@ pub struct OutputTable {
     pub every: Option<usize>,
     /// Draw plots (SVG) next to the trajectory.
     pub plots: Option<bool>,
+    /// The nodes whose energy summary.json's largest error covers: "auto" (default), "every"
+    /// or "kept" ([`femvi::solution::EnergyNodes`]).
+    pub energy_nodes: Option<String>,
 }
 
 impl OutputTable {
@@ -25,6 +28,14 @@ impl OutputTable {
             return Err(src.error("[output] every must be at least 1"));
         }
         Ok(every)
+    }
+
+    /// `energy_nodes` (default "auto").
+    pub fn energy_nodes(&self, src: &Source) -> Result<femvi::solution::EnergyNodes, InputError> {
+        match &self.energy_nodes {
+            None => Ok(femvi::solution::EnergyNodes::Auto),
+            Some(s) => s.parse().map_err(|e: String| src.error(format!("[output] {e}"))),
+        }
     }
 
     /// The output directory of a problem called `name`.

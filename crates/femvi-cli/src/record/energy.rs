@@ -2,10 +2,15 @@
 //! [`EnergyTracker`] (H by the Legendre transform, its largest relative error, and for a
 //! time-dependent Lagrangian the balance with the work −∫∂L/∂t dt) as an observer, sharing the
 //! node's energy with the trajectory writers. `femvi::solve` and the Python package use the
-//! same tracker, so their energies are the command's bit for bit.
+//! same tracker, so their energies are the command's bit for bit. With
+//! [`EnergyNodes::Kept`] (`[output] energy_nodes`; by default for Lagrangians without a
+//! constant mass matrix) only the nodes the outputs keep get an energy, each Legendre
+//! inversion started from the velocity of the element ending on the node, as
+//! `femvi::solve` does.
 
-use femvi::solution::EnergyTracker;
+use femvi::fem::LagrangeBasis;
 pub use femvi::solution::NodeEnergy;
+use femvi::solution::{end_velocity, EnergyNodes, EnergyTracker};
 use femvi::step::{Node, Observer};
 use femvi::{Integrator, Lagrangian, Start};
 use std::cell::Cell;
@@ -16,6 +21,12 @@ use std::rc::Rc;
 pub struct EnergyError {
     tracker: EnergyTracker,
     current: Rc<Cell<NodeEnergy>>,
+    /// [`EnergyNodes::Kept`]: the element basis (for the end velocities) and `every`.
+    kept: Option<(LagrangeBasis, usize)>,
+    /// The node whose energy the tracker holds.
+    tracked: Option<usize>,
+    /// Scratch for an end velocity.
+    guess: Vec<f64>,
 }
 
 impl EnergyError {
@@ -25,7 +36,58 @@ impl EnergyError {
         EnergyError {
             tracker: EnergyTracker::new(dim, start, autonomous),
             current: Rc::default(),
+            kept: None,
+            tracked: None,
+            guess: vec![0.0; dim],
         }
+    }
+
+    /// The nodes the tracker is shown: `nodes` as [`EnergyNodes::resolve`] gave it; for
+    /// [`EnergyNodes::Kept`], the nodes every `every`-th and the last, with `basis` the
+    /// element's (for the end velocities).
+    pub fn with_nodes(mut self, nodes: EnergyNodes, basis: &LagrangeBasis, every: usize) -> Self {
+        self.tracker = self.tracker.with_nodes(nodes);
+        self.kept = (nodes == EnergyNodes::Kept).then(|| (basis.clone(), every.max(1)));
+        self
+    }
+
+    /// Whether only the kept nodes get an energy ([`EnergyError::at_kept`]).
+    pub fn kept_only(&self) -> bool {
+        self.kept.is_some()
+    }
+
+    /// The nodes the largest error is over.
+    pub fn nodes(&self) -> EnergyNodes {
+        self.tracker.report().nodes
+    }
+
+    /// The node the run shows first after a restored checkpoint: its energy is the
+    /// tracker's already.
+    pub fn restored_at(&mut self, k: usize) {
+        self.tracked = Some(k);
+    }
+
+    /// [`EnergyNodes::Kept`]: the energy at the node `it` is at if the outputs keep it (node
+    /// `every`-th, or `last`) and it has not got one yet, from the end velocity of the element
+    /// ending there; None otherwise.
+    ///
+    /// # Errors
+    /// As [`EnergyTracker::node`].
+    pub fn at_kept<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<Option<f64>> {
+        let Some((basis, every)) = &self.kept else {
+            return Ok(None);
+        };
+        let node = it.node();
+        if !(last || node.k.is_multiple_of(*every)) || self.tracked == Some(node.k) {
+            return Ok(None);
+        }
+        if let Some(el) = it.last_element().filter(|_| node.k > 0) {
+            end_velocity(basis, &el, &mut self.guess);
+            self.tracker.warm_start(&self.guess);
+        }
+        let h = self.tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
+        self.tracked = Some(node.k);
+        Ok(Some(h))
     }
 
     /// The energy of the node being recorded, updated at each node.
@@ -69,13 +131,14 @@ impl EnergyError {
     /// As [`EnergyTracker::node`].
     #[inline(always)]
     pub fn at<L: Lagrangian>(&mut self, lag: &L, node: Node<'_>) -> femvi::Result<f64> {
+        self.tracked = Some(node.k);
         Ok(self.tracker.node(lag, node.t, node.q, node.p)?.h)
     }
 
     /// Whether [`EnergyError::at_lean`] applies to `lag` ([`EnergyTracker::lean`]: M = I,
     /// autonomous).
     pub fn lean<L: Lagrangian>(&self, lag: &L) -> bool {
-        self.tracker.lean(lag)
+        self.kept.is_none() && self.tracker.lean(lag)
     }
 
     /// [`EnergyError::at`] for a Lagrangian [`EnergyError::lean`] accepted, without a call

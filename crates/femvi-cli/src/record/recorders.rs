@@ -98,7 +98,11 @@ impl<'a> Recorders<'a> {
     ) -> std::io::Result<Self> {
         let failure = WriteFailure::default();
         let autonomous = crate::with_system!(&problem.system, l => femvi::Lagrangian::is_autonomous(l));
-        let energy = EnergyError::new(dim, &problem.start, autonomous);
+        let energy = EnergyError::new(dim, &problem.start, autonomous).with_nodes(
+            energy_nodes(problem),
+            &problem.element.basis,
+            problem.every,
+        );
         let shared = energy.current();
         let columns = columns(problem);
         let csv = if out.csv {
@@ -236,6 +240,11 @@ impl<'a> Recorders<'a> {
         self.resumed.map_or(now, |(_, before)| before.max(now))
     }
 
+    /// The nodes [`Recorders::max_rel_energy_error`] is over.
+    pub fn energy_nodes(&self) -> femvi::solution::EnergyNodes {
+        self.energy.nodes()
+    }
+
     /// Time-dependent L: the largest relative error of the energy balance H − H0 = −∫∂L/∂t.
     pub fn max_rel_energy_balance_error(&self) -> Option<f64> {
         self.energy.max_rel_balance()
@@ -289,7 +298,10 @@ impl<'a> Recorders<'a> {
         self.first_k.get_or_insert(node.k);
         let h = if self.restored {
             self.restored = false;
+            self.energy.restored_at(node.k);
             self.current.get().h
+        } else if self.energy.kept_only() {
+            0.0 // the kept nodes' energies are computed and checked in `boundary`
         } else {
             self.energy.at(lag, node)?
         };
@@ -357,6 +369,9 @@ impl<'a> Recorders<'a> {
     /// outputs, flushes and checkpoints (`last`: the grid's final node).
     pub(super) fn boundary<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
         self.nodes += 1;
+        if let Some(h) = self.energy.at_kept(it, last)? {
+            check_finite(&it.node(), h, 0.0)?;
+        }
         self.energy.publish();
         let node = it.node();
         self.progress.show(self.steps_at(node.k), node.t);
@@ -438,7 +453,12 @@ fn resumed_energy<L: Lagrangian>(problem: &Problem, fresh: &Integrator<'_, L>) -
     let lag = fresh.lagrangian();
     let mut energy = EnergyError::new(lag.dim(), &problem.start, lag.is_autonomous());
     Observer::<L>::node(&mut energy, fresh, false).map_err(|e| format!("energy at the start node: {e}"))?;
-    Ok(energy)
+    Ok(energy.with_nodes(energy_nodes(problem), &problem.element.basis, problem.every))
+}
+
+/// The nodes the energy error covers (`[output] energy_nodes` for the problem's Lagrangian).
+fn energy_nodes(problem: &Problem) -> femvi::solution::EnergyNodes {
+    crate::with_system!(&problem.system, l => problem.energy_nodes.resolve(l))
 }
 
 /// The discrete energy of energy mode at the node `it` is at (0 otherwise): fixed by the
@@ -514,6 +534,11 @@ impl<L: Lagrangian> Observer<L> for Recorders<'_> {
             }
         };
         self.progress.finish();
+        if error.is_none() && self.energy.kept_only() {
+            // A run stopped between kept nodes: the outputs keep its last node.
+            note(self.energy.at_kept(it, true).map(|_| ()));
+            self.energy.publish();
+        }
         note(self.energy.finish(it, error));
         if let Some(csv) = self.csv.as_mut() {
             note(csv.finish(it, error));

@@ -12,7 +12,9 @@ class Solution:
     """A run's kept nodes as NumPy arrays, with its statistics.
 
     Attributes: ``t`` (N,), ``q``, ``p``, ``v`` (N, n), ``energy`` (N,), ``node`` (N,) the node
-    indices, ``steps``, ``mean_iterations``, ``max_rel_energy_error`` (as summary.json),
+    indices, ``steps``, ``mean_iterations``, ``max_rel_energy_error`` (as summary.json) and
+    ``energy_nodes``, the nodes it is over (``"every"``, or ``"kept"``: the kept ones, by
+    default for Lagrangians without a constant mass matrix; ``output.energy_nodes`` chooses),
     ``error`` (None or the message), ``coordinates``, ``name``, ``scheme``, ``events`` (list of
     dicts), ``saved`` (``t``, ``q``, ``v``, ``p`` at the ``saveat`` times), ``energy_stats``
     (energy mode only). With ``dense=True``, ``sol.q_at(t)`` / ``sol(t)`` and ``sol.v_at(t)``.
@@ -37,6 +39,7 @@ class Solution:
         self.steps: int = raw["steps"]
         self.mean_iterations: float = raw["mean_iterations"]
         self.max_rel_energy_error: float = raw["max_rel_energy_error"]
+        self.energy_nodes: Optional[str] = raw.get("energy_nodes")
         self.stopped: bool = raw["stopped"]
         self.error: Optional[str] = raw["error"]
         self.events: List[Dict[str, Any]] = list(raw["events"])

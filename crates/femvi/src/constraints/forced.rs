@@ -108,6 +108,7 @@ pub fn solve_constrained_forced<L: Lagrangian, F: Force, C: Constraints>(
     constrained.solution.energy_report = Some(EnergyReport {
         max_rel_error: balance.max_rel_change,
         max_rel_balance: Some(balance.balance.max_rel),
+        nodes: crate::solution::EnergyNodes::Every,
     });
     Ok(ForcedConstrainedSolution {
         constrained,

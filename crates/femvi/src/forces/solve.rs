@@ -346,6 +346,7 @@ impl Run {
         self.sol.energy_report = Some(EnergyReport {
             max_rel_error: self.max_rel,
             max_rel_balance: Some(self.balance.max_rel),
+            nodes: crate::solution::EnergyNodes::Every,
         });
         ForcedSolution {
             solution: self.sol,

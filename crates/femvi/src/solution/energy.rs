@@ -28,6 +28,9 @@ pub struct EnergyReport {
     pub max_rel_error: f64,
     /// Time-dependent L only: the largest |H − H0 − W| / |H0|, W = −∫∂L/∂t dt.
     pub max_rel_balance: Option<f64>,
+    /// The nodes the errors are over ([`super::EnergyNodes::Every`] or
+    /// [`super::EnergyNodes::Kept`]).
+    pub nodes: super::EnergyNodes,
 }
 
 /// The energy balance of a time-dependent Lagrangian.
@@ -70,6 +73,8 @@ pub struct EnergyTracker {
     current: NodeEnergy,
     rel_stale: bool,
     balance: Option<Balance>,
+    /// What the caller shows it (for the report).
+    nodes: super::EnergyNodes,
 }
 
 impl EnergyTracker {
@@ -93,7 +98,15 @@ impl EnergyTracker {
                 work: 0.0,
                 max_rel: 0.0,
             }),
+            nodes: super::EnergyNodes::Every,
         }
+    }
+
+    /// Says which nodes the caller shows the tracker ([`EnergyReport::nodes`]; by default
+    /// [`super::EnergyNodes::Every`]).
+    pub fn with_nodes(mut self, nodes: super::EnergyNodes) -> Self {
+        self.nodes = nodes;
+        self
     }
 
     /// The energy at the node (t, q, p), which becomes the current one.
@@ -227,6 +240,29 @@ impl EnergyTracker {
         }
     }
 
+    /// Where the next inverse Legendre transform starts (lengths other than the tracker's
+    /// dimension are ignored): [`super::EnergyNodes::Kept`] starts each from the velocity of
+    /// the element ending on the node ([`super::end_velocity`]) rather than from a node many
+    /// steps back.
+    ///
+    /// ```
+    /// use femvi::solution::EnergyTracker;
+    /// use femvi::{models, Lagrangian, Start};
+    /// let rel = models::RelativisticKepler { c: 10.0 };
+    /// let start = Start::Velocity { q: vec![1.0, 0.0], v: vec![0.0, 1.0] };
+    /// let mut tracker = EnergyTracker::new(2, &start, rel.is_autonomous());
+    /// let p = [0.0, 1.0 / 0.99f64.sqrt()]; // ∂L/∂v = γv at v = (0, 1), γ = 1/√(1 − |v|²/c²)
+    /// tracker.warm_start(&[0.0, 0.9]);
+    /// tracker.node(&rel, 0.0, &[1.0, 0.0], &p)?;
+    /// assert!((tracker.velocity()[1] - 1.0).abs() < 1e-15);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn warm_start(&mut self, v: &[f64]) {
+        if v.len() == self.v.len() {
+            self.v.copy_from_slice(v);
+        }
+    }
+
     /// The velocity at the last node shown (the inverse Legendre transform of its momentum).
     pub fn velocity(&self) -> &[f64] {
         &self.v
@@ -237,6 +273,7 @@ impl EnergyTracker {
         EnergyReport {
             max_rel_error: self.max_rel_floor.max(self.relative(self.max_dev)),
             max_rel_balance: self.balance.map(|b| b.max_rel),
+            nodes: self.nodes,
         }
     }
 

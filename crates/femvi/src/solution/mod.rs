@@ -22,6 +22,7 @@
 
 mod dense;
 mod energy;
+mod energy_nodes;
 mod events;
 mod record;
 mod solve;
@@ -30,6 +31,7 @@ pub(crate) use solve::grid;
 
 pub use dense::DenseOutput;
 pub use energy::{EnergyReport, EnergyTracker, NodeEnergy};
+pub use energy_nodes::{end_velocity, EnergyNodes};
 pub use events::{Condition, Direction, Event, EventRecord};
 pub(crate) use events::{Detector, Piece};
 pub use solve::{solve, solve_with};
@@ -109,6 +111,10 @@ pub struct SolveOptions {
     /// ([`Solution::energy_report`]; default true). Off, H is computed only at the kept nodes
     /// (cheaper where H needs a Newton solve per node: general Lagrangians with `every` > 1).
     pub track_energy: bool,
+    /// Which nodes the energy report covers with [`SolveOptions::track_energy`] (default
+    /// [`EnergyNodes::Auto`]: every node where H is cheap, the kept nodes where it needs a
+    /// Newton solve; [`EnergyReport::nodes`] says which).
+    pub energy_nodes: EnergyNodes,
 }
 
 impl SolveOptions {
@@ -131,6 +137,7 @@ impl SolveOptions {
             dense: false,
             events: vec![],
             track_energy: true,
+            energy_nodes: EnergyNodes::Auto,
         }
     }
 }
@@ -177,7 +184,8 @@ pub struct Solution {
     pub mean_iterations: f64,
     /// Energy mode statistics.
     pub energy_stats: Option<EnergyStats>,
-    /// The energy over every node of the run (with [`SolveOptions::track_energy`]).
+    /// The energy over the nodes of the run [`EnergyReport::nodes`] names (with
+    /// [`SolveOptions::track_energy`]).
     pub energy_report: Option<EnergyReport>,
     /// Whether an event or the step limit stopped the run before t_end.
     pub stopped: bool,

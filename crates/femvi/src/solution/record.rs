@@ -2,10 +2,13 @@
 //! energy, answers `saveat` times from each new element's polynomial as the run passes them,
 //! runs the event detector, appends to the dense output, and stops at the step limit. With
 //! energy tracking on, the node's velocity and energy come from the tracker (`energy.rs`),
-//! which sees every node, so nothing is computed twice.
+//! which sees every node, so nothing is computed twice; with [`super::EnergyNodes::Kept`] it
+//! sees the kept nodes (and the one a stopped run ends on), each inversion started from the
+//! velocity of the element ending there.
 
 use super::dense::{momentum, DenseOutput, ElementEval};
 use super::energy::EnergyTracker;
+use super::energy_nodes::{end_velocity, EnergyNodes};
 use super::events::{Detector, EventRecord, Span};
 use super::{Saved, SolveOptions};
 use crate::error::{invalid, Error, Result};
@@ -47,6 +50,10 @@ pub(crate) struct Recorder {
     node_v: Vec<f64>,
     node_h: f64,
     pub(crate) tracker: Option<EnergyTracker>,
+    /// The tracker sees only the kept nodes ([`EnergyNodes::Kept`]).
+    kept_only: bool,
+    /// The node the tracker saw last.
+    tracked: Option<usize>,
 }
 
 impl Recorder {
@@ -55,7 +62,7 @@ impl Recorder {
         options: &SolveOptions,
         basis: &LagrangeBasis,
         n: usize,
-        (start, autonomous): (&Start, bool),
+        (start, autonomous, nodes): (&Start, bool, EnergyNodes),
     ) -> Result<Self> {
         let saveat = options.saveat.clone();
         if saveat.iter().any(|t| !t.is_finite()) || saveat.windows(2).any(|w| w[0] >= w[1]) {
@@ -87,7 +94,11 @@ impl Recorder {
             last_kept: None,
             node_v: vec![0.0; n],
             node_h: f64::NAN,
-            tracker: options.track_energy.then(|| EnergyTracker::new(n, start, autonomous)),
+            tracker: options
+                .track_energy
+                .then(|| EnergyTracker::new(n, start, autonomous).with_nodes(nodes)),
+            kept_only: nodes == EnergyNodes::Kept,
+            tracked: None,
         })
     }
 
@@ -175,6 +186,27 @@ impl Recorder {
     }
 }
 
+impl Recorder {
+    /// The tracker's energy and velocity at the node `it` is at (kept nodes only: each
+    /// inversion from the end velocity of the element ending there).
+    fn track<L: Lagrangian>(&mut self, it: &Integrator<'_, L>) -> Result<()> {
+        let Some(tracker) = self.tracker.as_mut() else {
+            return Ok(());
+        };
+        let node = it.node();
+        if self.kept_only {
+            if let Some(el) = it.last_element().filter(|_| node.k > 0) {
+                end_velocity(&self.basis, &el, &mut self.node_v);
+                tracker.warm_start(&self.node_v);
+            }
+        }
+        self.node_h = tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
+        self.node_v.copy_from_slice(tracker.velocity());
+        self.tracked = Some(node.k);
+        Ok(())
+    }
+}
+
 impl<L: Lagrangian> Observer<L> for Recorder {
     fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> Result<()> {
         let node = it.node();
@@ -182,9 +214,8 @@ impl<L: Lagrangian> Observer<L> for Recorder {
         // The velocity and energy at the node (a Newton solve for general Lagrangians) only
         // where they are used: kept nodes, the dense output, a saveat time on the node.
         let saved_here = self.saveat.get(self.next_save).is_some_and(|&ts| ts <= node.t);
-        if let Some(tracker) = self.tracker.as_mut() {
-            self.node_h = tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
-            self.node_v.copy_from_slice(tracker.velocity());
+        if self.tracker.is_some() && (keep || !self.kept_only) {
+            self.track(it)?;
         } else if keep || self.dense_wanted || saved_here || self.prev.is_none() {
             let lag = it.lagrangian();
             self.node_h = hamiltonian(lag, node.t, node.q, node.p, &mut self.node_v, &mut self.work)?;
@@ -232,6 +263,13 @@ impl<L: Lagrangian> Observer<L> for Recorder {
     fn finish(&mut self, it: &Integrator<'_, L>, _error: Option<&Error>) -> Result<()> {
         // The node the run ended on is kept, whatever stopped it.
         let node = it.node();
+        if self.kept_only && self.tracker.is_some() && self.tracked != Some(node.k) {
+            // A run stopped between kept nodes: its last node is kept, so it is tracked.
+            if self.track(it).is_ok() {
+                self.keep(node.k, node.t, node.q, node.p);
+            }
+            return Ok(());
+        }
         let mut v = vec![0.0; self.n];
         if let Ok(h) = hamiltonian(it.lagrangian(), node.t, node.q, node.p, &mut v, &mut self.work) {
             self.node_v = v;

@@ -65,7 +65,7 @@ pub fn solve_with<L: Lagrangian>(
         Steps::Energy { options: e, .. } => Integrator::with_energy(lag, element, grid, start, options.solver, *e)?,
         _ => Integrator::new(lag, element, grid, start, options.solver)?,
     };
-    let kind = (&problem.start, lag.is_autonomous());
+    let kind = (&problem.start, lag.is_autonomous(), options.energy_nodes.resolve(lag));
     let mut recorder = Recorder::new(options, &element.basis, lag.dim(), kind)?;
     let report = {
         let mut all: Vec<&mut dyn Observer<L>> = Vec::with_capacity(observers.len() + 1);
