@@ -6,7 +6,8 @@
 # with Gauss 2 and degree 4 with Gauss 4, 10⁶ steps; relativistic Kepler (a general
 # Lagrangian: Newton, and an inverse Legendre transform per node for the energy) as the
 # expression 0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) + (x_dot^2 + y_dot^2)^2/800
-# (c = 10), same schemes, against the same Kepler model runs. Every 10 000th node written, --quiet.
+# (c = 10), same schemes, against the same Kepler model runs, with the energy at the written
+# nodes (the default for it) and at every node (_every). Every 10 000th node written, --quiet.
 # Process CPU time, K alternating rounds (default 5), medians (alternate.py); the ratios to
 # read are each expression's median over its model's. FEMVI=path/to/femvi skips the build;
 # EXTRA=label=/other/femvi adds that build's three expression runs (A/B, e.g. a build with
@@ -46,6 +47,8 @@ kepler 'coordinates = ["x", "y"]
 lagrangian = "0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) + (x_dot^2 + y_dot^2)^2/800"' > "$work/relkepler_expr.toml"
 run="run --quiet --set time.end=20000.0 --set output.every=10000"
 deg4="--set scheme.degree=4 --set scheme.points=4"
+# The energy at every node (the default for relativistic Kepler is the written nodes only).
+every="--set output.energy_nodes=every"
 extra=()
 if [ -n "${EXTRA:-}" ]; then
   label=${EXTRA%%=*}
@@ -65,4 +68,6 @@ python3 alternate.py "$k" \
   "kepler4_expr=$FEMVI run --quiet $deg4 --out $work/o6 $work/kepler_expr.toml" \
   "relkepler2_expr=$FEMVI run --quiet --out $work/o10 $work/relkepler_expr.toml" \
   "relkepler4_expr=$FEMVI run --quiet $deg4 --out $work/o11 $work/relkepler_expr.toml" \
+  "relkepler2_expr_every=$FEMVI run --quiet $every --out $work/o14 $work/relkepler_expr.toml" \
+  "relkepler4_expr_every=$FEMVI run --quiet $deg4 $every --out $work/o15 $work/relkepler_expr.toml" \
   "${extra[@]}"
