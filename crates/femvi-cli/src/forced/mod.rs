@@ -108,6 +108,8 @@ fn run_with<L: Lagrangian + Clone>(
     summary.final_t = s.t.get(last).copied().unwrap_or(problem.grid.t0());
     summary.final_q = s.q.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
     summary.final_p = s.p.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
+    // The energy balance of a forced run is over every node (as `femvi.solve` reports it).
+    summary.energy_nodes = s.energy_report.map(|r| r.nodes.name().to_string());
     report_work(&mut summary, s, &sol.balance, &sol.work);
     if let Some(stats) = s.energy_stats {
         summary.max_rel_discrete_energy_error = Some(stats.max_rel_residual);

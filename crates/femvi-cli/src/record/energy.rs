@@ -82,8 +82,9 @@ impl EnergyError {
             return Ok(None);
         }
         if let Some(el) = it.last_element().filter(|_| node.k > 0) {
-            end_velocity(basis, &el, &mut self.guess);
-            self.tracker.warm_start(&self.guess);
+            if end_velocity(basis, &el, &mut self.guess) {
+                self.tracker.warm_start(&self.guess);
+            }
         }
         let h = self.tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
         self.tracked = Some(node.k);

@@ -1,6 +1,8 @@
 //! [`Recorders`]: the observers of one `femvi run` as one observer. At each node it runs the
 //! progress bar, the energy error and then the outputs that read it, in that order; it stops
-//! the run at the first node whose state or energy is not finite, before any output writes it
+//! the run at the first node whose state or energy is not finite (with the energy at the kept
+//! nodes only, `energy_nodes`: the first non-finite state, or kept node's energy, the run then
+//! ending on the node before), before any output writes it
 //! (issue 16: no non-finite value is ever written); it flushes the rows to disk at least every
 //! second ([`Pacer`]); it writes checkpoints ([`crate::resume`]) at the first node, on the
 //! [`Policy`](crate::resume::Policy) and when a stop signal ends the run; and it resumes the
@@ -39,6 +41,21 @@ struct Good {
     /// (one pass over q and p, not two); swapped with q and p if it is.
     next_q: Vec<f64>,
     next_p: Vec<f64>,
+    /// Energy at the kept nodes only: the node before the last one shown (steps, t; its q
+    /// and p in `next_q`, `next_p`), where the run goes back to if the energy of the last
+    /// one, computed when its chunk ends, is not finite.
+    before: Option<(usize, f64)>,
+}
+
+impl Good {
+    /// Goes back to the node before the last one shown ([`Good::before`]), if kept.
+    fn back(&mut self) {
+        if let Some((steps, t)) = self.before.take() {
+            std::mem::swap(&mut self.q, &mut self.next_q);
+            std::mem::swap(&mut self.p, &mut self.next_p);
+            (self.steps, self.t) = (steps, t);
+        }
+    }
 }
 
 /// The observers of one run.
@@ -155,6 +172,7 @@ impl<'a> Recorders<'a> {
                 p: vec![],
                 next_q: vec![],
                 next_p: vec![],
+                before: None,
             },
             signal: None,
         })
@@ -224,6 +242,7 @@ impl<'a> Recorders<'a> {
                 p: vec![],
                 next_q: vec![],
                 next_p: vec![],
+                before: None,
             },
             signal: None,
         })
@@ -306,6 +325,13 @@ impl<'a> Recorders<'a> {
             self.energy.at(lag, node)?
         };
         check_finite(&node, h, discrete)?;
+        if self.energy.kept_only() && self.good.next_q.len() == node.q.len() && self.good.next_p.len() == node.p.len() {
+            // The previous good node stays in the spare buffers: `boundary` goes back to it if
+            // this node's energy, computed there, is not finite.
+            std::mem::swap(&mut self.good.q, &mut self.good.next_q);
+            std::mem::swap(&mut self.good.p, &mut self.good.next_p);
+            self.good.before = Some((self.good.steps, self.good.t));
+        }
         self.good.steps = self.steps_at(node.k);
         self.good.t = node.t;
         if self.good.q.len() == node.q.len() && self.good.p.len() == node.p.len() {
@@ -369,9 +395,7 @@ impl<'a> Recorders<'a> {
     /// outputs, flushes and checkpoints (`last`: the grid's final node).
     pub(super) fn boundary<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
         self.nodes += 1;
-        if let Some(h) = self.energy.at_kept(it, last)? {
-            check_finite(&it.node(), h, 0.0)?;
-        }
+        self.check_kept_energy(it, last)?;
         self.energy.publish();
         let node = it.node();
         self.progress.show(self.steps_at(node.k), node.t);
@@ -385,6 +409,20 @@ impl<'a> Recorders<'a> {
             plots.node(it, last)?;
         }
         self.pace(it, last)
+    }
+
+    /// Energy at the kept nodes only: the energy of the node `it` is at if the outputs keep
+    /// it (`last`: the grid's final node, or the node a stopped run ends on). Not finite, or
+    /// not computable: the error, and the last good node is the one before.
+    fn check_kept_energy<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        let checked = self
+            .energy
+            .at_kept(it, last)
+            .and_then(|h| h.map_or(Ok(()), |h| check_finite(&it.node(), h, 0.0)));
+        if checked.is_err() {
+            self.good.back();
+        }
+        checked
     }
 
     /// Puts the buffered rows on disk.
@@ -534,11 +572,19 @@ impl<L: Lagrangian> Observer<L> for Recorders<'_> {
             }
         };
         self.progress.finish();
-        if error.is_none() && self.energy.kept_only() {
-            // A run stopped between kept nodes: the outputs keep its last node.
-            note(self.energy.at_kept(it, true).map(|_| ()));
+        // A run stopped between kept nodes: the outputs keep its last node, whose energy is
+        // computed now (if it cannot be, that is the run's error and the row is not written).
+        let failed = if error.is_none() && self.energy.kept_only() {
+            let failed = self.check_kept_energy(it, true).err();
             self.energy.publish();
+            failed
+        } else {
+            None
+        };
+        if let Some(e) = &failed {
+            note(Err(e.clone()));
         }
+        let error = error.or(failed.as_ref());
         note(self.energy.finish(it, error));
         if let Some(csv) = self.csv.as_mut() {
             note(csv.finish(it, error));

@@ -21,7 +21,8 @@ pub struct NodeEnergy {
     pub rel: f64,
 }
 
-/// What the energy did over a run (every node, whatever was kept).
+/// What the energy did over a run: over every node, whatever was kept, or over the kept nodes
+/// only ([`EnergyReport::nodes`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EnergyReport {
     /// Largest |H − H0| / |H0| over the nodes (|H − H0| where H0 = 0).

@@ -79,8 +79,8 @@ impl std::str::FromStr for EnergyNodes {
 }
 
 /// The velocity at the end of the element `el` (its interpolant's derivative at τ = 1,
-/// (2.26)): where an inverse Legendre transform at the element's end node starts. Lengths
-/// that do not fit leave `v` as it is.
+/// (2.26)): where an inverse Legendre transform at the element's end node starts. False (and
+/// `v` as it was) if the lengths do not fit or the step is zero.
 ///
 /// ```
 /// use femvi::solution::end_velocity;
@@ -90,15 +90,15 @@ impl std::str::FromStr for EnergyNodes {
 /// // q(t) = t² on [0, 0.5]: nodal increments 0, 1/16, 1/4; q'(0.5) = 1.
 /// let el = ElementNodes { t: 0.0, h: 0.5, base: &[0.0], incr: &[0.0, 0.0625, 0.25] };
 /// let mut v = [0.0];
-/// end_velocity(&e.basis, &el, &mut v);
+/// assert!(end_velocity(&e.basis, &el, &mut v));
 /// assert!((v[0] - 1.0).abs() < 1e-15);
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn end_velocity(basis: &LagrangeBasis, el: &ElementNodes<'_>, v: &mut [f64]) {
+pub fn end_velocity(basis: &LagrangeBasis, el: &ElementNodes<'_>, v: &mut [f64]) -> bool {
     let n = v.len();
     let mut dl = vec![0.0; basis.len()];
     if el.incr.len() != dl.len() * n || !(el.h != 0.0) {
-        return;
+        return false;
     }
     basis.derivatives_in_place(1.0, &mut dl);
     for (c, vc) in v.iter_mut().enumerate() {
@@ -109,4 +109,5 @@ pub fn end_velocity(basis: &LagrangeBasis, el: &ElementNodes<'_>, v: &mut [f64])
             .sum();
         *vc = dq / el.h;
     }
+    true
 }

@@ -196,8 +196,9 @@ impl Recorder {
         let node = it.node();
         if self.kept_only {
             if let Some(el) = it.last_element().filter(|_| node.k > 0) {
-                end_velocity(&self.basis, &el, &mut self.node_v);
-                tracker.warm_start(&self.node_v);
+                if end_velocity(&self.basis, &el, &mut self.node_v) {
+                    tracker.warm_start(&self.node_v);
+                }
             }
         }
         self.node_h = tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
@@ -260,14 +261,14 @@ impl<L: Lagrangian> Observer<L> for Recorder {
         Ok(())
     }
 
-    fn finish(&mut self, it: &Integrator<'_, L>, _error: Option<&Error>) -> Result<()> {
+    fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&Error>) -> Result<()> {
         // The node the run ended on is kept, whatever stopped it.
         let node = it.node();
-        if self.kept_only && self.tracker.is_some() && self.tracked != Some(node.k) {
-            // A run stopped between kept nodes: its last node is kept, so it is tracked.
-            if self.track(it).is_ok() {
-                self.keep(node.k, node.t, node.q, node.p);
-            }
+        if error.is_none() && self.kept_only && self.tracker.is_some() && self.tracked != Some(node.k) {
+            // A run stopped between kept nodes (an event, the step limit): its last node is
+            // kept, so it is tracked; an energy that cannot be computed there is the run's error.
+            self.track(it)?;
+            self.keep(node.k, node.t, node.q, node.p);
             return Ok(());
         }
         let mut v = vec![0.0; self.n];
