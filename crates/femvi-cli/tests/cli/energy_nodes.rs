@@ -136,3 +136,28 @@ fn an_unknown_choice_is_an_input_error() {
         "{err}"
     );
 }
+
+#[test]
+fn a_written_node_whose_energy_is_not_finite_stops_the_run_before_it_is_written() {
+    // 1e-300·ln((x − 1)²) is −∞ at the start x = 1 only: the steps (quadrature points inside
+    // the elements) are finite, H at node 0 is not. Written nodes only, or every node: the
+    // same failure, and no row.
+    let text = REL
+        .replace(
+            "coordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) + (x_dot^2 + y_dot^2)^2/800\"",
+            "coordinates = [\"x\"]\nlagrangian = \"0.5*(1 + x^2)*x_dot^2 - 0.5*x^2 + 1e-300*ln((x - 1)^2)\"",
+        )
+        .replace("q = [0.4, 0.0]\np = [0.0, 2.0]", "q = [1.0]\nv = [0.5]");
+    for nodes in ["kept", "every"] {
+        let tmp = tempfile::tempdir().unwrap();
+        let (code, s, rows, err) = run(tmp.path(), &text, &["--set", &format!("output.energy_nodes={nodes}")]);
+        assert_eq!(code, Some(1), "{nodes}: {err}");
+        assert_eq!(s["energy_nodes"], nodes);
+        assert_eq!(s["status"], "failed");
+        assert!(
+            s["error"].as_str().unwrap().starts_with("non-finite energy at step 0"),
+            "{s}"
+        );
+        assert!(rows.is_empty(), "{nodes}: a row was written");
+    }
+}
