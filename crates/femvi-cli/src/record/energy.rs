@@ -10,7 +10,7 @@
 
 use femvi::fem::LagrangeBasis;
 pub use femvi::solution::NodeEnergy;
-use femvi::solution::{end_velocity, EnergyNodes, EnergyTracker};
+use femvi::solution::{EnergyNodes, EnergyTracker};
 use femvi::step::{Node, Observer};
 use femvi::{Integrator, Lagrangian, Start};
 use std::cell::Cell;
@@ -21,12 +21,10 @@ use std::rc::Rc;
 pub struct EnergyError {
     tracker: EnergyTracker,
     current: Rc<Cell<NodeEnergy>>,
-    /// [`EnergyNodes::Kept`]: the element basis (for the end velocities) and `every`.
-    kept: Option<(LagrangeBasis, usize)>,
-    /// The node whose energy the tracker holds.
+    /// [`EnergyNodes::Kept`]: `every`.
+    kept: Option<usize>,
+    /// With `kept`: the node whose energy the tracker holds.
     tracked: Option<usize>,
-    /// Scratch for an end velocity.
-    guess: Vec<f64>,
 }
 
 impl EnergyError {
@@ -38,7 +36,6 @@ impl EnergyError {
             current: Rc::default(),
             kept: None,
             tracked: None,
-            guess: vec![0.0; dim],
         }
     }
 
@@ -46,8 +43,8 @@ impl EnergyError {
     /// [`EnergyNodes::Kept`], the nodes every `every`-th and the last, with `basis` the
     /// element's (for the end velocities).
     pub fn with_nodes(mut self, nodes: EnergyNodes, basis: &LagrangeBasis, every: usize) -> Self {
-        self.tracker = self.tracker.with_nodes(nodes);
-        self.kept = (nodes == EnergyNodes::Kept).then(|| (basis.clone(), every.max(1)));
+        self.tracker = self.tracker.with_nodes(nodes, basis);
+        self.kept = (nodes == EnergyNodes::Kept).then(|| every.max(1));
         self
     }
 
@@ -74,19 +71,17 @@ impl EnergyError {
     /// # Errors
     /// As [`EnergyTracker::node`].
     pub fn at_kept<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<Option<f64>> {
-        let Some((basis, every)) = &self.kept else {
+        let Some(every) = self.kept else {
             return Ok(None);
         };
         let node = it.node();
-        if !(last || node.k.is_multiple_of(*every)) || self.tracked == Some(node.k) {
+        if !(last || node.k.is_multiple_of(every)) || self.tracked == Some(node.k) {
             return Ok(None);
         }
-        if let Some(el) = it.last_element().filter(|_| node.k > 0) {
-            if end_velocity(basis, &el, &mut self.guess) {
-                self.tracker.warm_start(&self.guess);
-            }
-        }
-        let h = self.tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
+        let h = self
+            .tracker
+            .node_after(it.lagrangian(), it.last_element(), node.t, node.q, node.p)?
+            .h;
         self.tracked = Some(node.k);
         Ok(Some(h))
     }
@@ -132,7 +127,6 @@ impl EnergyError {
     /// As [`EnergyTracker::node`].
     #[inline(always)]
     pub fn at<L: Lagrangian>(&mut self, lag: &L, node: Node<'_>) -> femvi::Result<f64> {
-        self.tracked = Some(node.k);
         Ok(self.tracker.node(lag, node.t, node.q, node.p)?.h)
     }
 

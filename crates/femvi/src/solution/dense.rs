@@ -38,8 +38,22 @@ impl ElementEval {
         q: &mut [f64],
         v: &mut [f64],
     ) {
+        self.eval_at(basis, h, base, incr, (t - t0) / h, q, v);
+    }
+
+    /// [`ElementEval::eval`] at τ = (t − t0)/h given (τ = 1: the element's end).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn eval_at(
+        &mut self,
+        basis: &LagrangeBasis,
+        h: f64,
+        base: &[f64],
+        incr: &[f64],
+        tau: f64,
+        q: &mut [f64],
+        v: &mut [f64],
+    ) {
         let n = base.len();
-        let tau = (t - t0) / h;
         basis.values_in_place(tau, &mut self.l);
         basis.derivatives_in_place(tau, &mut self.dl);
         for c in 0..n {

@@ -8,9 +8,11 @@
 //! [`super::solve`] tracks it (unless [`super::SolveOptions::track_energy`] is off) and the
 //! command and the Python package report the same numbers, bit for bit, from this one place.
 
+use super::dense::ElementEval;
 use crate::error::{check_len, invalid, Result};
+use crate::fem::LagrangeBasis;
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
-use crate::step::Start;
+use crate::step::{ElementNodes, Start};
 
 /// The energy of one node, as [`EnergyTracker::node`] computed it.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -76,6 +78,17 @@ pub struct EnergyTracker {
     balance: Option<Balance>,
     /// What the caller shows it (for the report).
     nodes: super::EnergyNodes,
+    /// [`super::EnergyNodes::Kept`]: where an inversion starts.
+    end: Option<ElementEnd>,
+}
+
+/// The interpolant of an element evaluated at its end: the basis and scratch.
+#[derive(Debug, Clone)]
+struct ElementEnd {
+    basis: LagrangeBasis,
+    eval: ElementEval,
+    /// q_h(t_end), computed alongside and not used.
+    q: Vec<f64>,
 }
 
 impl EnergyTracker {
@@ -100,13 +113,21 @@ impl EnergyTracker {
                 max_rel: 0.0,
             }),
             nodes: super::EnergyNodes::Every,
+            end: None,
         }
     }
 
     /// Says which nodes the caller shows the tracker ([`EnergyReport::nodes`]; by default
-    /// [`super::EnergyNodes::Every`]).
-    pub fn with_nodes(mut self, nodes: super::EnergyNodes) -> Self {
+    /// [`super::EnergyNodes::Every`]); with [`super::EnergyNodes::Kept`],
+    /// [`EnergyTracker::node_after`] starts each inversion from the end velocity of the
+    /// element (of basis `basis`) ending on the node.
+    pub fn with_nodes(mut self, nodes: super::EnergyNodes, basis: &LagrangeBasis) -> Self {
         self.nodes = nodes;
+        self.end = (nodes == super::EnergyNodes::Kept).then(|| ElementEnd {
+            basis: basis.clone(),
+            eval: ElementEval::new(basis.len()),
+            q: vec![0.0; self.v.len()],
+        });
         self
     }
 
@@ -246,27 +267,45 @@ impl EnergyTracker {
         }
     }
 
-    /// Where the next inverse Legendre transform starts (lengths other than the tracker's
-    /// dimension are ignored): [`super::EnergyNodes::Kept`] starts each from the velocity of
-    /// the element ending on the node ([`super::end_velocity`]) rather than from a node many
-    /// steps back.
+    /// [`EnergyTracker::node`] at the node ending the element `el` (None: the first node).
+    /// With [`super::EnergyNodes::Kept`] the inverse Legendre transform starts from the
+    /// velocity of the element's interpolant at its end ((2.26) differentiated, τ = 1), not
+    /// from a node many steps back; otherwise as [`EnergyTracker::node`].
+    ///
+    /// # Errors
+    /// As [`EnergyTracker::node`].
     ///
     /// ```
-    /// use femvi::solution::EnergyTracker;
-    /// use femvi::{models, Lagrangian, Start};
+    /// use femvi::solution::{EnergyNodes, EnergyTracker};
+    /// use femvi::step::ElementNodes;
+    /// use femvi::{models, Element, Lagrangian, NodeFamily, QuadratureKind, Start};
     /// let rel = models::RelativisticKepler { c: 10.0 };
-    /// let start = Start::Velocity { q: vec![1.0, 0.0], v: vec![0.0, 1.0] };
-    /// let mut tracker = EnergyTracker::new(2, &start, rel.is_autonomous());
-    /// let p = [0.0, 1.0 / 0.99f64.sqrt()]; // ∂L/∂v = γv at v = (0, 1), γ = 1/√(1 − |v|²/c²)
-    /// tracker.warm_start(&[0.0, 0.9]);
-    /// tracker.node(&rel, 0.0, &[1.0, 0.0], &p)?;
-    /// assert!((tracker.velocity()[1] - 1.0).abs() < 1e-15);
+    /// let e = Element::galerkin(2, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(2))?;
+    /// let start = Start::Velocity { q: vec![1.0, 0.0], v: vec![0.0, 0.0] };
+    /// let mut tracker = EnergyTracker::new(2, &start, rel.is_autonomous()).with_nodes(EnergyNodes::Kept, &e.basis);
+    /// // y(t) = t on [0, 1]: the element ends with velocity (0, 0.9); p = γv, γ = 1/√(1 − |v|²/c²).
+    /// let el = ElementNodes { t: 0.0, h: 1.0, base: &[1.0, 0.0], incr: &[0.0, 0.0, 0.0, 0.45, 0.0, 0.9] };
+    /// let p = [0.0, 0.9 / (1.0 - 0.0081f64).sqrt()];
+    /// tracker.node_after(&rel, Some(el), 1.0, &[1.0, 0.9], &p)?;
+    /// assert!((tracker.velocity()[1] - 0.9).abs() < 1e-15);
     /// # Ok::<(), femvi::Error>(())
     /// ```
-    pub fn warm_start(&mut self, v: &[f64]) {
-        if v.len() == self.v.len() {
-            self.v.copy_from_slice(v);
+    pub fn node_after<L: Lagrangian>(
+        &mut self,
+        lag: &L,
+        el: Option<ElementNodes<'_>>,
+        t: f64,
+        q: &[f64],
+        p: &[f64],
+    ) -> Result<NodeEnergy> {
+        if let (Some(end), Some(el)) = (self.end.as_mut(), el) {
+            let n = self.v.len();
+            if el.base.len() == n && el.incr.len() == end.basis.len() * n && el.h != 0.0 {
+                end.eval
+                    .eval_at(&end.basis, el.h, el.base, el.incr, 1.0, &mut end.q, &mut self.v);
+            }
         }
+        self.node(lag, t, q, p)
     }
 
     /// The velocity at the last node shown (the inverse Legendre transform of its momentum).

@@ -9,9 +9,7 @@
 //! not depend on a node many steps back. A time-dependent Lagrangian is checked at every node
 //! whatever is asked, since its energy balance integrates −∂L/∂t over the nodes.
 
-use crate::fem::LagrangeBasis;
 use crate::lagrangian::Lagrangian;
-use crate::step::ElementNodes;
 
 /// Which nodes the energy report covers ([`crate::SolveOptions::energy_nodes`], the problem
 /// file's `[output] energy_nodes`).
@@ -76,38 +74,4 @@ impl std::str::FromStr for EnergyNodes {
             )),
         }
     }
-}
-
-/// The velocity at the end of the element `el` (its interpolant's derivative at τ = 1,
-/// (2.26)): where an inverse Legendre transform at the element's end node starts. False (and
-/// `v` as it was) if the lengths do not fit or the step is zero.
-///
-/// ```
-/// use femvi::solution::end_velocity;
-/// use femvi::step::ElementNodes;
-/// use femvi::{Element, NodeFamily, QuadratureKind};
-/// let e = Element::galerkin(2, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(2))?;
-/// // q(t) = t² on [0, 0.5]: nodal increments 0, 1/16, 1/4; q'(0.5) = 1.
-/// let el = ElementNodes { t: 0.0, h: 0.5, base: &[0.0], incr: &[0.0, 0.0625, 0.25] };
-/// let mut v = [0.0];
-/// assert!(end_velocity(&e.basis, &el, &mut v));
-/// assert!((v[0] - 1.0).abs() < 1e-15);
-/// # Ok::<(), femvi::Error>(())
-/// ```
-pub fn end_velocity(basis: &LagrangeBasis, el: &ElementNodes<'_>, v: &mut [f64]) -> bool {
-    let n = v.len();
-    let mut dl = vec![0.0; basis.len()];
-    if el.incr.len() != dl.len() * n || !(el.h != 0.0) {
-        return false;
-    }
-    basis.derivatives_in_place(1.0, &mut dl);
-    for (c, vc) in v.iter_mut().enumerate() {
-        let dq: f64 = dl
-            .iter()
-            .zip(el.incr.iter().skip(c).step_by(n.max(1)))
-            .map(|(d, x)| d * x)
-            .sum();
-        *vc = dq / el.h;
-    }
-    true
 }

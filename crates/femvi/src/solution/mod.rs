@@ -31,7 +31,7 @@ pub(crate) use solve::grid;
 
 pub use dense::DenseOutput;
 pub use energy::{EnergyReport, EnergyTracker, NodeEnergy};
-pub use energy_nodes::{end_velocity, EnergyNodes};
+pub use energy_nodes::EnergyNodes;
 pub use events::{Condition, Direction, Event, EventRecord};
 pub(crate) use events::{Detector, Piece};
 pub use solve::{solve, solve_with};

@@ -8,7 +8,7 @@
 
 use super::dense::{momentum, DenseOutput, ElementEval};
 use super::energy::EnergyTracker;
-use super::energy_nodes::{end_velocity, EnergyNodes};
+use super::energy_nodes::EnergyNodes;
 use super::events::{Detector, EventRecord, Span};
 use super::{Saved, SolveOptions};
 use crate::error::{invalid, Error, Result};
@@ -96,7 +96,7 @@ impl Recorder {
             node_h: f64::NAN,
             tracker: options
                 .track_energy
-                .then(|| EnergyTracker::new(n, start, autonomous).with_nodes(nodes)),
+                .then(|| EnergyTracker::new(n, start, autonomous).with_nodes(nodes, basis)),
             kept_only: nodes == EnergyNodes::Kept,
             tracked: None,
         })
@@ -188,20 +188,15 @@ impl Recorder {
 
 impl Recorder {
     /// The tracker's energy and velocity at the node `it` is at (kept nodes only: each
-    /// inversion from the end velocity of the element ending there).
+    /// inversion from the end velocity of the element ending there, `node_after`).
     fn track<L: Lagrangian>(&mut self, it: &Integrator<'_, L>) -> Result<()> {
         let Some(tracker) = self.tracker.as_mut() else {
             return Ok(());
         };
         let node = it.node();
-        if self.kept_only {
-            if let Some(el) = it.last_element().filter(|_| node.k > 0) {
-                if end_velocity(&self.basis, &el, &mut self.node_v) {
-                    tracker.warm_start(&self.node_v);
-                }
-            }
-        }
-        self.node_h = tracker.node(it.lagrangian(), node.t, node.q, node.p)?.h;
+        self.node_h = tracker
+            .node_after(it.lagrangian(), it.last_element(), node.t, node.q, node.p)?
+            .h;
         self.node_v.copy_from_slice(tracker.velocity());
         self.tracked = Some(node.k);
         Ok(())
