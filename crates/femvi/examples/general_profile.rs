@@ -2,7 +2,8 @@
 //! `benches/general.rs` (2 000 steps, Method::Newton) at the degree given as the first
 //! argument (default 2), repeated as many times as the second (default 1); with a third
 //! argument `kepler`, the Kepler model's fixed-point step instead (the yardstick). For
-//! callgrind or `perf stat`.
+//! callgrind or `perf stat`; with `FEMVI_ITERATIONS` set, each run also prints its mean
+//! iterations per step to stderr.
 
 use femvi::models::RelativisticKepler;
 use femvi::{Element, Integrator, Lagrangian, Method, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
@@ -38,6 +39,9 @@ fn run<L: Lagrangian>(lag: &L, el: &Element, h: f64, method: Method) -> Vec<f64>
         };
         let mut it = Integrator::new(lag, el, grid, start, opts).unwrap();
         while it.advance(usize::MAX).unwrap() > 0 {}
+        if std::env::var_os("FEMVI_ITERATIONS").is_some() {
+            eprintln!("mean iterations per step {}", it.mean_iterations());
+        }
         it.node().q.to_vec()
     }
 }

@@ -118,7 +118,9 @@ fn gauss_jordan_fixed<const D: usize>(a: &mut [f64], b: &mut [f64]) -> bool {
 /// How a simplified Newton iteration ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Simplified {
-    /// Converged: the caller's last residual evaluation was at the returned x.
+    /// Converged: the caller's last residual evaluation was at the returned x, or at the
+    /// iterate one correction before it when that correction was below the round-off of x
+    /// (see [`simplified_newton`]).
     Converged {
         /// Residual evaluations with a correction (not counting the final one).
         iterations: usize,
@@ -261,7 +263,13 @@ fn reaches(dn: f64, t: f64, floor: f64, left: usize) -> bool {
 /// Runs the simplified Newton iteration on r(x) = 0 from `x` with the factorisation held by
 /// `frozen`: `residual(x, r)` evaluates the residual. At most `budget` iterations, and gives
 /// up early when θ > [`THETA_SLOW`] or the iterations the estimated θ predicts would pass
-/// `budget`. On convergence the last call of `residual` was at the returned x.
+/// `budget`. On convergence the last call of `residual` was at the returned x or, when the
+/// iteration ended on a correction δ below the round-off of x (‖δ‖ ≤ ε·max|x|), at x − δ:
+/// the residual at x would cost one more evaluation, a fifth to a quarter of a relativistic
+/// Kepler step, to learn only that it is at round-off. A caller that takes other quantities
+/// from that evaluation (the step's Δp) gets them at x − δ, off by their derivative times
+/// δ: for Δp, (h L_qq + L_qv)·δ with δ ≤ ε·h|v|, a fraction hω of p's own round-off for a
+/// step that resolves frequencies ω (long runs measured no drift from it: `step/newton_step.rs`).
 ///
 /// # Example
 ///
@@ -359,7 +367,8 @@ where
         };
         met |= error <= goal;
         if met && dn <= floor {
-            residual(x, &mut frozen.r);
+            // No evaluation at the new x: the one just made, a correction below round-off
+            // away, serves the caller (see the function's docs).
             return Simplified::Converged {
                 iterations: k,
                 theta: theta_max,

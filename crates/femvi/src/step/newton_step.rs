@@ -70,10 +70,15 @@ pub(crate) struct NewtonStep {
     /// The extrapolation's error at the last step solved by the simplified iteration
     /// (solution − `raw`), see [`NewtonStep::correct`].
     err: Vec<f64>,
-    /// The same at the step before (valid with `depth` 2).
+    /// The same at the step before (valid with `depth` 2 or more).
     err2: Vec<f64>,
-    /// How many consecutive steps of equal h `err` and `err2` hold (0, 1 or 2).
+    /// The same two steps before (valid with `depth` 3).
+    err3: Vec<f64>,
+    /// How many consecutive steps of equal h `err`, `err2` and `err3` hold (0 … 3).
     depth: usize,
+    /// Whether the next correction extrapolates quadratically (with `depth` 3: the quadratic
+    /// extrapolation predicted the last error better than the linear one).
+    quadratic: bool,
     /// The bits of (t_k, h) of the step `err` belongs to.
     err_key: (u64, u64),
     /// Whether the current step's guess was corrected (its error continues the sequence).
@@ -233,7 +238,9 @@ impl NewtonStep {
             raw: vec![0.0; s * n],
             err: vec![0.0; s * n],
             err2: vec![0.0; s * n],
+            err3: vec![0.0; s * n],
             depth: 0,
+            quadratic: false,
             err_key: (0, 0),
             follows: false,
         })
@@ -279,7 +286,11 @@ impl NewtonStep {
         } else {
             self.full(cx, state, bufs, h, &mut out.incr)?
         };
-        // The last evaluation (residual only) was at the converged x: the points hold ∂L/∂q.
+        // The last evaluation (residual only) was at the converged x or, for the simplified
+        // iteration, one correction below round-off before it: the points hold ∂L/∂q there,
+        // and Δp is taken from them (a fraction hω of p's round-off apart, `solve/simplified.rs`;
+        // `examples/newton_drift` measured the same energy and angular-momentum drift as with
+        // one more evaluation at x: 10⁶ steps of relativistic Kepler at degrees 2 and 4).
         let x = &self.guess.x;
         out.incr[..n].iter_mut().for_each(|v| *v = 0.0);
         out.incr[n..].copy_from_slice(x);
@@ -297,11 +308,16 @@ impl NewtonStep {
     /// Corrects the extrapolated guess by the extrapolation's errors at the last steps, when
     /// they were the last elements and had the same h: the error of extrapolating the last
     /// element's polynomial, O(h^(s+1)), is a smooth function of the step's start, so it is
-    /// itself extrapolated, linearly (2e_{k−1} − e_{k−2}) when two such steps are known, else
-    /// as constant (e_{k−1}). The relativistic Kepler run of `benches/general.rs` (degree 2):
-    /// the guess's relative error, 1e-5 uncorrected, is 1e-7 with the constant correction,
-    /// and the residual evaluations per step go from 6.5 to 5.0 with the linear one (and θ
-    /// measured above noise only, `solve/simplified.rs`). Keeps the uncorrected guess in `raw`.
+    /// itself extrapolated from the last errors of equal-h steps: linearly (2e_{k−1} − e_{k−2})
+    /// when two are known, as constant (e_{k−1}) with one, and with three quadratically
+    /// (3e_{k−1} − 3e_{k−2} + e_{k−3}, exact for errors quadratic in k) if that would have
+    /// predicted the last error better than the linear one did ([`NewtonStep::keep_error`]). The
+    /// relativistic Kepler run of `benches/general.rs` (degree 2): the guess's relative error,
+    /// 1e-5 uncorrected, is 1e-7 with the constant correction; the corrections per step are
+    /// 5.5 → 4.0 with the linear one (and θ measured above noise only, `solve/simplified.rs`),
+    /// → 3.58 with the quadratic one (degrees 1 / 3 / 4: 4.37 → 3.93, 3.45 → 2.93,
+    /// 2.95 → 2.98: at degree 4 the errors left are near round-off, `examples/general_profile`).
+    /// Keeps the uncorrected guess in `raw`.
     fn correct(&mut self, last: &LastElement, h: f64) {
         self.raw.copy_from_slice(&self.guess.x);
         let key = (last.t.to_bits(), h.to_bits());
@@ -309,7 +325,11 @@ impl NewtonStep {
         if !self.follows {
             return;
         }
-        if self.depth >= 2 {
+        if self.depth >= 3 && self.quadratic {
+            for (((x, e), e2), e3) in self.guess.x.iter_mut().zip(&self.err).zip(&self.err2).zip(&self.err3) {
+                *x += 3.0 * (e - e2) + e3;
+            }
+        } else if self.depth >= 2 {
             for ((x, e), e2) in self.guess.x.iter_mut().zip(&self.err).zip(&self.err2) {
                 *x += 2.0 * e - e2;
             }
@@ -322,9 +342,23 @@ impl NewtonStep {
 
     /// Keeps the extrapolation's error of the step just solved from t0 with step h.
     fn keep_error(&mut self, t0: f64, h: f64) {
+        // Which extrapolation of the errors would have predicted this one better (the
+        // quadratic one amplifies the noise in them more: near round-off, at degree 4, it
+        // cost iterations).
+        self.quadratic = self.follows && self.depth >= 3 && {
+            let (mut linear, mut quadratic) = (0.0f64, 0.0f64);
+            let errs = self.err.iter().zip(&self.err2).zip(&self.err3);
+            for ((((e, e2), e3), x), r) in errs.zip(&self.guess.x).zip(&self.raw) {
+                let now = x - r;
+                linear = linear.max((now - (2.0 * e - e2)).abs());
+                quadratic = quadratic.max((now - (3.0 * (e - e2) + e3)).abs());
+            }
+            quadratic < linear
+        };
         if self.follows {
+            std::mem::swap(&mut self.err2, &mut self.err3);
             std::mem::swap(&mut self.err, &mut self.err2);
-            self.depth = (self.depth + 1).min(2);
+            self.depth = (self.depth + 1).min(3);
         } else {
             self.depth = 1;
         }
@@ -454,6 +488,10 @@ impl NewtonStep {
             w.f(f64::from_bits(self.err_key.1));
             w.fs(&self.err);
             w.fs(&self.err2);
+            if self.depth > 2 {
+                w.fs(&self.err3);
+                w.b(self.quadratic);
+            }
         }
     }
 
@@ -474,14 +512,25 @@ impl NewtonStep {
         self.skip = r.u()?.min(MAX_SKIP);
         self.backoff = r.u()?.clamp(1, MAX_SKIP);
         self.depth = r.u()?;
-        if self.depth > 2 {
-            return Err(invalid("checkpoint", "a predictor depth past 2"));
+        if self.depth > 3 {
+            return Err(invalid("checkpoint", "a predictor depth past 3"));
         }
         if self.depth > 0 {
             let (t, h) = (r.f()?, r.f()?);
             r.fs(&mut self.err)?;
             r.fs(&mut self.err2)?;
-            if !self.err.iter().chain(&self.err2).all(|v| v.is_finite()) {
+            self.quadratic = false;
+            if self.depth > 2 {
+                r.fs(&mut self.err3)?;
+                self.quadratic = r.b()?;
+            }
+            if !self
+                .err
+                .iter()
+                .chain(&self.err2)
+                .chain(&self.err3)
+                .all(|v| v.is_finite())
+            {
                 return Err(invalid("checkpoint", "a non-finite predictor correction"));
             }
             self.err_key = (t.to_bits(), h.to_bits());
