@@ -161,3 +161,40 @@ fn a_written_node_whose_energy_is_not_finite_stops_the_run_before_it_is_written(
         assert!(rows.is_empty(), "{nodes}: a row was written");
     }
 }
+
+#[test]
+fn a_later_written_node_whose_energy_is_not_finite_ends_the_run_on_the_node_before() {
+    // A free particle (x = t, the other terms below 1e-299) reaches x = 1 at node 4, a written
+    // node (every = 2). 1e-300·sqrt((x − 1)² − 0.025²) is NaN within 0.025 of x = 1, where no
+    // quadrature point falls (Gauss points sit 0.053 or more from the nodes at h = 0.25), so
+    // the steps are finite and H at node 4 is not. Both modes: exit 1, the error names step
+    // 4, the run ends on node 3, and the rows written are nodes 0 and 2 with energy ½.
+    let text = REL
+        .replace(
+            "coordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) + (x_dot^2 + y_dot^2)^2/800\"",
+            "coordinates = [\"x\"]\nlagrangian = \"0.5*x_dot^2 + 1e-300*x_dot^4 + 1e-300*sqrt((x - 1)^2 - 0.025^2)\"",
+        )
+        .replace("q = [0.4, 0.0]\np = [0.0, 2.0]", "q = [0.0]\nv = [1.0]")
+        .replace("step = 0.01\nend = 20.0", "step = 0.25\nend = 2.0")
+        .replace("every = 10", "every = 2");
+    for nodes in ["kept", "every"] {
+        let tmp = tempfile::tempdir().unwrap();
+        let (code, s, rows, err) = run(tmp.path(), &text, &["--set", &format!("output.energy_nodes={nodes}")]);
+        assert_eq!(code, Some(1), "{nodes}: {err}");
+        assert_eq!(s["energy_nodes"], nodes);
+        assert_eq!(s["status"], "failed");
+        assert!(
+            s["error"].as_str().unwrap().starts_with("non-finite energy at step 4"),
+            "{s}"
+        );
+        assert_eq!(s["steps"], 3, "{nodes}: {s}");
+        let steps: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+        assert_eq!(steps, [0.0, 2.0], "{nodes}");
+        // x = t and H = ½ at the written nodes (up to the 1e-300 terms, below round-off).
+        for r in &rows {
+            assert_eq!(r[2], r[1], "{nodes}: {r:?}");
+            assert!((r[4] - 0.5).abs() <= 1e-15, "{nodes}: {r:?}");
+        }
+        assert_eq!(s["max_rel_energy_error"].as_f64().unwrap(), 0.0);
+    }
+}
