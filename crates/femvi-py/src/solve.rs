@@ -316,9 +316,16 @@ fn to_dict(
         None => d.set_item("error", None::<String>)?,
         Some(e) => {
             d.set_item("error", r.message.clone().unwrap_or_else(|| e.to_string()))?;
-            if let femvi::Error::Step(se) = e {
-                d.set_item("error_step", se.step)?;
-                d.set_item("error_t", se.t)?;
+            match e {
+                femvi::Error::Step(se) => {
+                    d.set_item("error_step", se.step)?;
+                    d.set_item("error_t", se.t)?;
+                }
+                femvi::Error::NonFiniteEnergy { step, t } => {
+                    d.set_item("error_step", step)?;
+                    d.set_item("error_t", t)?;
+                }
+                _ => {}
             }
         }
     }

@@ -222,16 +222,32 @@ fn every_max_steps_and_stopping_events() {
 
 #[test]
 fn a_failed_run_keeps_what_it_computed() {
-    // Verlet is unstable for the harmonic oscillator at h > 2: the run ends with a non-finite
-    // state, and the solution holds the finite nodes before it.
+    // Verlet is unstable for the harmonic oscillator at h > 2: |q| grows until q² overflows
+    // (the energy is infinite while q is still finite), then q itself. With the energy
+    // tracked at every node the run ends at the first infinite energy; the solution holds the
+    // nodes before it, all finite, as `femvi run` writes them.
     let element = Element::galerkin(1, femvi::NodeFamily::Equispaced, femvi::QuadratureKind::Trapezoid).unwrap();
     let sol = solve(&harmonic_problem(1e4), &element, &SolveOptions::step(2.5)).unwrap();
+    let Some(femvi::Error::NonFiniteEnergy { step, .. }) = sol.error else {
+        panic!("expected a non-finite energy, got {:?}", sol.error)
+    };
+    assert_eq!(step, sol.steps);
+    assert!(sol.len() > 10 && *sol.step.last().unwrap() < step);
+    assert!(sol.q.iter().chain(&sol.p).chain(&sol.energy).all(|x| x.is_finite()));
+    // Without energy tracking and only node 0 kept before the end, no energy is computed
+    // on the way: the step that overflows q is the error, and the nodes kept are finite.
+    let sparse = SolveOptions {
+        every: 100_000,
+        track_energy: false,
+        ..SolveOptions::step(2.5)
+    };
+    let sol = solve(&harmonic_problem(1e4), &element, &sparse).unwrap();
     let Some(femvi::Error::Step(e)) = &sol.error else {
         panic!("expected a step error, got {:?}", sol.error)
     };
     assert_eq!(e.failure, StepFailure::NonFinite);
-    assert!(sol.len() > 10);
-    assert!(sol.q.iter().chain(&sol.p).all(|x| x.is_finite()));
+    assert!(e.step > step, "{} {step}", e.step);
+    assert!(sol.q.iter().chain(&sol.p).chain(&sol.energy).all(|x| x.is_finite()));
 }
 
 #[test]

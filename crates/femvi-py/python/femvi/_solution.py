@@ -122,8 +122,9 @@ class Event:
 
 
 class NumericalError(RuntimeError):
-    """A run that failed on a step: ``.step`` and ``.t`` say where, ``.solution`` holds the
-    nodes computed before the failure."""
+    """A run that failed on a step, or reached a node whose energy is not finite: ``.step``
+    and ``.t`` say where (the node the failed step started from, or the node whose energy is
+    not finite), ``.solution`` holds the nodes computed before the failure, all finite."""
 
     def __init__(self, message: str, step: Optional[int] = None, t: Optional[float] = None,
                  solution: Optional[Solution] = None):

@@ -189,7 +189,8 @@ pub struct Solution {
     pub energy_report: Option<EnergyReport>,
     /// Whether an event or the step limit stopped the run before t_end.
     pub stopped: bool,
-    /// The error that stopped the run; the arrays hold everything before it.
+    /// The error that stopped the run (a step that failed, or a node whose energy is not
+    /// finite: [`Error::NonFiniteEnergy`]); the arrays hold everything before it, all finite.
     pub error: Option<Error>,
 }
 

@@ -186,6 +186,16 @@ impl Recorder {
     }
 }
 
+/// `h` if finite, else [`Error::NonFiniteEnergy`] at node k (as `femvi run`, which writes no
+/// non-finite value: a solution holds none either).
+fn finite_energy(h: f64, k: usize, t: f64) -> Result<f64> {
+    if h.is_finite() {
+        Ok(h)
+    } else {
+        Err(Error::NonFiniteEnergy { step: k, t })
+    }
+}
+
 impl Recorder {
     /// The tracker's energy and velocity at the node `it` is at (kept nodes only: each
     /// inversion from the end velocity of the element ending there, `node_after`).
@@ -194,9 +204,10 @@ impl Recorder {
             return Ok(());
         };
         let node = it.node();
-        self.node_h = tracker
+        let h = tracker
             .node_after(it.lagrangian(), it.last_element(), node.t, node.q, node.p)?
             .h;
+        self.node_h = finite_energy(h, node.k, node.t)?;
         self.node_v.copy_from_slice(tracker.velocity());
         self.tracked = Some(node.k);
         Ok(())
@@ -214,7 +225,8 @@ impl<L: Lagrangian> Observer<L> for Recorder {
             self.track(it)?;
         } else if keep || self.dense_wanted || saved_here || self.prev.is_none() {
             let lag = it.lagrangian();
-            self.node_h = hamiltonian(lag, node.t, node.q, node.p, &mut self.node_v, &mut self.work)?;
+            let h = hamiltonian(lag, node.t, node.q, node.p, &mut self.node_v, &mut self.work)?;
+            self.node_h = finite_energy(h, node.k, node.t)?;
         }
         if self.prev.is_none() {
             if self.dense_wanted {
@@ -267,7 +279,8 @@ impl<L: Lagrangian> Observer<L> for Recorder {
             return Ok(());
         }
         let mut v = vec![0.0; self.n];
-        if let Ok(h) = hamiltonian(it.lagrangian(), node.t, node.q, node.p, &mut v, &mut self.work) {
+        let h = hamiltonian(it.lagrangian(), node.t, node.q, node.p, &mut v, &mut self.work);
+        if let Ok(h) = h.and_then(|h| finite_energy(h, node.k, node.t)) {
             self.node_v = v;
             self.node_h = h;
             self.keep(node.k, node.t, node.q, node.p);

@@ -3,10 +3,11 @@
 //! inverse Legendre transform's at that node, the report is their largest relative error and
 //! says which nodes it is over.
 
+use femvi::expr::ExprLagrangian;
 use femvi::lagrangian::{hamiltonian, PointDerivatives};
 use femvi::models::RelativisticKepler;
 use femvi::solution::EnergyNodes;
-use femvi::{solve, Element, Lagrangian, NodeFamily, Problem, QuadratureKind, SolveOptions, Start};
+use femvi::{solve, Element, Error, Lagrangian, NodeFamily, Problem, QuadratureKind, SolveOptions, Start};
 
 fn problem() -> Problem<RelativisticKepler> {
     let start = Start::Velocity {
@@ -122,4 +123,54 @@ fn mechanical_and_time_dependent_lagrangians_are_checked_at_every_node() {
     assert_eq!(EnergyNodes::Kept.resolve(&forced), EnergyNodes::Every);
     assert_eq!("every".parse::<EnergyNodes>(), Ok(EnergyNodes::Every));
     assert!("all".parse::<EnergyNodes>().is_err());
+}
+
+#[test]
+fn a_later_kept_node_whose_energy_is_not_finite_ends_the_run_on_the_node_before() {
+    // A free particle (x = t, the other terms below 1e-299) reaches x = 1 at node 4, kept
+    // (every = 2). 1e-300·sqrt((x − 1)² − 0.025²) is NaN within 0.025 of x = 1, where no Gauss
+    // point falls (they sit 0.053 or more from the nodes at h = 0.25): the steps are finite,
+    // H at node 4 is not. (As an expression: its derivatives in v are exactly those of the
+    // other terms; by dual numbers the NaN would reach ∂²L/∂v² and the error would be a
+    // degenerate Legendre transform instead.)
+    let coords = vec!["x".to_string()];
+    let lag = ExprLagrangian::new(
+        "0.5*x_dot^2 + 1e-300*x_dot^4 + 1e-300*sqrt((x - 1)^2 - 0.025^2)",
+        &coords,
+        &[],
+    )
+    .unwrap();
+    let start = Start::Velocity {
+        q: vec![0.0],
+        v: vec![1.0],
+    };
+    let problem = Problem::new(lag, start, 0.0, 2.0);
+    for nodes in [EnergyNodes::Kept, EnergyNodes::Every] {
+        let options = SolveOptions {
+            every: 2,
+            energy_nodes: nodes,
+            ..SolveOptions::step(0.25)
+        };
+        let sol = solve(&problem, &element(), &options).unwrap();
+        let error = sol.error.as_ref().map(|e| e.to_string()).unwrap_or_default();
+        assert!(
+            error.starts_with("non-finite energy at step 4, t = 1"),
+            "{nodes:?}: {error}"
+        );
+        assert!(
+            matches!(sol.error, Some(Error::NonFiniteEnergy { step: 4, .. })),
+            "{nodes:?}"
+        );
+        // The step to node 4 was taken; the nodes kept are 0 and 2, at x = t with H = ½ (up
+        // to the 1e-300 terms, below round-off).
+        assert_eq!(sol.steps, 4, "{nodes:?}");
+        assert_eq!(sol.step, [0, 2], "{nodes:?}");
+        assert_eq!(sol.q, sol.t, "{nodes:?}");
+        assert!(
+            sol.energy.iter().all(|e| (e - 0.5).abs() <= 1e-15),
+            "{nodes:?}: {:?}",
+            sol.energy
+        );
+        assert_eq!(sol.energy_report.unwrap().max_rel_error, 0.0, "{nodes:?}");
+    }
 }
