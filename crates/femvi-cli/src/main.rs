@@ -421,9 +421,16 @@ fn cmd_run(path: &std::path::Path, set: &[String], args: RunArgs) -> ExitCode {
             ExitCode::from(sig.exit_code())
         }
         Ok(run::Outcome::Failed(s)) => {
-            eprintln!("error: {}", s.error.as_deref().unwrap_or("unknown failure"));
+            let error = s.error.as_deref().unwrap_or("unknown failure");
+            eprintln!("error: {error}");
+            let advice = if error.starts_with("non-finite energy") {
+                // Overflow of an unstable run, or a Lagrangian outside its domain there.
+                "a smaller step if the run is unstable, or check that L is finite at that state (sqrt, ln, division)"
+            } else {
+                "try a smaller step, a larger [solver] max_iterations, or method = \"newton\""
+            };
             eprintln!(
-                "hint: try a smaller step, a larger [solver] max_iterations, or method = \"newton\"; steps 0..{} are in {}",
+                "hint: {advice}; steps 0..{} are in {}",
                 s.steps,
                 dir.join("trajectory.csv").display()
             );

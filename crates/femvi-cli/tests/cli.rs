@@ -4,6 +4,8 @@
 
 #[path = "cli/energy_nodes.rs"]
 mod energy_nodes;
+#[path = "cli/non_finite_energy.rs"]
+mod non_finite_energy;
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};

@@ -112,6 +112,16 @@ pub enum Error {
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// `h` if finite, else [`Error::NonFiniteEnergy`] at node `step` (time t): the check every
+/// solver makes before it records a node's energy, as `femvi run` writes no non-finite value.
+pub(crate) fn finite_energy(h: f64, step: usize, t: f64) -> Result<f64> {
+    if h.is_finite() {
+        Ok(h)
+    } else {
+        Err(Error::NonFiniteEnergy { step, t })
+    }
+}
+
 pub(crate) fn invalid(what: &str, reason: impl Into<String>) -> Error {
     Error::Invalid {
         what: what.to_string(),

@@ -12,7 +12,7 @@ use super::events::AdaptivePiece;
 use super::lagrangian::TimeTransformed;
 use super::monitor::Monitor;
 use crate::discrete::Element;
-use crate::error::{Error, Result};
+use crate::error::{finite_energy, Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::{Detector, EventRecord, Saved};
 use crate::step::{Integrator, Observer};
@@ -79,7 +79,11 @@ impl<'e> Recorder<'e> {
         if self.last_kept == Some(k) {
             return Ok(());
         }
-        let h = hamiltonian(lag, self.t, q, p, &mut self.node_v, &mut self.work)?;
+        let h = finite_energy(
+            hamiltonian(lag, self.t, q, p, &mut self.node_v, &mut self.work)?,
+            k,
+            self.t,
+        )?;
         self.last_kept = Some(k);
         self.s.push(s);
         self.time.push(self.t);

@@ -12,7 +12,7 @@ use super::stepper::Stepper;
 use super::tangent::step_defect;
 use super::Constraints;
 use crate::discrete::Element;
-use crate::error::Result;
+use crate::error::{finite_energy, Result};
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, Solution, SolveOptions};
 
@@ -205,6 +205,9 @@ impl Run<'_, '_> {
         v: &[f64],
     ) -> Result<()> {
         let n = q.len();
+        // The energy first: a node whose energy is not finite is not recorded at all.
+        let pv: f64 = p.iter().zip(v).map(|(a, b)| a * b).sum();
+        let energy = finite_energy(pv - lag.value(t, q, v), k, t)?;
         self.kept_jet.eval(con, q, true);
         let sol = &mut self.out.solution;
         sol.step.push(k);
@@ -212,8 +215,6 @@ impl Run<'_, '_> {
         sol.q.extend_from_slice(q);
         sol.p.extend_from_slice(p);
         sol.v.extend_from_slice(v);
-        let pv: f64 = p.iter().zip(v).map(|(a, b)| a * b).sum();
-        let energy = pv - lag.value(t, q, v);
         sol.energy.push(energy);
         let jet = &self.kept_jet;
         let hidden = (0..jet.m)
@@ -281,12 +282,19 @@ impl Run<'_, '_> {
             self.out.solution.steps = k;
             let last = grid.next(k, t).is_none() || self.max_steps.is_some_and(|cap| k >= cap);
             if last || (self.every > 0 && k % self.every == 0) {
-                self.keep(lag, con, k, t, &q, &p, &v)?;
                 last_kept = k;
+                if let Err(e) = self.keep(lag, con, k, t, &q, &p, &v) {
+                    // Node k's energy is not finite: nothing of it is kept, the run ends.
+                    self.out.solution.error = Some(e);
+                    break;
+                }
             }
         }
         if last_kept != k {
-            self.keep(lag, con, k, t, &q, &p, &v)?;
+            // The node the run ended on (a failed step starts from it, or the step limit).
+            if let Err(e) = self.keep(lag, con, k, t, &q, &p, &v) {
+                self.out.solution.error.get_or_insert(e);
+            }
         }
         let sol = &mut self.out.solution;
         sol.mean_iterations = if k > 0 { self.iterations as f64 / k as f64 } else { 0.0 };

@@ -8,7 +8,7 @@ use super::fixed_point::{solve_fixed_point, Setup};
 use super::step::{ForcedStep, Taken};
 use super::Force;
 use crate::discrete::Element;
-use crate::error::{check_len, invalid, Error, Result};
+use crate::error::{check_len, finite_energy, invalid, Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::{grid, EnergyReport, Problem, Solution, SolveOptions, Steps};
 use crate::step::{Method, Start};
@@ -282,7 +282,11 @@ impl Run {
 
     /// H at the node (v: warm start in, velocity out), the balance, and the node if kept.
     pub(super) fn record<L: Lagrangian>(&mut self, lag: &L, node: &Node, v: &mut [f64], last: bool) -> Result<()> {
-        let h = hamiltonian(lag, node.t, &node.q, &node.p, v, &mut self.ld)?;
+        let h = finite_energy(
+            hamiltonian(lag, node.t, &node.q, &node.p, v, &mut self.ld)?,
+            node.k,
+            node.t,
+        )?;
         self.last_h = Some((node.k, h));
         if self.h0.is_nan() {
             self.h0 = h;

@@ -11,7 +11,7 @@ use super::energy::EnergyTracker;
 use super::energy_nodes::EnergyNodes;
 use super::events::{Detector, EventRecord, Span};
 use super::{Saved, SolveOptions};
-use crate::error::{invalid, Error, Result};
+use crate::error::{finite_energy, invalid, Error, Result};
 use crate::fem::LagrangeBasis;
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::step::{Integrator, Observer, Start};
@@ -183,16 +183,6 @@ impl Recorder {
             );
         }
         self.prev = Some(prev);
-    }
-}
-
-/// `h` if finite, else [`Error::NonFiniteEnergy`] at node k (as `femvi run`, which writes no
-/// non-finite value: a solution holds none either).
-fn finite_energy(h: f64, k: usize, t: f64) -> Result<f64> {
-    if h.is_finite() {
-        Ok(h)
-    } else {
-        Err(Error::NonFiniteEnergy { step: k, t })
     }
 }
 
