@@ -15,6 +15,10 @@ fn main() -> Result<(), femvi::Error> {
     let mut args = std::env::args().skip(1);
     let s: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(2);
     let steps: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(1_000_000);
+    if steps < 2 * BLOCK {
+        eprintln!("at least {} steps (two blocks of {BLOCK}) for a slope", 2 * BLOCK);
+        std::process::exit(2);
+    }
     let element = Element::galerkin(s, NodeFamily::Equispaced, QuadratureKind::GaussLegendre(s))?;
     let h = 2.0 * std::f64::consts::PI / 1000.0;
     let lag = RelativisticKepler { c: 10.0 };

@@ -31,7 +31,8 @@ const NOISE: f64 = 100.0;
 /// changes the rate of convergence, not the solution, which is set by the residual.
 #[derive(Debug, Clone)]
 pub struct FrozenJacobian {
-    /// Residual at the current iterate.
+    /// Residual at the last iterate evaluated (after convergence, the one before the last
+    /// correction when that correction was below round-off: see [`simplified_newton`]).
     pub r: Vec<f64>,
     /// Jacobian to factorise, row-major (filled by the caller before [`FrozenJacobian::factor`]).
     pub jac: Vec<f64>,
@@ -122,7 +123,7 @@ pub enum Simplified {
     /// iterate one correction before it when that correction was below the round-off of x
     /// (see [`simplified_newton`]).
     Converged {
-        /// Residual evaluations with a correction (not counting the final one).
+        /// Corrections applied, each after a residual evaluation.
         iterations: usize,
         /// The largest contraction estimate met while the corrections were above round-off
         /// (0 if there was none).

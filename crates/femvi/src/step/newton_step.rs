@@ -77,8 +77,12 @@ pub(crate) struct NewtonStep {
     /// How many consecutive steps of equal h `err`, `err2` and `err3` hold (0 … 3).
     depth: usize,
     /// Whether the next correction extrapolates quadratically (with `depth` 3: the quadratic
-    /// extrapolation predicted the last error better than the linear one).
+    /// extrapolation predicted the last error better than the linear one, on a step the kept
+    /// Jacobian solved).
     quadratic: bool,
+    /// Whether the last step converged with the kept Jacobian (not a fresh one, nor full
+    /// Newton): the step's own, not checkpointed.
+    kept_solved: bool,
     /// The bits of (t_k, h) of the step `err` belongs to.
     err_key: (u64, u64),
     /// Whether the current step's guess was corrected (its error continues the sequence).
@@ -241,6 +245,7 @@ impl NewtonStep {
             err3: vec![0.0; s * n],
             depth: 0,
             quadratic: false,
+            kept_solved: false,
             err_key: (0, 0),
             follows: false,
         })
@@ -311,12 +316,14 @@ impl NewtonStep {
     /// itself extrapolated from the last errors of equal-h steps: linearly (2e_{k−1} − e_{k−2})
     /// when two are known, as constant (e_{k−1}) with one, and with three quadratically
     /// (3e_{k−1} − 3e_{k−2} + e_{k−3}, exact for errors quadratic in k) if that would have
-    /// predicted the last error better than the linear one did ([`NewtonStep::keep_error`]). The
+    /// predicted the last error better than the linear one did, on a step the kept Jacobian
+    /// solved ([`NewtonStep::keep_error`]). The
     /// relativistic Kepler run of `benches/general.rs` (degree 2): the guess's relative error,
     /// 1e-5 uncorrected, is 1e-7 with the constant correction; the corrections per step are
     /// 5.5 → 4.0 with the linear one (and θ measured above noise only, `solve/simplified.rs`),
-    /// → 3.58 with the quadratic one (degrees 1 / 3 / 4: 4.37 → 3.93, 3.45 → 2.93,
-    /// 2.95 → 2.98: at degree 4 the errors left are near round-off, `examples/general_profile`).
+    /// → 3.59 with the chosen order (degrees 1 / 3 / 4: 4.37 → 3.95, 3.45 → 2.94,
+    /// 2.95 → 2.90; always quadratic, degree 4 took 2.98: the errors left there are near
+    /// round-off, `examples/general_profile`).
     /// Keeps the uncorrected guess in `raw`.
     fn correct(&mut self, last: &LastElement, h: f64) {
         self.raw.copy_from_slice(&self.guess.x);
@@ -344,8 +351,12 @@ impl NewtonStep {
     fn keep_error(&mut self, t0: f64, h: f64) {
         // Which extrapolation of the errors would have predicted this one better (the
         // quadratic one amplifies the noise in them more: near round-off, at degree 4, it
-        // cost iterations).
-        self.quadratic = self.follows && self.depth >= 3 && {
+        // cost iterations). Only after a step the kept Jacobian solved: where Jacobians are
+        // refreshed step after step (adaptive e = 0.9 Kepler at ds = 0.1), the better guess
+        // left too few corrections above noise to measure θ by, kept Jacobians that then
+        // failed, and cost iterations (4.47 → 5.34 per step) and conservation (angular
+        // momentum slope 6e-18 → −6.4e-17 per period, `examples/adaptive_drift`).
+        self.quadratic = self.kept_solved && self.follows && self.depth >= 3 && {
             let (mut linear, mut quadratic) = (0.0f64, 0.0f64);
             let errs = self.err.iter().zip(&self.err2).zip(&self.err3);
             for ((((e, e2), e3), x), r) in errs.zip(&self.guess.x).zip(&self.raw) {
@@ -440,6 +451,7 @@ impl NewtonStep {
             match out {
                 Simplified::Converged { iterations, theta } => {
                     self.theta = theta;
+                    self.kept_solved = !fresh;
                     if !fresh {
                         self.backoff = 1;
                     }
@@ -465,6 +477,7 @@ impl NewtonStep {
             }
         }
         // Fallback: full Newton from the prediction; the next step evaluates a fresh Jacobian.
+        self.kept_solved = false;
         self.frozen.clear();
         self.theta = f64::INFINITY;
         self.guess.x.copy_from_slice(&self.start);
@@ -524,13 +537,8 @@ impl NewtonStep {
                 r.fs(&mut self.err3)?;
                 self.quadratic = r.b()?;
             }
-            if !self
-                .err
-                .iter()
-                .chain(&self.err2)
-                .chain(&self.err3)
-                .all(|v| v.is_finite())
-            {
+            let third = if self.depth > 2 { &self.err3[..] } else { &[] };
+            if !self.err.iter().chain(&self.err2).chain(third).all(|v| v.is_finite()) {
                 return Err(invalid("checkpoint", "a non-finite predictor correction"));
             }
             self.err_key = (t.to_bits(), h.to_bits());
