@@ -91,14 +91,17 @@ pub enum Error {
         /// Smallest over largest singular value of G.
         ratio: f64,
     },
-    /// The energy H = p·v − L at a node that the run would record is not finite (L or its
-    /// derivatives are not finite there, though the steps were): the run stopped before
-    /// recording it, so no NaN or infinity reaches a solution.
-    #[error("non-finite energy at step {step}, t = {t}: H = p·v − L is not finite at this node; the nodes before it are kept")]
+    /// The energy H = p·v − L at a node where the run computes it is not finite (L or its
+    /// derivatives are not finite there though the steps were, or the state overflowed):
+    /// the run stopped there and recorded nothing of that node, neither in the arrays nor in
+    /// the energy report.
+    #[error(
+        "non-finite energy at step {step}, t = {t}: H = p·v − L is not finite at this node; the run ends before it"
+    )]
     NonFiniteEnergy {
         /// Index of the node (0 is the start).
         step: usize,
-        /// Time of the node.
+        /// Time of the node (the physical time, also in adaptive runs).
         t: f64,
     },
     /// A step failed.

@@ -232,8 +232,14 @@ fn a_failed_run_keeps_what_it_computed() {
         panic!("expected a non-finite energy, got {:?}", sol.error)
     };
     assert_eq!(step, sol.steps);
-    assert!(sol.len() > 10 && *sol.step.last().unwrap() < step);
+    // Every node before it is kept (every = 1), and the infinite energy is in neither the
+    // arrays nor the report.
+    assert!(step > 10 && sol.len() == step && *sol.step.last().unwrap() == step - 1);
     assert!(sol.q.iter().chain(&sol.p).chain(&sol.energy).all(|x| x.is_finite()));
+    let report = sol.energy_report.as_ref().unwrap();
+    let e0 = sol.energy[0];
+    let largest = sol.energy.iter().fold(0.0f64, |m, e| m.max((e - e0).abs())) / e0.abs();
+    assert_eq!(report.max_rel_error, largest);
     // Without energy tracking and only node 0 kept before the end, no energy is computed
     // on the way: the step that overflows q is the error, and the nodes kept are finite.
     let sparse = SolveOptions {

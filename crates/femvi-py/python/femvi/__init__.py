@@ -82,7 +82,8 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
     force Jacobian is taken by central differences.
 
     Raises :class:`InputError` for a bad problem (the command's message) and
-    :class:`NumericalError` when a step fails (unless ``raise_on_error=False``, which returns
+    :class:`NumericalError` when a step fails or a node's energy is not finite (unless
+    ``raise_on_error=False``, which returns
     the partial solution with ``sol.error`` set). The GIL is released during the run.
     """
     evs = [e if isinstance(e, Event) else Event(e) for e in (events or [])]

@@ -129,6 +129,8 @@ impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_>
         let lg = it.lagrangian();
         self.k = node.k;
         if node.k == 0 {
+            // Kept first: a start whose energy is not finite leaves nothing, not a saved state.
+            self.keep(lg.inner(), node.k, node.t, node.q, node.p)?;
             while self.saveat.get(self.next_save).is_some_and(|&ts| ts < self.t) {
                 self.next_save += 1; // before the start
             }
@@ -140,7 +142,7 @@ impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_>
                 self.saved.v.extend_from_slice(&self.node_v);
                 self.saved.p.extend_from_slice(node.p);
             }
-            return self.keep(lg.inner(), node.k, node.t, node.q, node.p);
+            return Ok(());
         }
         let Some(el) = it.last_element() else {
             return Ok(());
@@ -195,12 +197,18 @@ impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_>
         Ok(())
     }
 
-    fn finish(&mut self, it: &Integrator<'_, TimeTransformed<L, G>>, _error: Option<&Error>) -> Result<()> {
+    fn finish(&mut self, it: &Integrator<'_, TimeTransformed<L, G>>, error: Option<&Error>) -> Result<()> {
         let node = it.node();
-        // The node the run ended on is kept, whatever stopped it (a failed Legendre transform
-        // there leaves it out).
-        let _ = self.keep(it.lagrangian().inner(), node.k, node.t, node.q, node.p);
-        Ok(())
+        // The node the run ended on is kept, whatever stopped it, if its energy can be had:
+        // not the node whose energy failed the run; a run that ended without an error on a
+        // node whose energy cannot be had fails there (no node is left out silently).
+        if matches!(error, Some(Error::NonFiniteEnergy { step, .. }) if *step == node.k) {
+            return Ok(());
+        }
+        match self.keep(it.lagrangian().inner(), node.k, node.t, node.q, node.p) {
+            Err(e) if error.is_none() => Err(e),
+            _ => Ok(()),
+        }
     }
 
     fn stop(&self) -> bool {

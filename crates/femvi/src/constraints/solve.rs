@@ -143,7 +143,11 @@ pub(super) fn run_forced<L: Lagrangian, C: Constraints>(
     run.forcing = forcing;
     run.out.start_projection = start.projection;
     let (q0, p, v) = (start.q, start.p, start.v);
-    run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v)?;
+    if let Err(e) = run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v) {
+        // Node 0's energy is not finite: a failed run with nothing kept, as `solve`'s.
+        run.out.solution.error = Some(e);
+        return Ok((run.out, run.defect));
+    }
     run.march(problem, constraints, element, &start.grid, q0, p, v)?;
     Ok((run.out, run.defect))
 }
@@ -269,7 +273,18 @@ impl Run<'_, '_> {
                 let (qk, _) = self.stepper.previous();
                 b.step(element, (t, h), qk, self.stepper.sys.increments(), time_work);
                 let pv: f64 = p.iter().zip(&v).map(|(a, b)| a * b).sum();
-                b.node(pv - lag.value(t1, &q, &v));
+                match finite_energy(pv - lag.value(t1, &q, &v), k + 1, t1) {
+                    Ok(energy) => b.node(energy),
+                    Err(e) => {
+                        // The new node's energy is not finite: nothing of it is kept (nor
+                        // the node before unless it was due: q, p, v have moved on).
+                        self.out.solution.error = Some(e);
+                        k += 1;
+                        self.out.solution.steps = k;
+                        last_kept = k;
+                        break;
+                    }
+                }
             }
             if let Some(worst) = self.defect {
                 let phi = self.stepper.tangent_map(lag, con, element, (t, h, t1), &q, &v, term);

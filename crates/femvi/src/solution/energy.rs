@@ -156,10 +156,12 @@ impl EnergyTracker {
         if self.e0.is_nan() {
             self.e0 = h;
         }
-        self.max_dev = self.max_dev.max((h - self.e0).abs());
+        // A node whose energy is not finite ends the run (the callers' check): it stays out
+        // of the report (a select, not a branch, in this inlined path).
+        self.max_dev = self.max_dev.max(if h.is_finite() { (h - self.e0).abs() } else { 0.0 });
         self.current.h = h;
         self.rel_stale = true;
-        if self.balance.is_some() {
+        if self.balance.is_some() && h.is_finite() {
             self.balance_at(lag, t, q, h);
         }
         // The caller that does not read `rel` (the command between written nodes) does not
@@ -234,7 +236,8 @@ impl EnergyTracker {
         if self.e0.is_nan() {
             self.e0 = h;
         }
-        self.max_dev = self.max_dev.max((h - self.e0).abs());
+        // As in `node`: a non-finite energy stays out of the report.
+        self.max_dev = self.max_dev.max(if h.is_finite() { (h - self.e0).abs() } else { 0.0 });
         self.current.h = h;
         self.rel_stale = true;
         Some(h)

@@ -259,8 +259,13 @@ impl<L: Lagrangian> Observer<L> for Recorder {
     }
 
     fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&Error>) -> Result<()> {
-        // The node the run ended on is kept, whatever stopped it.
+        // The node the run ended on is kept, whatever stopped it, if its energy is finite:
+        // not the node whose energy failed the run, and a run that ended without an error
+        // on a node whose energy cannot be had fails there (no node is left out silently).
         let node = it.node();
+        if matches!(error, Some(Error::NonFiniteEnergy { step, .. }) if *step == node.k) {
+            return Ok(());
+        }
         if error.is_none() && self.kept_only && self.tracker.is_some() && self.tracked != Some(node.k) {
             // A run stopped between kept nodes (an event, the step limit): its last node is
             // kept, so it is tracked; an energy that cannot be computed there is the run's error.
@@ -270,12 +275,16 @@ impl<L: Lagrangian> Observer<L> for Recorder {
         }
         let mut v = vec![0.0; self.n];
         let h = hamiltonian(it.lagrangian(), node.t, node.q, node.p, &mut v, &mut self.work);
-        if let Ok(h) = h.and_then(|h| finite_energy(h, node.k, node.t)) {
-            self.node_v = v;
-            self.node_h = h;
-            self.keep(node.k, node.t, node.q, node.p);
+        match h.and_then(|h| finite_energy(h, node.k, node.t)) {
+            Ok(h) => {
+                self.node_v = v;
+                self.node_h = h;
+                self.keep(node.k, node.t, node.q, node.p);
+                Ok(())
+            }
+            Err(e) if error.is_none() => Err(e),
+            Err(_) => Ok(()),
         }
-        Ok(())
     }
 
     fn stop(&self) -> bool {

@@ -174,3 +174,36 @@ fn a_later_kept_node_whose_energy_is_not_finite_ends_the_run_on_the_node_before(
         assert_eq!(sol.energy_report.unwrap().max_rel_error, 0.0, "{nodes:?}");
     }
 }
+
+#[test]
+fn a_run_that_ends_without_an_error_on_a_node_whose_energy_is_not_finite_fails_there() {
+    // The step limit stops the run at node 4 (x = 1, H NaN), a node that is not kept (every =
+    // 3) and, without energy tracking, whose energy no one computed on the way: the run
+    // fails there rather than leave its last node out.
+    let coords = vec!["x".to_string()];
+    let lag = ExprLagrangian::new(
+        "0.5*x_dot^2 + 1e-300*x_dot^4 + 1e-300*sqrt((x - 1)^2 - 0.025^2)",
+        &coords,
+        &[],
+    )
+    .unwrap();
+    let start = Start::Velocity {
+        q: vec![0.0],
+        v: vec![1.0],
+    };
+    let problem = Problem::new(lag, start, 0.0, 2.0);
+    let options = SolveOptions {
+        every: 3,
+        max_steps: Some(4),
+        track_energy: false,
+        ..SolveOptions::step(0.25)
+    };
+    let sol = solve(&problem, &element(), &options).unwrap();
+    assert!(
+        matches!(sol.error, Some(Error::NonFiniteEnergy { step: 4, .. })),
+        "{:?}",
+        sol.error
+    );
+    assert_eq!(sol.step, [0, 3]);
+    assert!(sol.energy.iter().all(|e| e.is_finite()));
+}
