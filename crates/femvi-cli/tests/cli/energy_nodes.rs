@@ -10,7 +10,7 @@ use std::process::Command;
 const REL: &str = "name = \"rel\"\n[system]\ncoordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) + (x_dot^2 + y_dot^2)^2/800\"\n[initial]\nq = [0.4, 0.0]\np = [0.0, 2.0]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nstep = 0.01\nend = 20.0\n[output]\nevery = 10\n";
 
 /// Runs `femvi run` on `text` with `extra` arguments; (exit code, summary, rows of numbers).
-fn run(dir: &Path, text: &str, extra: &[&str]) -> (Option<i32>, serde_json::Value, Vec<Vec<f64>>, String) {
+pub(crate) fn run(dir: &Path, text: &str, extra: &[&str]) -> (Option<i32>, serde_json::Value, Vec<Vec<f64>>, String) {
     let problem = dir.join("p.toml");
     std::fs::write(&problem, text).unwrap();
     let out = dir.join("out");
@@ -148,18 +148,26 @@ fn a_written_node_whose_energy_is_not_finite_stops_the_run_before_it_is_written(
             "coordinates = [\"x\"]\nlagrangian = \"0.5*(1 + x^2)*x_dot^2 - 0.5*x^2 + 1e-300*ln((x - 1)^2)\"",
         )
         .replace("q = [0.4, 0.0]\np = [0.0, 2.0]", "q = [1.0]\nv = [0.5]");
+    for (nodes, _, rows) in failed_in_both_modes(&text, "non-finite energy at step 0") {
+        assert!(rows.is_empty(), "{nodes}: a row was written");
+    }
+}
+
+/// Runs `text` with the energy at the written nodes and at every node; checks that each
+/// fails (exit 1) with an error beginning with `error` and says which mode it ran in; returns
+/// (mode, summary, rows) of each.
+fn failed_in_both_modes(text: &str, error: &str) -> Vec<(&'static str, serde_json::Value, Vec<Vec<f64>>)> {
+    let mut out = vec![];
     for nodes in ["kept", "every"] {
         let tmp = tempfile::tempdir().unwrap();
-        let (code, s, rows, err) = run(tmp.path(), &text, &["--set", &format!("output.energy_nodes={nodes}")]);
+        let (code, s, rows, err) = run(tmp.path(), text, &["--set", &format!("output.energy_nodes={nodes}")]);
         assert_eq!(code, Some(1), "{nodes}: {err}");
         assert_eq!(s["energy_nodes"], nodes);
         assert_eq!(s["status"], "failed");
-        assert!(
-            s["error"].as_str().unwrap().starts_with("non-finite energy at step 0"),
-            "{s}"
-        );
-        assert!(rows.is_empty(), "{nodes}: a row was written");
+        assert!(s["error"].as_str().unwrap().starts_with(error), "{s}");
+        out.push((nodes, s, rows));
     }
+    out
 }
 
 #[test]
@@ -177,16 +185,7 @@ fn a_later_written_node_whose_energy_is_not_finite_ends_the_run_on_the_node_befo
         .replace("q = [0.4, 0.0]\np = [0.0, 2.0]", "q = [0.0]\nv = [1.0]")
         .replace("step = 0.01\nend = 20.0", "step = 0.25\nend = 2.0")
         .replace("every = 10", "every = 2");
-    for nodes in ["kept", "every"] {
-        let tmp = tempfile::tempdir().unwrap();
-        let (code, s, rows, err) = run(tmp.path(), &text, &["--set", &format!("output.energy_nodes={nodes}")]);
-        assert_eq!(code, Some(1), "{nodes}: {err}");
-        assert_eq!(s["energy_nodes"], nodes);
-        assert_eq!(s["status"], "failed");
-        assert!(
-            s["error"].as_str().unwrap().starts_with("non-finite energy at step 4"),
-            "{s}"
-        );
+    for (nodes, s, rows) in failed_in_both_modes(&text, "non-finite energy at step 4") {
         assert_eq!(s["steps"], 3, "{nodes}: {s}");
         let steps: Vec<f64> = rows.iter().map(|r| r[0]).collect();
         assert_eq!(steps, [0.0, 2.0], "{nodes}");

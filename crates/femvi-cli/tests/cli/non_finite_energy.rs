@@ -5,7 +5,6 @@
 //! constrained runs wrote the NaN and exited 0).
 
 use std::path::Path;
-use std::process::Command;
 
 /// A free particle (x = t, the other terms below 1e-299) that reaches x = 1 at node 4 (h =
 /// 0.25, every = 2: a written node), where 1e-300·sqrt((x − 1)² − 0.025²) is NaN; no Gauss
@@ -17,32 +16,9 @@ fn problem(coordinates: &str, lagrangian: &str, extra: &str, start: &str) -> Str
     )
 }
 
-/// Runs `femvi run` on `text`: (exit code, summary, rows of numbers, stderr).
+/// Runs `femvi run` on `text` (the helper of `energy_nodes.rs`, no extra arguments).
 fn run(dir: &Path, text: &str) -> (Option<i32>, serde_json::Value, Vec<Vec<f64>>, String) {
-    let problem = dir.join("p.toml");
-    std::fs::write(&problem, text).unwrap();
-    let out = dir.join("out");
-    let res = Command::new(env!("CARGO_BIN_EXE_femvi"))
-        .args(["run", "--quiet", "--out"])
-        .arg(&out)
-        .arg(&problem)
-        .output()
-        .unwrap();
-    let summary = std::fs::read_to_string(out.join("summary.json"))
-        .map(|s| serde_json::from_str(&s).unwrap())
-        .unwrap_or(serde_json::Value::Null);
-    let rows = std::fs::read_to_string(out.join("trajectory.csv"))
-        .unwrap_or_default()
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
-    (
-        res.status.code(),
-        summary,
-        rows,
-        String::from_utf8_lossy(&res.stderr).into_owned(),
-    )
+    crate::energy_nodes::run(dir, text, &[])
 }
 
 /// The checks the runs share: exit 1, the error at node 4, the written rows (node indices
@@ -68,60 +44,41 @@ fn check_at(case: &str, text: &str, error: &str, kept: &[f64]) {
 
 const L: &str = "0.5*x_dot^2 + 1e-300*x_dot^4 + 1e-300*sqrt((x - 1)^2 - 0.025^2)";
 
-#[test]
-fn a_forced_run_stops_at_a_node_whose_energy_is_not_finite() {
-    let text = problem(
-        "[\"x\"]",
-        L,
-        "[forces]\ngeneralized = [\"0*x\"]",
-        "q = [0.0]\nv = [1.0]",
-    );
-    check("forced", &text, &[0.0, 2.0]);
-}
-
-#[test]
-fn a_constrained_run_stops_at_a_node_whose_energy_is_not_finite() {
+/// The constrained problem: (x, y) with y = 0 held by a constraint, `extra` after it.
+fn constrained(x0: &str, extra: &str) -> String {
     let lag = L.replace("x_dot^2 +", "(x_dot^2 + y_dot^2) +");
-    let text = problem(
+    let start = format!("q = [{x0}, 0.0]\nv = [1.0, 0.0]");
+    problem(
         "[\"x\", \"y\"]",
         &lag,
-        "[constraints]\nholonomic = [\"y\"]",
-        "q = [0.0, 0.0]\nv = [1.0, 0.0]",
-    );
-    check("constrained", &text, &[0.0, 2.0]);
+        &format!("[constraints]\nholonomic = [\"y\"]\n{extra}"),
+        &start,
+    )
 }
 
-#[test]
-fn an_adaptive_run_stops_at_a_node_whose_energy_is_not_finite() {
-    // g = 1: the fictitious time is the physical one, the nodes the same as above.
-    let text = problem("[\"x\"]", L, "", "q = [0.0]\nv = [1.0]")
-        .replace("step = 0.25", "mode = \"adaptive\"\nmonitor = \"1\"\nds = 0.25");
-    check("adaptive", &text, &[0.0, 2.0]);
-}
-
-/// The three problems above as (name, text), started at x = `x0`.
+/// The forced, constrained and adaptive problems as (name, text), started at x = `x0`. With
+/// g = 1 the adaptive run's fictitious time is the physical one, its nodes the same.
 fn cases(x0: &str) -> Vec<(&'static str, String)> {
     let start = format!("q = [{x0}]\nv = [1.0]");
-    let lag2 = L.replace("x_dot^2 +", "(x_dot^2 + y_dot^2) +");
+    let adaptive = "mode = \"adaptive\"\nmonitor = \"1\"\nds = 0.25";
     vec![
         (
             "forced",
             problem("[\"x\"]", L, "[forces]\ngeneralized = [\"0*x\"]", &start),
         ),
-        (
-            "constrained",
-            problem(
-                "[\"x\", \"y\"]",
-                &lag2,
-                "[constraints]\nholonomic = [\"y\"]",
-                &format!("q = [{x0}, 0.0]\nv = [1.0, 0.0]"),
-            ),
-        ),
+        ("constrained", constrained(x0, "")),
         (
             "adaptive",
-            problem("[\"x\"]", L, "", &start).replace("step = 0.25", "mode = \"adaptive\"\nmonitor = \"1\"\nds = 0.25"),
+            problem("[\"x\"]", L, "", &start).replace("step = 0.25", adaptive),
         ),
     ]
+}
+
+#[test]
+fn each_solver_stops_at_a_node_whose_energy_is_not_finite() {
+    for (case, text) in cases("0.0") {
+        check(case, &text, &[0.0, 2.0]);
+    }
 }
 
 #[test]
@@ -146,13 +103,6 @@ fn a_start_whose_energy_is_not_finite_is_a_failed_run_with_no_row() {
 fn a_forced_constrained_run_checks_the_nodes_it_does_not_write() {
     // every = 3: node 4 is not written, but its energy enters the energy balance; the run
     // ends there with rows 0 and 3 (before, the NaN was skipped and the run went on, exit 0).
-    let lag2 = L.replace("x_dot^2 +", "(x_dot^2 + y_dot^2) +");
-    let text = problem(
-        "[\"x\", \"y\"]",
-        &lag2,
-        "[constraints]\nholonomic = [\"y\"]\n[forces]\ngeneralized = [\"0*x\", \"0*y\"]",
-        "q = [0.0, 0.0]\nv = [1.0, 0.0]",
-    )
-    .replace("every = 2", "every = 3");
+    let text = constrained("0.0", "[forces]\ngeneralized = [\"0*x\", \"0*y\"]").replace("every = 2", "every = 3");
     check("forced constrained", &text, &[0.0, 3.0]);
 }

@@ -125,14 +125,13 @@ fn mechanical_and_time_dependent_lagrangians_are_checked_at_every_node() {
     assert!("all".parse::<EnergyNodes>().is_err());
 }
 
-#[test]
-fn a_later_kept_node_whose_energy_is_not_finite_ends_the_run_on_the_node_before() {
-    // A free particle (x = t, the other terms below 1e-299) reaches x = 1 at node 4, kept
-    // (every = 2). 1e-300·sqrt((x − 1)² − 0.025²) is NaN within 0.025 of x = 1, where no Gauss
-    // point falls (they sit 0.053 or more from the nodes at h = 0.25): the steps are finite,
-    // H at node 4 is not. (As an expression: its derivatives in v are exactly those of the
-    // other terms; by dual numbers the NaN would reach ∂²L/∂v² and the error would be a
-    // degenerate Legendre transform instead.)
+/// A free particle (x = t, the other terms below 1e-299) from x = 0 to t = 2 that reaches
+/// x = 1 at node 4 of h = 0.25. 1e-300·sqrt((x − 1)² − 0.025²) is NaN within 0.025 of x = 1,
+/// where no Gauss point falls (they sit 0.053 or more from the nodes): the steps are finite,
+/// H at node 4 is not. (As an expression: its derivatives in v are exactly those of the other
+/// terms; by dual numbers the NaN would reach ∂²L/∂v² and the error would be a degenerate
+/// Legendre transform instead.)
+fn near_one() -> Problem<ExprLagrangian> {
     let coords = vec!["x".to_string()];
     let lag = ExprLagrangian::new(
         "0.5*x_dot^2 + 1e-300*x_dot^4 + 1e-300*sqrt((x - 1)^2 - 0.025^2)",
@@ -144,7 +143,13 @@ fn a_later_kept_node_whose_energy_is_not_finite_ends_the_run_on_the_node_before(
         q: vec![0.0],
         v: vec![1.0],
     };
-    let problem = Problem::new(lag, start, 0.0, 2.0);
+    Problem::new(lag, start, 0.0, 2.0)
+}
+
+#[test]
+fn a_later_kept_node_whose_energy_is_not_finite_ends_the_run_on_the_node_before() {
+    // Node 4 (x = 1) is kept (every = 2).
+    let problem = near_one();
     for nodes in [EnergyNodes::Kept, EnergyNodes::Every] {
         let options = SolveOptions {
             every: 2,
@@ -180,18 +185,7 @@ fn a_run_that_ends_without_an_error_on_a_node_whose_energy_is_not_finite_fails_t
     // The step limit stops the run at node 4 (x = 1, H NaN), a node that is not kept (every =
     // 3) and, without energy tracking, whose energy no one computed on the way: the run
     // fails there rather than leave its last node out.
-    let coords = vec!["x".to_string()];
-    let lag = ExprLagrangian::new(
-        "0.5*x_dot^2 + 1e-300*x_dot^4 + 1e-300*sqrt((x - 1)^2 - 0.025^2)",
-        &coords,
-        &[],
-    )
-    .unwrap();
-    let start = Start::Velocity {
-        q: vec![0.0],
-        v: vec![1.0],
-    };
-    let problem = Problem::new(lag, start, 0.0, 2.0);
+    let problem = near_one();
     let options = SolveOptions {
         every: 3,
         max_steps: Some(4),
