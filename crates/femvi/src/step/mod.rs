@@ -54,6 +54,7 @@ pub mod fixed_point;
 mod fixed_point_step;
 pub mod grid;
 mod guess;
+mod guess_correction;
 mod gyroscopic;
 pub mod integrator;
 mod newton_residual;

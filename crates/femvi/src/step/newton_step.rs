@@ -18,12 +18,13 @@
 //! the round-off of the unknowns: without both, its iterates carried a bias that drifted the
 //! angular momentum and energy of long runs (issue 15). Checkpoints keep the point at which
 //! the kept Jacobian was evaluated, the last θ, the refresh back-off and the predictor's
-//! corrections ([`NewtonStep::correct`]), and a restored run evaluates the Jacobian there
+//! corrections ([`GuessCorrection`]), and a restored run evaluates the Jacobian there
 //! again: resumed runs equal uninterrupted ones bit for bit.
 
 use super::checkpoint::{Reader, Words};
 use super::element_work::{buffers, check_dense_newton, ElementBuffers};
 use super::guess::Guess;
+use super::guess_correction::GuessCorrection;
 use super::newton_residual::{simplified_residual, ResidualTables};
 use super::options::Method;
 use super::solver::StepContext;
@@ -65,28 +66,11 @@ pub(crate) struct NewtonStep {
     start: Vec<f64>,
     /// Steps left that evaluate a fresh Jacobian without trying the kept one.
     skip: usize,
-    /// The extrapolation of the last element over this step, before any correction.
-    raw: Vec<f64>,
-    /// The extrapolation's error at the last step solved by the simplified iteration
-    /// (solution − `raw`), see [`NewtonStep::correct`].
-    err: Vec<f64>,
-    /// The same at the step before (valid with `depth` 2 or more).
-    err2: Vec<f64>,
-    /// The same two steps before (valid with `depth` 3).
-    err3: Vec<f64>,
-    /// How many consecutive steps of equal h `err`, `err2` and `err3` hold (0 … 3).
-    depth: usize,
-    /// Whether the next correction extrapolates quadratically (with `depth` 3: the quadratic
-    /// extrapolation predicted the last error better than the linear one, on a step the kept
-    /// Jacobian solved).
-    quadratic: bool,
+    /// The correction of the guess by the extrapolation's errors at the last steps.
+    correction: GuessCorrection,
     /// Whether the last step converged with the kept Jacobian (not a fresh one, nor full
     /// Newton): the step's own, not checkpointed.
     kept_solved: bool,
-    /// The bits of (t_k, h) of the step `err` belongs to.
-    err_key: (u64, u64),
-    /// Whether the current step's guess was corrected (its error continues the sequence).
-    follows: bool,
     /// The skip set after the next failure of a kept Jacobian (doubles up to [`MAX_SKIP`],
     /// 0 again after a kept Jacobian converges).
     backoff: usize,
@@ -239,15 +223,8 @@ impl NewtonStep {
             start: vec![0.0; s * n],
             skip: 0,
             backoff: 1,
-            raw: vec![0.0; s * n],
-            err: vec![0.0; s * n],
-            err2: vec![0.0; s * n],
-            err3: vec![0.0; s * n],
-            depth: 0,
-            quadratic: false,
+            correction: GuessCorrection::new(s * n),
             kept_solved: false,
-            err_key: (0, 0),
-            follows: false,
         })
     }
 
@@ -284,9 +261,9 @@ impl NewtonStep {
         let s = element.degree();
         let bufs = buffers(bufs, element, n);
         let iterations = if cx.opts.method != Method::FullNewton {
-            self.correct(last, h);
+            self.correction.apply(&mut self.guess.x, last, h);
             let iterations = self.simplified(cx, state, bufs, h, &mut out.incr)?;
-            self.keep_error(state.t, h);
+            self.correction.keep(&self.guess.x, state.t, h, self.kept_solved);
             iterations
         } else {
             self.full(cx, state, bufs, h, &mut out.incr)?
@@ -308,75 +285,6 @@ impl NewtonStep {
                     .sum::<f64>();
         }
         Ok(iterations)
-    }
-
-    /// Corrects the extrapolated guess by the extrapolation's errors at the last steps, when
-    /// they were the last elements and had the same h: the error of extrapolating the last
-    /// element's polynomial, O(h^(s+1)), is a smooth function of the step's start, so it is
-    /// itself extrapolated from the last errors of equal-h steps: linearly (2e_{k−1} − e_{k−2})
-    /// when two are known, as constant (e_{k−1}) with one, and with three quadratically
-    /// (3e_{k−1} − 3e_{k−2} + e_{k−3}, exact for errors quadratic in k) if that would have
-    /// predicted the last error better than the linear one did, on a step the kept Jacobian
-    /// solved ([`NewtonStep::keep_error`]). The
-    /// relativistic Kepler run of `benches/general.rs` (degree 2): the guess's relative error,
-    /// 1e-5 uncorrected, is 1e-7 with the constant correction; the corrections per step are
-    /// 5.5 → 4.0 with the linear one (and θ measured above noise only, `solve/simplified.rs`),
-    /// → 3.59 with the chosen order (degrees 1 / 3 / 4: 4.37 → 3.95, 3.45 → 2.94,
-    /// 2.95 → 2.90; always quadratic, degree 4 took 2.98: the errors left there are near
-    /// round-off, `examples/general_profile`).
-    /// Keeps the uncorrected guess in `raw`.
-    fn correct(&mut self, last: &LastElement, h: f64) {
-        self.raw.copy_from_slice(&self.guess.x);
-        let key = (last.t.to_bits(), h.to_bits());
-        self.follows = last.valid && last.h.to_bits() == h.to_bits() && self.depth > 0 && self.err_key == key;
-        if !self.follows {
-            return;
-        }
-        if self.depth >= 3 && self.quadratic {
-            for (((x, e), e2), e3) in self.guess.x.iter_mut().zip(&self.err).zip(&self.err2).zip(&self.err3) {
-                *x += 3.0 * (e - e2) + e3;
-            }
-        } else if self.depth >= 2 {
-            for ((x, e), e2) in self.guess.x.iter_mut().zip(&self.err).zip(&self.err2) {
-                *x += 2.0 * e - e2;
-            }
-        } else {
-            for (x, e) in self.guess.x.iter_mut().zip(&self.err) {
-                *x += e;
-            }
-        }
-    }
-
-    /// Keeps the extrapolation's error of the step just solved from t0 with step h.
-    fn keep_error(&mut self, t0: f64, h: f64) {
-        // Which extrapolation of the errors would have predicted this one better (the
-        // quadratic one amplifies the noise in them more: near round-off, at degree 4, it
-        // cost iterations). Only after a step the kept Jacobian solved: where Jacobians are
-        // refreshed step after step (adaptive e = 0.9 Kepler at ds = 0.1), the better guess
-        // left too few corrections above noise to measure θ by, kept Jacobians that then
-        // failed, and cost iterations (4.47 → 5.34 per step) and conservation (angular
-        // momentum slope 6e-18 → −6.4e-17 per period, `examples/adaptive_drift`).
-        self.quadratic = self.kept_solved && self.follows && self.depth >= 3 && {
-            let (mut linear, mut quadratic) = (0.0f64, 0.0f64);
-            let errs = self.err.iter().zip(&self.err2).zip(&self.err3);
-            for ((((e, e2), e3), x), r) in errs.zip(&self.guess.x).zip(&self.raw) {
-                let now = x - r;
-                linear = linear.max((now - (2.0 * e - e2)).abs());
-                quadratic = quadratic.max((now - (3.0 * (e - e2) + e3)).abs());
-            }
-            quadratic < linear
-        };
-        if self.follows {
-            std::mem::swap(&mut self.err2, &mut self.err3);
-            std::mem::swap(&mut self.err, &mut self.err2);
-            self.depth = (self.depth + 1).min(3);
-        } else {
-            self.depth = 1;
-        }
-        for ((e, x), r) in self.err.iter_mut().zip(&self.guess.x).zip(&self.raw) {
-            *e = x - r;
-        }
-        self.err_key = (t0.to_bits(), h.to_bits());
     }
 
     /// Full Newton with a line search from the guess.
@@ -495,17 +403,7 @@ impl NewtonStep {
         w.f(self.theta);
         w.u(self.skip);
         w.u(self.backoff);
-        w.u(self.depth);
-        if self.depth > 0 {
-            w.f(f64::from_bits(self.err_key.0));
-            w.f(f64::from_bits(self.err_key.1));
-            w.fs(&self.err);
-            w.fs(&self.err2);
-            if self.depth > 2 {
-                w.fs(&self.err3);
-                w.b(self.quadratic);
-            }
-        }
+        self.correction.save(w);
     }
 
     /// Reads what [`NewtonStep::save`] wrote; the Jacobian is evaluated again at the next step.
@@ -524,25 +422,6 @@ impl NewtonStep {
         self.theta = r.f()?;
         self.skip = r.u()?.min(MAX_SKIP);
         self.backoff = r.u()?.clamp(1, MAX_SKIP);
-        self.depth = r.u()?;
-        if self.depth > 3 {
-            return Err(invalid("checkpoint", "a predictor depth past 3"));
-        }
-        if self.depth > 0 {
-            let (t, h) = (r.f()?, r.f()?);
-            r.fs(&mut self.err)?;
-            r.fs(&mut self.err2)?;
-            self.quadratic = false;
-            if self.depth > 2 {
-                r.fs(&mut self.err3)?;
-                self.quadratic = r.b()?;
-            }
-            let third = if self.depth > 2 { &self.err3[..] } else { &[] };
-            if !self.err.iter().chain(&self.err2).chain(third).all(|v| v.is_finite()) {
-                return Err(invalid("checkpoint", "a non-finite predictor correction"));
-            }
-            self.err_key = (t.to_bits(), h.to_bits());
-        }
-        Ok(())
+        self.correction.load(r)
     }
 }
