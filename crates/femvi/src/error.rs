@@ -115,6 +115,12 @@ pub enum Error {
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// Whether `error` is a non-finite energy at node `step`: the observers' `finish` then keeps
+/// nothing of that node (a second try at its energy, from another start, could succeed).
+pub(crate) fn energy_failed_at(error: Option<&Error>, step: usize) -> bool {
+    matches!(error, Some(Error::NonFiniteEnergy { step: k, .. }) if *k == step)
+}
+
 /// `h` if finite, else [`Error::NonFiniteEnergy`] at node `step` (time t): the check every
 /// solver makes before it records a node's energy, as `femvi run` writes no non-finite value.
 pub(crate) fn finite_energy(h: f64, step: usize, t: f64) -> Result<f64> {

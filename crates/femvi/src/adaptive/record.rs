@@ -12,7 +12,7 @@ use super::events::AdaptivePiece;
 use super::lagrangian::TimeTransformed;
 use super::monitor::Monitor;
 use crate::discrete::Element;
-use crate::error::{finite_energy, Error, Result};
+use crate::error::{energy_failed_at, finite_energy, Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::{Detector, EventRecord, Saved};
 use crate::step::{Integrator, Observer};
@@ -202,7 +202,7 @@ impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_>
         // The node the run ended on is kept, whatever stopped it, if its energy can be had:
         // not the node whose energy failed the run; a run that ended without an error on a
         // node whose energy cannot be had fails there (no node is left out silently).
-        if matches!(error, Some(Error::NonFiniteEnergy { step, .. }) if *step == node.k) {
+        if energy_failed_at(error, node.k) {
             return Ok(());
         }
         match self.keep(it.lagrangian().inner(), node.k, node.t, node.q, node.p) {

@@ -11,7 +11,7 @@ use super::energy::EnergyTracker;
 use super::energy_nodes::EnergyNodes;
 use super::events::{Detector, EventRecord, Span};
 use super::{Saved, SolveOptions};
-use crate::error::{finite_energy, invalid, Error, Result};
+use crate::error::{energy_failed_at, finite_energy, invalid, Error, Result};
 use crate::fem::LagrangeBasis;
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::step::{Integrator, Observer, Start};
@@ -263,7 +263,7 @@ impl<L: Lagrangian> Observer<L> for Recorder {
         // not the node whose energy failed the run, and a run that ended without an error
         // on a node whose energy cannot be had fails there (no node is left out silently).
         let node = it.node();
-        if matches!(error, Some(Error::NonFiniteEnergy { step, .. }) if *step == node.k) {
+        if energy_failed_at(error, node.k) {
             return Ok(());
         }
         if error.is_none() && self.kept_only && self.tracker.is_some() && self.tracked != Some(node.k) {
