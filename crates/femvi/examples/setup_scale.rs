@@ -8,7 +8,9 @@
 //! own so that the peak memory is that size's.
 //!
 //! `cargo run --release -p femvi --example setup_scale` prints the table (Markdown);
-//! `… -- fpu N` or `… -- nbody N` one row.
+//! `… -- fpu N [STEPS]` or `… -- nbody N` one row (STEPS: steps per timed block, by default
+//! about 2·10⁷ / N; `Integrator::advance` is called once per block, so short blocks at large
+//! N include a call's fixed costs, a few passes over the state).
 
 use femvi::{models, Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
 use std::time::Instant;
@@ -58,7 +60,7 @@ fn row<L: Lagrangian>(name: &str, size: usize, load: f64, lag: &L, start: Start,
     );
 }
 
-fn fpu(n: usize) {
+fn fpu(n: usize, steps: Option<usize>) {
     let clock = Instant::now();
     let lag = models::fpu(n, 0.25, 0.0).expect("fpu");
     // The lowest mode's velocities, as `femvi models fpu`.
@@ -67,8 +69,16 @@ fn fpu(n: usize) {
         .collect();
     let start = Start::Velocity { q: vec![0.0; n], v };
     let load = clock.elapsed().as_secs_f64();
-    // About 2·10⁷ degrees of freedom × steps per block.
-    row("fpu", n, load, &lag, start, 0.1, (20_000_000 / n).max(2));
+    // About 2·10⁷ degrees of freedom × steps per block unless given.
+    row(
+        "fpu",
+        n,
+        load,
+        &lag,
+        start,
+        0.1,
+        steps.unwrap_or((20_000_000 / n).max(2)),
+    );
 }
 
 fn nbody(bodies: usize) {
@@ -108,7 +118,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let size = |s: Option<&String>| s.and_then(|s| s.parse::<usize>().ok()).unwrap_or(1000);
     match args.first().map(String::as_str) {
-        Some("fpu") => fpu(size(args.get(1))),
+        Some("fpu") => fpu(size(args.get(1)), args.get(2).and_then(|s| s.parse().ok())),
         Some("nbody") => nbody(size(args.get(1))),
         _ => {
             println!("| system | size | load (s) | Integrator::new (s) | first step (s) | step (s) | step per dof (ns) | peak RSS (MiB) |");

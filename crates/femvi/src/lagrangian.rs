@@ -6,6 +6,7 @@
 //! solvers need only the force −∇V, which the user may hand-code for large systems.
 
 mod legendre;
+mod local;
 mod mass;
 mod one_pass;
 mod point;
@@ -67,6 +68,35 @@ pub trait Lagrangian {
         let zeros = vec![0.0; n];
         self.first_derivatives(t, q, &zeros, false, &mut d);
         out.iter_mut().zip(d.l_q()).for_each(|(o, f)| *o = *f);
+    }
+
+    /// If the force is local with radius r (component i of [`Lagrangian::force`] depends on
+    /// q_j only for |i − j| ≤ r: chains, lattices), that radius. [`crate::Integrator::advance`]
+    /// then steps large systems with M = I in blocks of space and time that stay in cache,
+    /// through [`Lagrangian::force_range`], with the bits of whole steps. Default: None.
+    /// Override it only together with `force_range`.
+    ///
+    /// ```
+    /// use femvi::{models, Lagrangian};
+    /// let chain = models::fpu(6, 0.25, 0.0)?;
+    /// assert_eq!(chain.force_radius(), Some(1));
+    /// let q = [0.1, -0.2, 0.3, 0.0, 0.5, -0.1];
+    /// let (mut all, mut part) = ([0.0; 6], [0.0; 3]);
+    /// chain.force(0.0, &q, &mut all);
+    /// chain.force_range(0.0, &q, 2..5, &mut part);
+    /// assert_eq!(part, all[2..5]);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    fn force_radius(&self) -> Option<usize> {
+        None
+    }
+
+    /// Components `range` of [`Lagrangian::force`] at (t, q) into `out` (as long as the
+    /// range), with the same bits as the whole force. Default: the whole force, copied
+    /// (correct for any force, but O(n) per call: a Lagrangian with a
+    /// [`Lagrangian::force_radius`] overrides it).
+    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) {
+        local::whole_force_range(|all| self.force(t, q, all), q.len(), range, out);
     }
 
     /// The forces at several points at once: for point i, `out[i n..(i + 1) n]` is
@@ -191,6 +221,17 @@ pub trait Potential {
         }
     }
 
+    /// As [`Lagrangian::force_radius`]: the radius of a local force, or None (the default).
+    fn force_radius(&self) -> Option<usize> {
+        None
+    }
+
+    /// As [`Lagrangian::force_range`]: components `range` of [`Potential::force`], the same
+    /// bits. Default: the whole force, copied.
+    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) {
+        local::whole_force_range(|all| self.force(t, q, all), q.len(), range, out);
+    }
+
     /// The forces at several points at once (see [`Lagrangian::forces`]). Default: one
     /// [`Potential::force`] call per point.
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
@@ -296,6 +337,14 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
 
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         self.potential.forces(t, q, out);
+    }
+
+    fn force_radius(&self) -> Option<usize> {
+        self.potential.force_radius()
+    }
+
+    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) {
+        self.potential.force_range(t, q, range, out);
     }
 
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {

@@ -7,6 +7,7 @@
 use super::{finite, MAX_FPU_MASSES};
 use crate::error::{invalid, Result};
 use crate::lagrangian::{Mechanical, Potential, Scalar};
+use std::ops::Range;
 
 /// The α/β Fermi–Pasta–Ulam–Tsingou chain with fixed ends q_0 = q_{n+1} = 0:
 /// V = Σ_{i=0}^{n} (d²/2 + α d³/3 + β d⁴/4), d = q_{i+1} − q_i.
@@ -57,19 +58,42 @@ impl Potential for FpuPotential {
         }
         v
     }
-    fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
-        // −∂V/∂q_i = V'(d_i) − V'(d_{i−1}) with the bond d_i = q_{i+1} − q_i.
+    fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        self.force_range(t, q, 0..self.n, out);
+    }
+    fn force_radius(&self) -> Option<usize> {
+        Some(1)
+    }
+    fn force_range(&self, _t: f64, q: &[f64], range: Range<usize>, out: &mut [f64]) {
+        // −∂V/∂q_i = V'(d_i) − V'(d_{i−1}) with the bond d_i = q_{i+1} − q_i (q_0 = q_{n+1}
+        // = 0): each component from the same two bond forces wherever the range starts, so
+        // the same bits as the whole force. The inner bonds by windows of q (no branch or
+        // bounds check in the loop), the last bond after it.
+        let n = self.n.min(q.len());
+        let (start, end) = (range.start, range.end.min(n));
+        if start >= end {
+            return;
+        }
         let dv = |d: f64| d + self.alpha * d * d + self.beta * d * d * d;
-        let bond = |i: usize| {
-            let left = if i == 0 { 0.0 } else { q[i - 1] };
-            let right = if i == self.n { 0.0 } else { q[i] };
-            right - left
-        };
-        let mut prev = dv(bond(0));
-        for i in 0..self.n {
-            let next = dv(bond(i + 1));
-            out[i] = next - prev;
-            prev = next;
+        let mut prev = dv(if start == 0 {
+            q[0] - 0.0
+        } else {
+            q[start] - q[start - 1]
+        });
+        let inner = end.min(n - 1);
+        let mut outs = out.iter_mut();
+        if start < inner {
+            // Windows first: zip stops on them without taking an output.
+            for (w, o) in q[start..=inner].windows(2).zip(outs.by_ref()) {
+                let next = dv(w[1] - w[0]);
+                *o = next - prev;
+                prev = next;
+            }
+        }
+        if end == n {
+            if let Some(o) = outs.next() {
+                *o = dv(0.0 - q[n - 1]) - prev;
+            }
         }
     }
 }

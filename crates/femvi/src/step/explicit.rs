@@ -6,8 +6,12 @@
 //! momentum lazily between calls; and for other sizes with M = I, a loop that fuses the
 //! commit of a step with the drift of the next (`explicit_wide.rs`, same bits as `step`).
 
+#[path = "explicit_blocked.rs"]
+mod blocked;
 #[path = "explicit_wide.rs"]
 mod wide;
+
+pub(crate) use blocked::Blocks;
 
 use super::checkpoint::{Reader, Words};
 use super::grid::TimeGrid;

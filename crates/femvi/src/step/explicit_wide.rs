@@ -22,6 +22,7 @@
 //! and replays the steps without the callback, the last of them out of place: the same
 //! operations, so the same bits, and the last element of the step that ended the call.
 
+use super::blocked::Blocks;
 use super::ExplicitStep;
 use crate::error::{Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
@@ -53,7 +54,10 @@ impl ExplicitStep {
     /// `at_node` (false stops after that node): the nodes, the state, the last element and
     /// the carried force of as many calls of [`ExplicitStep::step`] and `RunState::commit`,
     /// bit for bit, also after a non-finite node (the same error, the state as `commit`
-    /// leaves it).
+    /// leaves it). With `blocks` (a force of that radius, for callers that look at no node:
+    /// `at_node` is not shown the nodes taken in blocks), all but the last step in blocks of
+    /// space and time (`explicit_blocked.rs`), the same bits.
+    #[allow(clippy::too_many_arguments)] // the integrator's parts, borrowed apart
     pub(crate) fn advance_wide<L: Lagrangian, F: FnMut(Node<'_>) -> bool>(
         &mut self,
         lag: &L,
@@ -62,6 +66,7 @@ impl ExplicitStep {
         last: &mut LastElement,
         max_steps: usize,
         at_node: &mut F,
+        blocks: Option<(usize, Blocks)>,
     ) -> Result<usize> {
         let n = state.n;
         let Some((_, t_next)) = first_step(grid, state, max_steps) else {
@@ -77,16 +82,26 @@ impl ExplicitStep {
             return self.run(lag, grid, state, last, 1, at_node).map(|(done, _)| done);
         }
         let start = self.keep(state, last);
-        match self.run(lag, grid, state, last, max_steps, at_node)? {
-            (done, End::Kept) => Ok(done),
+        // Steps in blocks when nobody looks at the nodes in between and the force is local;
+        // after a node that is not finite, the steps again from the start, unblocked.
+        let mut blocked = 0;
+        if let Some(shape) = blocks.filter(|_| max_steps > 2) {
+            match self.run_blocked(lag, grid, state, max_steps, shape) {
+                Some(done) => blocked = done,
+                None => self.restore(start, state, last),
+            }
+        }
+        match self.run(lag, grid, state, last, max_steps - blocked, at_node)? {
+            (done, End::Kept) => Ok(blocked + done),
             (done, End::Stopped) => {
                 self.restore(start, state, last);
-                self.run(lag, grid, state, last, done, &mut |_| true).map(|(d, _)| d)
+                self.run(lag, grid, state, last, blocked + done, &mut |_| true)
+                    .map(|(d, _)| d)
             }
             (done, End::NonFinite) => {
                 // The failing step again, out of place: its error and the state it leaves.
                 self.restore(start, state, last);
-                self.run(lag, grid, state, last, done + 1, &mut |_| true)
+                self.run(lag, grid, state, last, blocked + done + 1, &mut |_| true)
                     .map(|(d, _)| d)
             }
         }
@@ -265,15 +280,15 @@ fn carry(ids: [usize; 3], slot: usize, [f0, f1, yb]: [&mut [f64]; 3]) -> usize {
 }
 
 /// The state a step updates in place (q from `base` in [`update`]).
-struct InPlace<'a> {
-    q: &'a mut [f64],
-    cq: &'a mut [f64],
-    p: &'a mut [f64],
-    cp: &'a mut [f64],
+pub(super) struct InPlace<'a> {
+    pub(super) q: &'a mut [f64],
+    pub(super) cq: &'a mut [f64],
+    pub(super) p: &'a mut [f64],
+    pub(super) cp: &'a mut [f64],
 }
 
 /// The drift of `ExplicitStep::step`: y = q + (h p + ½h² f).
-fn drift(h: f64, p: &[f64], f: &[f64], q: &[f64], y: &mut [f64]) {
+pub(super) fn drift(h: f64, p: &[f64], f: &[f64], q: &[f64], y: &mut [f64]) {
     let n = y.len().min(q.len());
     let (p, f, q, y) = (&p[..n], &f[..n], &q[..n], &mut y[..n]);
     let half_h2 = 0.5 * h * h;
@@ -286,7 +301,7 @@ fn drift(h: f64, p: &[f64], f: &[f64], q: &[f64], y: &mut [f64]) {
 /// and ½h(f0 + f1), and the drift of the next step (size h2, force f1) written over f0 (each
 /// element after it is read). Whether the new node is finite.
 #[inline(always)]
-fn update_and_drift(s: InPlace<'_>, [h, h2]: [f64; 2], [f0, f1]: [&mut [f64]; 2]) -> bool {
+pub(super) fn update_and_drift(s: InPlace<'_>, [h, h2]: [f64; 2], [f0, f1]: [&mut [f64]; 2]) -> bool {
     let n = s.q.len();
     let (q, cq, p, cp) = (&mut s.q[..n], &mut s.cq[..n], &mut s.p[..n], &mut s.cp[..n]);
     let (f0, f1) = (&mut f0[..n], &f1[..n]);

@@ -6,6 +6,7 @@
 
 use super::element_work::ElementBuffers;
 use super::energy::EnergyState;
+use super::explicit::Blocks;
 use super::grid::TimeGrid;
 use super::options::{SolverOptions, Start};
 use super::solver::{choose, Kind, Solver, StepContext};
@@ -267,7 +268,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn advance(&mut self, max_steps: usize) -> Result<usize> {
-        self.advance_observed(max_steps, every_node)
+        self.advance_with(max_steps, &mut every_node, true)
     }
 
     /// As [`Integrator::advance`], showing every node reached to `at_node`, which may stop
@@ -300,10 +301,21 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn advance_observed<F: FnMut(Node<'_>) -> bool>(&mut self, max_steps: usize, mut at_node: F) -> Result<usize> {
-        if let Some(done) = self.fast_explicit(max_steps, &mut at_node) {
+        self.advance_with(max_steps, &mut at_node, false)
+    }
+
+    /// [`Integrator::advance_observed`]; `unobserved`: the caller looks at no node, so the
+    /// wide explicit loop may take a local force's steps in blocks of space and time.
+    fn advance_with<F: FnMut(Node<'_>) -> bool>(
+        &mut self,
+        max_steps: usize,
+        at_node: &mut F,
+        unobserved: bool,
+    ) -> Result<usize> {
+        if let Some(done) = self.fast_explicit(max_steps, at_node) {
             return done;
         }
-        if let Some(done) = self.wide_explicit(max_steps, &mut at_node) {
+        if let Some(done) = self.wide_explicit(max_steps, at_node, unobserved) {
             return done;
         }
         let mut done = 0;
@@ -322,6 +334,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         &mut self,
         max_steps: usize,
         at_node: &mut F,
+        unobserved: bool,
     ) -> Option<Result<usize>> {
         let Solver::Explicit(ex) = &mut self.solver else {
             return None;
@@ -330,7 +343,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             return None;
         }
         let (lag, grid) = (&*self.lag, &self.grid);
-        Some(ex.advance_wide(lag, grid, &mut self.state, &mut self.last, max_steps, at_node))
+        let blocks = Blocks::for_force(lag.force_radius().filter(|_| unobserved), self.state.n);
+        Some(ex.advance_wide(lag, grid, &mut self.state, &mut self.last, max_steps, at_node, blocks))
     }
 
     /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).

@@ -1,0 +1,263 @@
+//! Explicit steps of long chains in blocks of space and time (`step/explicit_blocked.rs`,
+//! issue 15): `Integrator::advance` on a Lagrangian with a local force and n ≥ 2¹⁵ takes
+//! its steps in tiles. Its nodes, last element and checkpoint (the carried force and its
+//! slot included) must be those of `step()`, bit for bit, for any split of a run into calls,
+//! on uniform and variable grids, for radius 1 (the FPUT chain) and radius 2 with a
+//! time-dependent force (a chain with second-neighbour springs, below); a run that overflows
+//! must fail at the step where `step()` fails, with the same state left behind. And
+//! `force_range` must give the bits of `force` on every range.
+
+use femvi::{
+    models, Element, Integrator, Lagrangian, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions,
+    Start, TimeGrid,
+};
+use std::ops::Range;
+
+/// Longer than the blocked loop's threshold (2¹⁵) and not a multiple of its tile.
+const N: usize = 40_000;
+
+fn bits(x: &[f64]) -> Vec<u64> {
+    x.iter().map(|v| v.to_bits()).collect()
+}
+
+/// A node, the last element and the checkpoint's words, as bits.
+type Snapshot = (
+    usize,
+    u64,
+    Vec<u64>,
+    Vec<u64>,
+    Option<(u64, u64, Vec<u64>, Vec<u64>)>,
+    Vec<u64>,
+);
+
+fn snapshot<L: Lagrangian>(it: &Integrator<'_, L>) -> Snapshot {
+    let n = it.node();
+    let last = it
+        .last_element()
+        .map(|e| (e.t.to_bits(), e.h.to_bits(), bits(e.base), bits(e.incr)));
+    (
+        n.k,
+        n.t.to_bits(),
+        bits(n.q),
+        bits(n.p),
+        last,
+        it.checkpoint("blocked").words,
+    )
+}
+
+fn verlet() -> Element {
+    Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap()
+}
+
+/// A chain with nearest- and second-neighbour springs (fixed ends), stiffness modulated in
+/// time: V = (1 + ε sin t) Σ (½ d₁² + ¼ d₁⁴) + c Σ ½ d₂², d₁ = q_{i+1} − q_i, d₂ = q_{i+2} − q_i.
+/// Its force has radius 2.
+struct SecondNeighbour {
+    n: usize,
+    eps: f64,
+    c: f64,
+}
+
+impl SecondNeighbour {
+    fn at(q: &[f64], i: isize) -> f64 {
+        usize::try_from(i).ok().and_then(|i| q.get(i)).copied().unwrap_or(0.0)
+    }
+}
+
+impl Potential for SecondNeighbour {
+    fn dim(&self) -> usize {
+        self.n
+    }
+    fn value<D: Scalar>(&self, t: D, q: &[D]) -> D {
+        let at = |i: isize| {
+            usize::try_from(i)
+                .ok()
+                .and_then(|i| q.get(i))
+                .copied()
+                .unwrap_or(D::from(0.0))
+        };
+        let mut v1 = D::from(0.0);
+        let mut v2 = D::from(0.0);
+        for i in -1..self.n as isize {
+            let d = at(i + 1) - at(i);
+            v1 += d * d * 0.5 + d * d * d * d * 0.25;
+        }
+        for i in -2..self.n as isize {
+            let d = at(i + 2) - at(i);
+            v2 += d * d * 0.5;
+        }
+        v1 * (t.sin() * self.eps + 1.0) + v2 * self.c
+    }
+    fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        self.force_range(t, q, 0..self.n, out);
+    }
+    fn force_radius(&self) -> Option<usize> {
+        Some(2)
+    }
+    fn force_range(&self, t: f64, q: &[f64], range: Range<usize>, out: &mut [f64]) {
+        let s = 1.0 + self.eps * t.sin();
+        let dv = |d: f64| d + d * d * d;
+        for (i, o) in range.zip(out.iter_mut()) {
+            let i = i as isize;
+            let x = Self::at(q, i);
+            let near = dv(Self::at(q, i + 1) - x) - dv(x - Self::at(q, i - 1));
+            let far = (Self::at(q, i + 2) - x) - (x - Self::at(q, i - 2));
+            *o = s * near + self.c * far;
+        }
+    }
+}
+
+fn chain_start(n: usize) -> Start {
+    let v = (1..=n)
+        .map(|i| (std::f64::consts::PI * i as f64 / (n + 1) as f64).sin())
+        .collect();
+    Start::Velocity { q: vec![0.0; n], v }
+}
+
+/// The snapshots after the nodes `at` (increasing) of a run by `step()`, and its error if it
+/// failed (then the last snapshot is the state it left).
+fn by_step<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start, at: &[usize]) -> (Vec<Snapshot>, Option<String>) {
+    let el = verlet();
+    let mut it = Integrator::new(lag, &el, grid.clone(), start.clone(), SolverOptions::default()).unwrap();
+    let mut all = vec![];
+    loop {
+        match it.step() {
+            Ok(true) if at.contains(&it.node().k) => all.push(snapshot(&it)),
+            Ok(true) => {}
+            Ok(false) => return (all, None),
+            Err(e) => {
+                // The state the failure left, in place of its last good node's.
+                let snap = snapshot(&it);
+                if all.last().is_some_and(|s| s.0 == snap.0) {
+                    all.pop();
+                }
+                all.push(snap);
+                return (all, Some(e.to_string()));
+            }
+        }
+    }
+}
+
+/// The same run by `advance` in calls of `chunk` steps: the snapshots after each call, and
+/// the error.
+fn by_chunks<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start, chunk: usize) -> (Vec<Snapshot>, Option<String>) {
+    let el = verlet();
+    let mut it = Integrator::new(lag, &el, grid.clone(), start.clone(), SolverOptions::default()).unwrap();
+    let mut all = vec![];
+    loop {
+        match it.advance(chunk) {
+            Ok(0) => return (all, None),
+            Ok(_) => all.push(snapshot(&it)),
+            Err(e) => {
+                all.push(snapshot(&it));
+                return (all, Some(e.to_string()));
+            }
+        }
+    }
+}
+
+/// Compares calls of each chunk size with `step()` at the nodes the calls end on.
+fn check<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start, chunks: &[usize]) -> Option<String> {
+    let mut error = None;
+    for &chunk in chunks {
+        let (got, e) = by_chunks(lag, grid, start, chunk);
+        let ends: Vec<usize> = got.iter().map(|s| s.0).collect();
+        let (want, e_step) = by_step(lag, grid, start, &ends);
+        assert_eq!(e, e_step, "chunk {chunk}");
+        assert_eq!(got.len(), want.len(), "chunk {chunk}");
+        for (g, w) in got.iter().zip(&want) {
+            assert!(g == w, "chunk {chunk}: node {} differs from step()", g.0);
+        }
+        error = e;
+    }
+    error
+}
+
+#[test]
+fn blocked_steps_are_the_steps_of_step_bit_for_bit() {
+    let chain = models::fpu(N, 0.25, 0.1).unwrap();
+    let uniform = TimeGrid::uniform(0.0, 0.1, 4.0).unwrap();
+    let variable = TimeGrid::steps(0.0, vec![0.1, 0.17, 0.06], 4.0).unwrap();
+    // Calls shorter than a band, a band and a bit, several bands, the whole run.
+    for grid in [&uniform, &variable] {
+        assert_eq!(check(&chain, grid, &chain_start(N), &[3, 18, 35, 1000]), None);
+    }
+    let wide = Mechanical::unit_mass(SecondNeighbour {
+        n: N + 3,
+        eps: 0.3,
+        c: 0.2,
+    });
+    assert_eq!(check(&wide, &variable, &chain_start(N + 3), &[7, 1000]), None);
+}
+
+#[test]
+fn a_blocked_run_that_overflows_fails_where_step_fails() {
+    // A chain thrown hard with a cubic force and a long step: it overflows within a few
+    // dozen steps, inside a band.
+    let chain = models::fpu(N, 0.0, 10.0).unwrap();
+    let v = (0..N).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+    let start = Start::Velocity { q: vec![0.0; N], v };
+    let grid = TimeGrid::uniform(0.0, 0.2, 1000.0).unwrap();
+    let error = check(&chain, &grid, &start, &[1000]);
+    assert!(error.is_some_and(|e| e.contains("finite")));
+}
+
+#[test]
+fn force_range_gives_the_bits_of_force_on_every_range() {
+    let chain = models::fpu(9, 0.25, 0.1).unwrap();
+    let wide = Mechanical::unit_mass(SecondNeighbour { n: 9, eps: 0.3, c: 0.2 });
+    let q: Vec<f64> = (0..9).map(|i| (1.7 * i as f64).sin()).collect();
+    let mut all = [0.0; 9];
+    let mut ad = [0.0; 9];
+    for lag in [&chain as &dyn ForceOf, &wide] {
+        lag.whole(&q, &mut all);
+        for from in 0..=9 {
+            for to in from..=9 {
+                let mut part = vec![f64::NAN; to - from];
+                lag.part(&q, from..to, &mut part);
+                assert_eq!(bits(&part), bits(&all[from..to]), "{from}..{to}");
+            }
+        }
+    }
+    // The hand-coded forces are the gradients of their potentials (automatic
+    // differentiation of the value), to rounding.
+    wide.potential.force(0.7, &q, &mut all);
+    Potential::force(&AdOnly(&wide.potential), 0.7, &q, &mut ad);
+    close(&all, &ad);
+    chain.potential.force(0.7, &q, &mut all);
+    Potential::force(&AdOnly(&chain.potential), 0.7, &q, &mut ad);
+    close(&all, &ad);
+}
+
+fn close(a: &[f64], b: &[f64]) {
+    for (x, y) in a.iter().zip(b) {
+        assert!((x - y).abs() <= 1e-14 * (1.0 + y.abs()), "{x} {y}");
+    }
+}
+
+/// A potential with the default (automatic differentiation) force.
+struct AdOnly<'a, P>(&'a P);
+
+impl<P: Potential> Potential for AdOnly<'_, P> {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn value<D: Scalar>(&self, t: D, q: &[D]) -> D {
+        self.0.value(t, q)
+    }
+}
+
+/// `force` and `force_range` of a Lagrangian at t = 0.7, object-safe for the loop above.
+trait ForceOf {
+    fn whole(&self, q: &[f64], out: &mut [f64]);
+    fn part(&self, q: &[f64], range: Range<usize>, out: &mut [f64]);
+}
+
+impl<L: Lagrangian> ForceOf for L {
+    fn whole(&self, q: &[f64], out: &mut [f64]) {
+        self.force(0.7, q, out);
+    }
+    fn part(&self, q: &[f64], range: Range<usize>, out: &mut [f64]) {
+        self.force_range(0.7, q, range, out);
+    }
+}
