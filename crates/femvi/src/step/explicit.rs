@@ -4,7 +4,9 @@
 //! time over the run's buffers ([`ExplicitStep::step`]), and a tight loop over `[f64; N]`
 //! locals for small fixed sizes ([`ExplicitStep::advance`]) that keeps the compensated
 //! momentum lazily between calls; and for other sizes with M = I, a loop that fuses the
-//! commit of a step with the drift of the next (`explicit_wide.rs`, same bits as `step`).
+//! commit of a step with the drift of the next (`explicit_wide.rs`, same bits as `step`),
+//! which for a local force takes long chains in blocks of space and time
+//! (`explicit_blocked.rs`, same bits).
 
 #[path = "explicit_blocked.rs"]
 mod blocked;

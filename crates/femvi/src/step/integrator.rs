@@ -241,7 +241,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// Advances up to `max_steps` steps and returns how many were taken (0 at the end of the
     /// grid). Results are identical to calling [`Integrator::step`] that many times; for
-    /// explicit stepping of small systems the steps run in a tight loop over fixed-size arrays.
+    /// explicit stepping of small systems the steps run in a tight loop over fixed-size arrays,
+    /// and for long chains with M = I and a local force ([`Lagrangian::force_radius`], n ≥ 2¹⁵)
+    /// in blocks of space and time that stay in cache (the same bits).
     ///
     /// # Errors
     /// As [`Integrator::step`]; the steps before the failure are kept.
