@@ -6,7 +6,6 @@
 //! solvers need only the force −∇V, which the user may hand-code for large systems.
 
 mod legendre;
-mod local;
 mod mass;
 mod one_pass;
 mod point;
@@ -71,10 +70,9 @@ pub trait Lagrangian {
     }
 
     /// If the force is local with radius r (component i of [`Lagrangian::force`] depends on
-    /// q_j only for |i − j| ≤ r: chains, lattices), that radius. [`crate::Integrator::advance`]
-    /// then steps large systems with M = I in blocks of space and time that stay in cache,
-    /// through [`Lagrangian::force_range`], with the bits of whole steps. Default: None.
-    /// Override it only together with `force_range`.
+    /// q_j only for |i − j| ≤ r: chains, lattices), that radius. If [`Lagrangian::force_range`]
+    /// is implemented too, [`crate::Integrator::advance`] steps long chains with M = I in
+    /// blocks of space and time that stay in cache, with the bits of whole steps. Default: None.
     ///
     /// ```
     /// use femvi::{models, Lagrangian};
@@ -83,7 +81,7 @@ pub trait Lagrangian {
     /// let q = [0.1, -0.2, 0.3, 0.0, 0.5, -0.1];
     /// let (mut all, mut part) = ([0.0; 6], [0.0; 3]);
     /// chain.force(0.0, &q, &mut all);
-    /// chain.force_range(0.0, &q, 2..5, &mut part);
+    /// assert!(chain.force_range(0.0, &q, 2..5, &mut part));
     /// assert_eq!(part, all[2..5]);
     /// # Ok::<(), femvi::Error>(())
     /// ```
@@ -92,11 +90,12 @@ pub trait Lagrangian {
     }
 
     /// Components `range` of [`Lagrangian::force`] at (t, q) into `out` (as long as the
-    /// range), with the same bits as the whole force. Default: the whole force, copied
-    /// (correct for any force, but O(n) per call: a Lagrangian with a
-    /// [`Lagrangian::force_radius`] overrides it).
-    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) {
-        local::whole_force_range(|all| self.force(t, q, all), q.len(), range, out);
+    /// range), with the same bits as the whole force; false if the Lagrangian does not
+    /// compute parts of its force. Default: false, nothing written (the blocked steps of
+    /// [`Lagrangian::force_radius`] are then not taken).
+    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) -> bool {
+        let _ = (t, q, range, out);
+        false
     }
 
     /// The forces at several points at once: for point i, `out[i n..(i + 1) n]` is
@@ -227,9 +226,10 @@ pub trait Potential {
     }
 
     /// As [`Lagrangian::force_range`]: components `range` of [`Potential::force`], the same
-    /// bits. Default: the whole force, copied.
-    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) {
-        local::whole_force_range(|all| self.force(t, q, all), q.len(), range, out);
+    /// bits, or false (the default, nothing written).
+    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) -> bool {
+        let _ = (t, q, range, out);
+        false
     }
 
     /// The forces at several points at once (see [`Lagrangian::forces`]). Default: one
@@ -343,8 +343,8 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         self.potential.force_radius()
     }
 
-    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) {
-        self.potential.force_range(t, q, range, out);
+    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) -> bool {
+        self.potential.force_range(t, q, range, out)
     }
 
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {

@@ -27,6 +27,12 @@ impl<L: Lagrangian> Lagrangian for Borrowed<'_, L> {
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         self.0.forces(t, q, out)
     }
+    fn force_radius(&self) -> Option<usize> {
+        self.0.force_radius()
+    }
+    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) -> bool {
+        self.0.force_range(t, q, range, out)
+    }
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         self.0.first_derivatives(t, q, v, with_t, out)
     }

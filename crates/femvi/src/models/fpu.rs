@@ -64,7 +64,7 @@ impl Potential for FpuPotential {
     fn force_radius(&self) -> Option<usize> {
         Some(1)
     }
-    fn force_range(&self, _t: f64, q: &[f64], range: Range<usize>, out: &mut [f64]) {
+    fn force_range(&self, _t: f64, q: &[f64], range: Range<usize>, out: &mut [f64]) -> bool {
         // −∂V/∂q_i = V'(d_i) − V'(d_{i−1}) with the bond d_i = q_{i+1} − q_i (q_0 = q_{n+1}
         // = 0): each component from the same two bond forces wherever the range starts, so
         // the same bits as the whole force. The inner bonds by windows of q (no branch or
@@ -72,7 +72,7 @@ impl Potential for FpuPotential {
         let n = self.n.min(q.len());
         let (start, end) = (range.start, range.end.min(n));
         if start >= end {
-            return;
+            return true;
         }
         let dv = |d: f64| d + self.alpha * d * d + self.beta * d * d * d;
         let mut prev = dv(if start == 0 {
@@ -95,6 +95,7 @@ impl Potential for FpuPotential {
                 *o = dv(0.0 - q[n - 1]) - prev;
             }
         }
+        true
     }
 }
 

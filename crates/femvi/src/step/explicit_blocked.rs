@@ -74,8 +74,9 @@ impl ExplicitStep {
     /// valid), in bands of `blocks.depth` steps swept in tiles of `blocks.tile` elements, the
     /// last step of the call left to the caller (it is taken out of place). Returns the
     /// steps taken, the state, `k`, `t`, `steps` and the carried force where `step()` would
-    /// leave them; None if a node was not finite (the state is then spoilt: the caller
-    /// restores its start).
+    /// leave them; None as soon as a node is not finite (the state is then spoilt: the
+    /// caller restores its start), so that the force never sees non-finite positions, as
+    /// with `step()`. The force must compute parts ([`Lagrangian::force_range`] true).
     pub(super) fn run_blocked<L: Lagrangian>(
         &mut self,
         lag: &L,
@@ -87,7 +88,9 @@ impl ExplicitStep {
         let n = state.n;
         let tile = blocks.tile.max(2 * r).max(1);
         let depth = blocks.depth.clamp(1, DEPTH);
-        let (h0, t1) = grid.next(state.k, state.t)?;
+        let Some((h0, t1)) = grid.next(state.k, state.t) else {
+            return Some(0);
+        };
         let mut cur = Sched {
             h: h0,
             t: state.t,
@@ -128,7 +131,6 @@ impl ExplicitStep {
                 drifted = true;
             }
             let tiles = (n + (d - 1) * r).div_ceil(tile);
-            let mut finite = true;
             for k in 0..tiles {
                 let (mut a0, mut a1, mut a2) = (&mut *f0, &mut *f1, &mut *yb);
                 for (m, s) in sched[..d].iter().enumerate() {
@@ -144,7 +146,10 @@ impl ExplicitStep {
                             cp: &mut state.comp_p[range.clone()],
                         };
                         let next_h = sched[m + 1].h;
-                        finite &= update_and_drift(st, [s.h, next_h], [&mut a0[range.clone()], &mut a1[range]]);
+                        if !update_and_drift(st, [s.h, next_h], [&mut a0[range.clone()], &mut a1[range]]) {
+                            // Stop at once: the force is not to see non-finite positions.
+                            return None;
+                        }
                     }
                     (a2, a0, a1) = (a0, a1, a2);
                 }
@@ -152,9 +157,6 @@ impl ExplicitStep {
             for _ in 0..d {
                 (yb, f0, f1) = (f0, f1, yb);
                 ids = [ids[1], ids[2], ids[0]];
-            }
-            if !finite {
-                return None;
             }
             done += d;
             state.k += d;

@@ -85,7 +85,9 @@ impl ExplicitStep {
         // Steps in blocks when nobody looks at the nodes in between and the force is local;
         // after a node that is not finite, the steps again from the start, unblocked.
         let mut blocked = 0;
-        if let Some(shape) = blocks.filter(|_| max_steps > 2) {
+        // (A force that computes no parts answers false to the empty range.)
+        let parts = |_: &(usize, Blocks)| max_steps > 2 && lag.force_range(state.t, &state.q, 0..0, &mut []);
+        if let Some(shape) = blocks.filter(parts) {
             match self.run_blocked(lag, grid, state, max_steps, shape) {
                 Some(done) => blocked = done,
                 None => self.restore(start, state, last),
