@@ -4,6 +4,7 @@
 //! problems.
 
 pub mod banded;
+mod frozen;
 pub mod newton;
 pub mod simplified;
 
