@@ -176,6 +176,7 @@ pub trait Lagrangian {
     }
 
     /// Value and gradient of L with respect to (q, v), and ∂L/∂t if `with_t`, into `out`.
+    #[inline]
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         out.first_by_ad(self, t, q, v, with_t);
     }

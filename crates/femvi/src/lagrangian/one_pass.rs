@@ -13,6 +13,7 @@ use num_dual::{Derivative, Dual2SVec64, DualSVec64};
 
 /// L and ∂L/∂(q, v) into `grad_qv` (2n entries) if n ≤ [`ONE_PASS_MAX_DIM`]; None otherwise
 /// (nothing written). Sizes are the caller's to check.
+#[inline]
 pub(super) fn gradient<L: Lagrangian + ?Sized>(
     lag: &L,
     t: f64,
@@ -49,6 +50,7 @@ pub(super) fn hessian<L: Lagrangian + ?Sized>(
     }
 }
 
+#[inline]
 fn gradient_k<const K: usize, L: Lagrangian + ?Sized>(
     lag: &L,
     t: f64,

@@ -131,6 +131,7 @@ impl PointDerivatives {
 
     /// Fills value and gradient by forward-mode AD, one pass per direction. With a
     /// Lagrangian of another dimension or q, v not of length n, value and gradient are NaN.
+    #[inline]
     pub fn first_by_ad<L: Lagrangian + ?Sized>(&mut self, lag: &L, t: f64, q: &[f64], v: &[f64], with_t: bool) {
         if !self.fits(lag, q, v) {
             return;

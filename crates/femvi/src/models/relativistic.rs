@@ -36,6 +36,7 @@ impl Lagrangian for RelativisticKepler {
         true
     }
 
+    #[inline]
     fn value<D: Scalar>(&self, _t: D, q: &[D], v: &[D]) -> D {
         let (Some(&[q0, q1]), Some(&[v0, v1])) = (q.first_chunk::<2>(), v.first_chunk::<2>()) else {
             return D::from(f64::NAN);

@@ -162,6 +162,7 @@ impl FrozenJacobian {
     }
 
     /// The correction −J⁻¹r into `rhs`; false without a factorisation or if not finite.
+    #[inline]
     pub(super) fn correction(&mut self) -> bool {
         let dim = self.dim();
         if self.inv.len() != dim * dim {
@@ -190,6 +191,7 @@ fn product_any(a: &[f64], r: &[f64], rhs: &mut [f64]) {
 /// [`product_any`] for dim = D (nothing done if r or rhs is not of length D: the caller
 /// checks): the same sums in the same order, unrolled by the compiler
 /// (with a run-time dim the loop overhead was twice the flops of an 8 × 8 product).
+#[inline]
 fn product<const D: usize>(a: &[f64], r: &[f64], rhs: &mut [f64]) {
     let (rows, _) = a.as_chunks::<D>();
     let (Ok(r), Some(rhs)) = (<&[f64; D]>::try_from(r), rhs.first_chunk_mut::<D>()) else {

@@ -89,6 +89,7 @@ fn reaches(dn: f64, t: f64, floor: f64, left: usize) -> bool {
 /// assert!(matches!(out, Simplified::Converged { .. }));
 /// assert!((x[0] - 2f64.sqrt()).abs() < 1e-15);
 /// ```
+#[inline]
 pub fn simplified_newton<F, S>(
     x: &mut [f64],
     tol: f64,

@@ -101,6 +101,7 @@ impl ResidualTables {
 /// overhead of these short loops cost more than the Lagrangian's derivatives (callgrind,
 /// relativistic Kepler).
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub(crate) fn simplified_residual<L: Lagrangian>(
     lag: &L,
     element: &Element,
@@ -175,6 +176,7 @@ fn finish(element: &Element, work: &ElementWork, grad: &[f64], h: f64, p: &[f64]
 /// time of a step (7 alternating rounds). Each sum takes its terms in the same order as
 /// [`residual_any`]'s, so the bits are the same (`tests` below).
 #[allow(clippy::too_many_arguments)]
+#[inline]
 fn residual_fixed<const N: usize, const S: usize, L: Lagrangian>(
     (lag, element, tables): (&L, &Element, &ResidualTables),
     work: &mut ElementWork,
