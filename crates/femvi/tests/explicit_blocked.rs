@@ -8,47 +8,14 @@
 //! never shown a non-finite position. And `force_range` must give the bits of `force` on every
 //! range, the chain's force the bits it had before `force_range`.
 
-use femvi::{
-    models, Element, Integrator, Lagrangian, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions,
-    Start, TimeGrid,
-};
+mod common;
+
+use common::snapshot::{bits, chain_start, snapshot, verlet, Snapshot};
+use femvi::{models, Integrator, Lagrangian, Mechanical, Potential, Scalar, SolverOptions, Start, TimeGrid};
 use std::ops::Range;
 
 /// Longer than the blocked loop's threshold (2¹⁵) and not a multiple of its tile.
 const N: usize = 40_000;
-
-fn bits(x: &[f64]) -> Vec<u64> {
-    x.iter().map(|v| v.to_bits()).collect()
-}
-
-/// A node, the last element and the checkpoint's words, as bits.
-type Snapshot = (
-    usize,
-    u64,
-    Vec<u64>,
-    Vec<u64>,
-    Option<(u64, u64, Vec<u64>, Vec<u64>)>,
-    Vec<u64>,
-);
-
-fn snapshot<L: Lagrangian>(it: &Integrator<'_, L>) -> Snapshot {
-    let n = it.node();
-    let last = it
-        .last_element()
-        .map(|e| (e.t.to_bits(), e.h.to_bits(), bits(e.base), bits(e.incr)));
-    (
-        n.k,
-        n.t.to_bits(),
-        bits(n.q),
-        bits(n.p),
-        last,
-        it.checkpoint("blocked").words,
-    )
-}
-
-fn verlet() -> Element {
-    Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap()
-}
 
 /// A chain with nearest- and second-neighbour springs (fixed ends), stiffness modulated in
 /// time: V = (1 + ε sin t) Σ (½ d₁² + ¼ d₁⁴) + c Σ ½ d₂², d₁ = q_{i+1} − q_i, d₂ = q_{i+2} − q_i.
@@ -169,13 +136,6 @@ impl Potential for Checked {
     }
 }
 
-fn chain_start(n: usize) -> Start {
-    let v = (1..=n)
-        .map(|i| (std::f64::consts::PI * i as f64 / (n + 1) as f64).sin())
-        .collect();
-    Start::Velocity { q: vec![0.0; n], v }
-}
-
 /// The snapshots after the nodes `at` (increasing) of a run by `step()`, and its error if it
 /// failed (then the last snapshot is the state it left).
 fn by_step<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start, at: &[usize]) -> (Vec<Snapshot>, Option<String>) {
@@ -187,17 +147,25 @@ fn by_step<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start, at: &[usize])
             Ok(true) if at.contains(&it.node().k) => all.push(snapshot(&it)),
             Ok(true) => {}
             Ok(false) => return (all, None),
-            Err(e) => {
-                // The state the failure left, in place of its last good node's.
-                let snap = snapshot(&it);
-                if all.last().is_some_and(|s| s.0 == snap.0) {
-                    all.pop();
-                }
-                all.push(snap);
-                return (all, Some(e.to_string()));
-            }
+            Err(e) => return failed(all, &it, e),
         }
     }
+}
+
+/// The snapshots of a run that failed with `e`: the state the failure left in place of its
+/// last good node's (which `by_step` took before the failing step, and a call of `advance`
+/// that fails on its first step ended on).
+fn failed<L: Lagrangian>(
+    mut all: Vec<Snapshot>,
+    it: &Integrator<'_, L>,
+    e: femvi::Error,
+) -> (Vec<Snapshot>, Option<String>) {
+    let snap = snapshot(it);
+    if all.last().is_some_and(|s| s.0 == snap.0) {
+        all.pop();
+    }
+    all.push(snap);
+    (all, Some(e.to_string()))
 }
 
 /// The same run by `advance` in calls of `chunk` steps: the snapshots after each call, and
@@ -210,16 +178,7 @@ fn by_chunks<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start, chunk: usiz
         match it.advance(chunk) {
             Ok(0) => return (all, None),
             Ok(_) => all.push(snapshot(&it)),
-            Err(e) => {
-                // As in `by_step`: the state the failure left, in place of its last good
-                // node's (a call that fails on its first step ends where the last one did).
-                let snap = snapshot(&it);
-                if all.last().is_some_and(|s| s.0 == snap.0) {
-                    all.pop();
-                }
-                all.push(snap);
-                return (all, Some(e.to_string()));
-            }
+            Err(e) => return failed(all, &it, e),
         }
     }
 }

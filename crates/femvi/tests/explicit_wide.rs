@@ -6,43 +6,13 @@
 //! node and the run goes on from there; a run that overflows fails at the same step with the
 //! same state left behind.
 
-use femvi::{models, Element, Integrator, Lagrangian, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+mod common;
 
-fn bits(x: &[f64]) -> Vec<u64> {
-    x.iter().map(|v| v.to_bits()).collect()
-}
-
-/// A node, the last element and the checkpoint's words, as bits.
-type Snapshot = (
-    usize,
-    u64,
-    Vec<u64>,
-    Vec<u64>,
-    Option<(u64, u64, Vec<u64>, Vec<u64>)>,
-    Vec<u64>,
-);
-
-fn snapshot<L: Lagrangian>(it: &Integrator<'_, L>) -> Snapshot {
-    let n = it.node();
-    let last = it
-        .last_element()
-        .map(|e| (e.t.to_bits(), e.h.to_bits(), bits(e.base), bits(e.incr)));
-    (
-        n.k,
-        n.t.to_bits(),
-        bits(n.q),
-        bits(n.p),
-        last,
-        it.checkpoint("wide").words,
-    )
-}
+use common::snapshot::{bits, chain_start, snapshot, verlet, Snapshot};
+use femvi::{models, Integrator, Lagrangian, SolverOptions, Start, TimeGrid};
 
 /// A node shown to the callback, as bits.
 type Shown = (usize, Vec<u64>, Vec<u64>);
-
-fn verlet() -> Element {
-    Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap()
-}
 
 /// The state after every step of a run by `step()`, and its error if it failed.
 fn by_step<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start) -> (Vec<Snapshot>, Option<String>) {
@@ -104,13 +74,6 @@ fn check<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start) -> Option<Strin
         assert_eq!(e, error, "chunk {chunk}");
     }
     error
-}
-
-fn chain_start(n: usize) -> Start {
-    let v = (1..=n)
-        .map(|i| (std::f64::consts::PI * i as f64 / (n + 1) as f64).sin())
-        .collect();
-    Start::Velocity { q: vec![0.0; n], v }
 }
 
 #[test]

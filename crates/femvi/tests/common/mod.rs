@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod rattle;
+pub mod snapshot;
 pub mod tangent_fd;
 
 use femvi::{Element, Integrator, Lagrangian, SolverOptions, Start, TimeGrid};
