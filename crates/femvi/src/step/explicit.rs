@@ -13,7 +13,7 @@ mod blocked;
 #[path = "explicit_wide.rs"]
 mod wide;
 
-pub(crate) use blocked::Blocks;
+pub(crate) use blocked::block_radius;
 
 use super::checkpoint::{Reader, Words};
 use super::grid::TimeGrid;

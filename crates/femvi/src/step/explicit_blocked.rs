@@ -35,30 +35,15 @@ const TILE: usize = 4096;
 /// calls of 300, 2.76 at depth 64 against 3.33.
 const DEPTH: usize = 64;
 /// Below this many elements the seven arrays fit in L2 anyway and whole steps are cheaper.
-pub(super) const MIN_BLOCKED: usize = 1 << 15;
+const MIN_BLOCKED: usize = 1 << 15;
 
-/// The shape of the blocks: elements per tile and steps per band.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Blocks {
-    pub(super) tile: usize,
-    pub(super) depth: usize,
-}
-
-impl Blocks {
-    /// The radius and the default shape for a force of that radius (None: not local) on n
-    /// elements, if blocking pays: the chain is long enough and the skew of a band small
-    /// against a tile.
-    pub(crate) fn for_force(radius: Option<usize>, n: usize) -> Option<(usize, Self)> {
-        let r = radius?;
-        let pays = n >= MIN_BLOCKED && r.saturating_mul(4 * DEPTH) <= TILE;
-        pays.then_some((
-            r,
-            Self {
-                tile: TILE,
-                depth: DEPTH,
-            },
-        ))
-    }
+/// The radius r of `lag`'s force if the steps from (t, q) are to be taken in blocks: the
+/// force is local and computed in parts (`force_range` answers the empty range), the chain is
+/// long enough, and a band's skew (r per step) is small against a tile.
+pub(crate) fn block_radius<L: Lagrangian>(lag: &L, t: f64, q: &[f64]) -> Option<usize> {
+    let r = lag.force_radius()?;
+    let pays = q.len() >= MIN_BLOCKED && r.saturating_mul(4 * DEPTH) <= TILE;
+    (pays && lag.force_range(t, q, 0..0, &mut [])).then_some(r)
 }
 
 /// One step of a band: its size h, its start time and the time it ends at.
@@ -71,23 +56,23 @@ struct Sched {
 
 impl ExplicitStep {
     /// Up to `max_steps − 1` steps with M = I and a force of radius `r` (the carried force
-    /// valid), in bands of `blocks.depth` steps swept in tiles of `blocks.tile` elements, the
-    /// last step of the call left to the caller (it is taken out of place). Returns the
+    /// valid; r from [`block_radius`]), in bands of [`DEPTH`] steps swept in tiles of
+    /// [`TILE`] elements, the last step of the call left to the caller (it is taken out of place). Returns the
     /// steps taken, the state, `k`, `t`, `steps` and the carried force where `step()` would
     /// leave them; None as soon as a node is not finite (the state is then spoilt: the
     /// caller restores its start), so that the force never sees non-finite positions, as
-    /// with `step()`. The force must compute parts ([`Lagrangian::force_range`] true).
+    /// with `step()`.
     pub(super) fn run_blocked<L: Lagrangian>(
         &mut self,
         lag: &L,
         grid: &TimeGrid,
         state: &mut RunState,
         max_steps: usize,
-        (r, blocks): (usize, Blocks),
+        r: usize,
     ) -> Option<usize> {
         let n = state.n;
-        let tile = blocks.tile.max(2 * r).max(1);
-        let depth = blocks.depth.clamp(1, DEPTH);
+        // `block_radius` keeps 4 DEPTH r ≤ TILE: a tile spans at least 2r (see the module docs).
+        let tile = TILE.max(2 * r);
         let Some((h0, t1)) = grid.next(state.k, state.t) else {
             return Some(0);
         };
@@ -111,7 +96,7 @@ impl ExplicitStep {
             // The band's steps and the one after it (its size enters the last drift).
             sched[0] = cur;
             let mut d = 0;
-            while d < depth && done + d + 2 <= max_steps {
+            while d < DEPTH && done + d + 2 <= max_steps {
                 let prev = sched[d];
                 let Some((h, t_end)) = grid.next(state.k + d + 1, prev.t_end) else {
                     break;

@@ -22,7 +22,6 @@
 //! and replays the steps without the callback, the last of them out of place: the same
 //! operations, so the same bits, and the last element of the step that ended the call.
 
-use super::blocked::Blocks;
 use super::ExplicitStep;
 use crate::error::{Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
@@ -54,9 +53,9 @@ impl ExplicitStep {
     /// `at_node` (false stops after that node): the nodes, the state, the last element and
     /// the carried force of as many calls of [`ExplicitStep::step`] and `RunState::commit`,
     /// bit for bit, also after a non-finite node (the same error, the state as `commit`
-    /// leaves it). With `blocks` (a force of that radius, for callers that look at no node:
-    /// `at_node` is not shown the nodes taken in blocks), all but the last step in blocks of
-    /// space and time (`explicit_blocked.rs`), the same bits.
+    /// leaves it). With `radius` (of a force to take in blocks, `blocked::block_radius`, for
+    /// callers that look at no node: `at_node` is not shown the nodes taken in blocks), all
+    /// but the last step in blocks of space and time (`explicit_blocked.rs`), the same bits.
     #[allow(clippy::too_many_arguments)] // the integrator's parts, borrowed apart
     pub(crate) fn advance_wide<L: Lagrangian, F: FnMut(Node<'_>) -> bool>(
         &mut self,
@@ -66,7 +65,7 @@ impl ExplicitStep {
         last: &mut LastElement,
         max_steps: usize,
         at_node: &mut F,
-        blocks: Option<(usize, Blocks)>,
+        radius: Option<usize>,
     ) -> Result<usize> {
         let n = state.n;
         let Some((_, t_next)) = first_step(grid, state, max_steps) else {
@@ -85,10 +84,8 @@ impl ExplicitStep {
         // Steps in blocks when nobody looks at the nodes in between and the force is local;
         // after a node that is not finite, the steps again from the start, unblocked.
         let mut blocked = 0;
-        // (A force that computes no parts answers false to the empty range.)
-        let parts = |_: &(usize, Blocks)| max_steps > 2 && lag.force_range(state.t, &state.q, 0..0, &mut []);
-        if let Some(shape) = blocks.filter(parts) {
-            match self.run_blocked(lag, grid, state, max_steps, shape) {
+        if let Some(r) = radius.filter(|_| max_steps > 2) {
+            match self.run_blocked(lag, grid, state, max_steps, r) {
                 Some(done) => blocked = done,
                 None => self.restore(start, state, last),
             }

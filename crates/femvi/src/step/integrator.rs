@@ -6,7 +6,7 @@
 
 use super::element_work::ElementBuffers;
 use super::energy::EnergyState;
-use super::explicit::Blocks;
+use super::explicit::block_radius;
 use super::grid::TimeGrid;
 use super::options::{SolverOptions, Start};
 use super::solver::{choose, Kind, Solver, StepContext};
@@ -345,8 +345,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             return None;
         }
         let (lag, grid) = (&*self.lag, &self.grid);
-        let blocks = Blocks::for_force(lag.force_radius().filter(|_| unobserved), self.state.n);
-        Some(ex.advance_wide(lag, grid, &mut self.state, &mut self.last, max_steps, at_node, blocks))
+        let radius = if unobserved {
+            block_radius(lag, self.state.t, &self.state.q)
+        } else {
+            None
+        };
+        Some(ex.advance_wide(lag, grid, &mut self.state, &mut self.last, max_steps, at_node, radius))
     }
 
     /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).
