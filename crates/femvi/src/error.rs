@@ -74,11 +74,29 @@ pub enum Error {
     /// The mass matrix of a mechanical Lagrangian is not symmetric positive definite.
     #[error("the mass matrix is not symmetric positive definite")]
     MassNotPositiveDefinite,
-    /// ∂²L/∂v² is singular, so the Legendre transform (and the discrete flow) is not defined.
-    #[error("the Lagrangian is degenerate at t = {t}: the Hessian d2L/dv2 is singular (the Legendre transform is not invertible)")]
+    /// ∂²L/∂v² is singular, not finite, or has a condition number above
+    /// [`crate::lagrangian::DEGENERATE_CONDITION`], so the Legendre transform (and the
+    /// discrete flow) is not defined there.
+    #[error("the Lagrangian is degenerate at t = {t}: the Hessian d2L/dv2 is singular or ill-conditioned (condition number {condition:.3e}, the limit is 1e12), so the Legendre transform is not invertible")]
     DegenerateLagrangian {
         /// Where it was detected.
         t: f64,
+        /// The condition number of ∂²L/∂v² there (infinite if singular or not finite).
+        condition: f64,
+    },
+    /// The inverse Legendre transform (v from p = ∂L/∂v) did not converge though ∂²L/∂v² is
+    /// regular where it stopped: the guess was too far, or L is not convex enough in v on
+    /// the way.
+    #[error("the inverse Legendre transform (v from p = dL/dv) did not converge at t = {t}: residual {residual:.3e} after {iterations} Newton iterations, though d2L/dv2 is regular there (condition number {condition:.3e})")]
+    LegendreNotConverged {
+        /// Where it was attempted.
+        t: f64,
+        /// Newton iterations made.
+        iterations: usize,
+        /// max |p − ∂L/∂v| at the last iterate.
+        residual: f64,
+        /// The condition number of ∂²L/∂v² at the last iterate.
+        condition: f64,
     },
     /// The constraint Jacobian G(q) = ∂g/∂q lost rank at a node: the constraints are dependent
     /// there (or the step that led there failed on a singular Newton system).

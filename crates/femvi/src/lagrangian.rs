@@ -11,6 +11,7 @@ mod mechanical;
 mod one_pass;
 mod point;
 
+pub use legendre::DEGENERATE_CONDITION;
 pub use mass::MassMatrix;
 pub use mechanical::Mechanical;
 pub use point::{PointDerivatives, ONE_PASS_MAX_DIM};
@@ -273,8 +274,9 @@ pub trait Potential {
 /// receives the answer): the inverse Legendre transform.
 ///
 /// # Errors
-/// [`Error::DegenerateLagrangian`] if ∂²L/∂v² is singular or Newton does not converge;
-/// [`Error::Invalid`] for a system without coordinates; [`Error::Dimension`] if q, p, v or
+/// [`Error::DegenerateLagrangian`] if ∂²L/∂v² is singular or ill-conditioned (condition
+/// number above [`DEGENERATE_CONDITION`]) where Newton stops; [`Error::LegendreNotConverged`]
+/// if it is regular there but Newton did not converge; [`Error::Invalid`] for a system without coordinates; [`Error::Dimension`] if q, p, v or
 /// `work` do not have the Lagrangian's dimension.
 pub fn velocity_from_momentum<L: Lagrangian>(
     lag: &L,
@@ -344,7 +346,8 @@ fn check_point<L: Lagrangian>(lag: &L, q: &[f64], other: (&str, usize)) -> Resul
 /// no singular values, O(1) work for any n.
 ///
 /// # Errors
-/// [`Error::DegenerateLagrangian`] if it is singular or not finite; [`Error::Invalid`] for a
+/// [`Error::DegenerateLagrangian`] if it is singular, not finite, or its condition number is
+/// at least [`DEGENERATE_CONDITION`]; [`Error::Invalid`] for a
 /// system without coordinates; [`Error::Dimension`] if q or v do not have its dimension.
 pub fn check_regular<L: Lagrangian>(lag: &L, t: f64, q: &[f64], v: &[f64]) -> Result<()> {
     let n = check_point(lag, q, ("v", v.len()))?;
@@ -353,14 +356,9 @@ pub fn check_regular<L: Lagrangian>(lag: &L, t: f64, q: &[f64], v: &[f64]) -> Re
     }
     let mut work = PointDerivatives::new(n);
     lag.second_derivatives(t, q, v, false, &mut work);
-    let hvv = nalgebra::DMatrix::from_fn(n, n, |i, j| work.h(1 + n + i, 1 + n + j));
-    if !hvv.iter().all(|x| x.is_finite()) {
-        return Err(Error::DegenerateLagrangian { t });
-    }
-    let svd = hvv.singular_values();
-    let max = svd.max();
-    if max.is_nan() || max <= 0.0 || svd.min() <= 1e-12 * max {
-        return Err(Error::DegenerateLagrangian { t });
+    let condition = legendre::condition(&work);
+    if condition.is_nan() || condition >= DEGENERATE_CONDITION {
+        return Err(Error::DegenerateLagrangian { t, condition });
     }
     Ok(())
 }

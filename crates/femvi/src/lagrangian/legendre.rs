@@ -1,5 +1,23 @@
 //! Newton's iteration of the inverse Legendre transform, p = ∂L/∂v(t, q, v) solved for v
 //! (behind [`super::velocity_from_momentum`], for Lagrangians without a constant mass matrix).
+//!
+//! **Stopping rule.** The iteration stops when a correction is below 10⁻¹⁵ of the velocity's
+//! scale, or when it has reached the level of round-off: a correction at most
+//! [`STAGNATION`] of the scale that is no longer contracting (at least a quarter of the one
+//! before; Newton's corrections shrink quadratically until rounding in p − ∂L/∂v, amplified by
+//! the condition number of ∂²L/∂v², sets a floor). Without the second test a regular system
+//! whose floor lies above 10⁻¹⁵ (a double pendulum with l₂ = 0.8, issue 34) was reported as
+//! degenerate. Since H = p·v − L is stationary in v at the solution, the node energy is
+//! insensitive to that floor (its error is quadratic in it).
+//!
+//! **Safeguard.** A correction that makes the residual grow more than twofold, above the
+//! level of round-off, is halved (at most [`MAX_HALVINGS`] times) before it is taken.
+//!
+//! **Failure.** If the iteration does not stop within [`MAX_ITERATIONS`], the condition number
+//! κ of ∂²L/∂v² at the last iterate decides the error: [`Error::DegenerateLagrangian`] when it
+//! is singular, not finite or κ > [`DEGENERATE_CONDITION`] (with κ in the message), otherwise
+//! [`Error::LegendreNotConverged`] (a regular Hessian, an iteration that did not converge).
+//!
 //! For 1 to 4 coordinates it runs on fixed-size nalgebra matrices: the same derivatives, the
 //! same LU factorisation with partial pivoting (nalgebra's generic code, instantiated on
 //! fixed sizes) and the same stopping test as the loop for any n, so the same velocity bit for
@@ -10,14 +28,26 @@
 
 use super::{Lagrangian, PointDerivatives};
 use crate::error::{Error, Result};
-use nalgebra::{Const, DimMin, SMatrix, SVector};
+use nalgebra::{Const, DMatrix, DimMin, SMatrix, SVector};
+
+/// Newton iterations before the transform gives up.
+pub const MAX_ITERATIONS: usize = 50;
+/// The largest correction, relative to the velocity's scale, that can be taken as
+/// round-off-level stagnation (it must also be within 64 κ ε of the scale, κ the condition
+/// number of ∂²L/∂v²).
+pub const STAGNATION: f64 = 1e-6;
+/// How many times a correction that made the residual grow is halved.
+pub const MAX_HALVINGS: usize = 30;
+/// The condition number of ∂²L/∂v² beyond which the Lagrangian is reported as degenerate.
+pub const DEGENERATE_CONDITION: f64 = 1e12;
 
 /// Newton for v from the guess in `v` (sizes checked by the caller: q, p, v and `work` of the
 /// Lagrangian's dimension n ≥ 1).
 ///
 /// # Errors
-/// [`Error::DegenerateLagrangian`] if ∂²L/∂v² is singular or Newton does not converge in 50
-/// iterations.
+/// [`Error::DegenerateLagrangian`] if ∂²L/∂v² is singular, not finite or has a condition
+/// number above [`DEGENERATE_CONDITION`] where Newton stops; [`Error::LegendreNotConverged`]
+/// if it is regular there but Newton did not converge in [`MAX_ITERATIONS`] iterations.
 pub(super) fn newton<L: Lagrangian>(
     lag: &L,
     t: f64,
@@ -43,26 +73,20 @@ fn newton_any<L: Lagrangian>(
     work: &mut PointDerivatives,
 ) -> Result<()> {
     let n = q.len();
-    let mut hvv = nalgebra::DMatrix::zeros(n, n);
+    let mut hvv = DMatrix::zeros(n, n);
     let mut rhs = nalgebra::DVector::zeros(n);
-    for _ in 0..50 {
-        lag.second_derivatives(t, q, v, false, work);
+    let mut dv = vec![0.0; n];
+    iterate(lag, t, (q, p), v, work, &mut dv, |work, dv| {
         for i in 0..n {
             rhs[i] = p[i] - work.l_v()[i];
             for j in 0..n {
                 hvv[(i, j)] = work.h(1 + n + i, 1 + n + j);
             }
         }
-        let lu = hvv.clone().lu();
-        let dv = lu.solve(&rhs).ok_or(Error::DegenerateLagrangian { t })?;
-        let Some(scale) = add_step(v, dv.as_slice()) else {
-            return Err(Error::DegenerateLagrangian { t });
-        };
-        if dv.amax() <= 1e-15 * scale {
-            return Ok(());
-        }
-    }
-    Err(Error::DegenerateLagrangian { t })
+        let x = hvv.clone().lu().solve(&rhs)?;
+        dv.copy_from_slice(x.as_slice());
+        Some(())
+    })
 }
 
 /// [`newton`] for n = N on fixed-size matrices (the same operations as [`newton_any`]).
@@ -76,19 +100,116 @@ fn newton_fixed<const N: usize, L: Lagrangian>(
 where
     Const<N>: DimMin<Const<N>, Output = Const<N>>,
 {
-    for _ in 0..50 {
-        lag.second_derivatives(t, q, v, false, work);
+    let mut dv = [0.0; N];
+    iterate(lag, t, (q, p), v, work, &mut dv, |work, dv| {
         let rhs = SVector::<f64, N>::from_iterator(p.iter().zip(work.l_v()).map(|(pi, li)| pi - li));
         let hvv = SMatrix::<f64, N, N>::from_fn(|i, j| work.h(1 + N + i, 1 + N + j));
-        let dv = hvv.lu().solve(&rhs).ok_or(Error::DegenerateLagrangian { t })?;
-        let Some(scale) = add_step(v, dv.as_slice()) else {
-            return Err(Error::DegenerateLagrangian { t });
+        let x = hvv.lu().solve(&rhs)?;
+        dv.copy_from_slice(x.as_slice());
+        Some(())
+    })
+}
+
+/// The safeguarded Newton loop shared by both sizes; `solve` evaluates the correction dv
+/// from the derivatives at v (None if ∂²L/∂v² is singular to the LU).
+fn iterate<L: Lagrangian>(
+    lag: &L,
+    t: f64,
+    (q, p): (&[f64], &[f64]),
+    v: &mut [f64],
+    work: &mut PointDerivatives,
+    dv: &mut [f64],
+    mut solve: impl FnMut(&PointDerivatives, &mut [f64]) -> Option<()>,
+) -> Result<()> {
+    let n = q.len();
+    // The correction last taken (halved by the safeguard) and its size, the residual before it.
+    let mut taken = [0.0f64; 4];
+    let mut taken_any = if n > 4 { vec![0.0; n] } else { Vec::new() };
+    let (mut prev_dv, mut prev_residual, mut halvings) = (f64::INFINITY, f64::INFINITY, 0);
+    for _ in 0..MAX_ITERATIONS {
+        lag.second_derivatives(t, q, v, false, work);
+        let residual = p
+            .iter()
+            .zip(work.l_v())
+            .fold(0.0f64, |m, (pi, li)| m.max((pi - li).abs()));
+        let last: &mut [f64] = if n > 4 { &mut taken_any } else { &mut taken[..n] };
+        if residual > 2.0 * prev_residual && prev_dv.is_finite() && halvings < MAX_HALVINGS {
+            // The last correction made things worse: take half of it back.
+            for (vi, d) in v.iter_mut().zip(last.iter_mut()) {
+                *d *= 0.5;
+                *vi -= *d;
+            }
+            halvings += 1;
+            continue;
+        }
+        if solve(work, dv).is_none() {
+            return Err(degenerate(work, t));
+        }
+        let Some(scale) = add_step(v, dv) else {
+            return Err(degenerate(work, t));
         };
-        if dv.amax() <= 1e-15 * scale {
+        let size = dv.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        if size <= 1e-15 * scale {
             return Ok(());
         }
+        if size > 0.25 * prev_dv && size <= STAGNATION * scale {
+            // No longer contracting: converged if the correction is at the round-off floor
+            // that the conditioning of ∂²L/∂v² allows.
+            let kappa = condition(work);
+            if kappa.is_finite() && size <= 64.0 * kappa * f64::EPSILON * scale {
+                return Ok(());
+            }
+        }
+        last.copy_from_slice(dv);
+        (prev_dv, prev_residual) = (size, residual);
     }
-    Err(Error::DegenerateLagrangian { t })
+    lag.second_derivatives(t, q, v, false, work);
+    let kappa = condition(work);
+    if kappa.is_nan() || kappa > DEGENERATE_CONDITION {
+        return Err(Error::DegenerateLagrangian { t, condition: kappa });
+    }
+    let residual = p
+        .iter()
+        .zip(work.l_v())
+        .fold(0.0f64, |m, (pi, li)| m.max((pi - li).abs()));
+    Err(Error::LegendreNotConverged {
+        t,
+        iterations: MAX_ITERATIONS,
+        residual,
+        condition: kappa,
+    })
+}
+
+/// [`Error::DegenerateLagrangian`] with the condition number of ∂²L/∂v² in `work`.
+fn degenerate(work: &PointDerivatives, t: f64) -> Error {
+    Error::DegenerateLagrangian {
+        t,
+        condition: condition(work),
+    }
+}
+
+/// The condition number (largest over smallest singular value) of ∂²L/∂v² held in `work`:
+/// infinite if it is singular or has an entry that is not finite (checked before the SVD).
+pub(crate) fn condition(work: &PointDerivatives) -> f64 {
+    let n = work.dim();
+    let hvv = DMatrix::from_fn(n, n, |i, j| work.h(1 + n + i, 1 + n + j));
+    condition_of(hvv)
+}
+
+/// The condition number of a square matrix (2-norm): infinite if it is singular or not
+/// finite. The entries are checked before the singular values are computed (nalgebra's SVD
+/// panics on NaN).
+pub(crate) fn condition_of(m: DMatrix<f64>) -> f64 {
+    if m.is_empty() || !m.iter().all(|x| x.is_finite()) {
+        return f64::INFINITY;
+    }
+    let sv = m.singular_values();
+    let (lo, hi) = (sv.min(), sv.max());
+    if lo > 0.0 && hi.is_finite() {
+        hi / lo
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Adds the Newton step dv to v; the largest |v| (at least 1) before the step, which scales
