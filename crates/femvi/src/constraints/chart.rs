@@ -62,6 +62,10 @@ pub(crate) fn chart<L: Lagrangian, C: Constraints>(lag: &L, con: &C, t: f64, q: 
     let (n, m) = (q.len(), con.count());
     let d = n - m.min(n);
     let c = tangent_rows(lag, con, t, q, p)?;
+    // Finite entries only: nalgebra's eigen-decomposition does not end on NaN.
+    if !c.iter().all(|x| x.is_finite()) {
+        return None;
+    }
     // ker G: the eigenvectors of GᵀG for its n − m smallest eigenvalues.
     let g = c.view((0, 0), (m, n));
     let eig = (g.transpose() * g).symmetric_eigen();

@@ -66,4 +66,11 @@ impl Constraints for ExprConstraints {
             *o = p.eval(|i| q.get(i).copied().unwrap_or(D::from(f64::NAN)));
         }
     }
+
+    fn name(&self, l: usize) -> String {
+        match self.sources.get(l) {
+            Some(src) => format!("constraint {} ('{src}')", l + 1),
+            None => format!("constraint {}", l + 1),
+        }
+    }
 }

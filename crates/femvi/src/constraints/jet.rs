@@ -137,13 +137,27 @@ impl ConstraintJet {
             .fold(0.0f64, |a, &x| if x.is_nan() { f64::NAN } else { a.max(x.abs()) })
     }
 
+    /// The first constraint (0-based) whose value or Jacobian row is not finite at the last
+    /// evaluation.
+    pub fn first_not_finite(&self) -> Option<usize> {
+        let n = self.n;
+        (0..self.m).find(|&l| {
+            !self.g.get(l).is_some_and(|g| g.is_finite())
+                || !self
+                    .jac
+                    .get(l * n..(l + 1) * n)
+                    .is_some_and(|row| row.iter().all(|x| x.is_finite()))
+        })
+    }
+
     /// Ratio of the smallest to the largest singular value of G (1 for m = 0; 0 if G is
-    /// rank deficient or zero).
+    /// rank deficient, zero or not finite: the entries are checked before the SVD, which
+    /// panics on NaN).
     pub fn conditioning(&self) -> f64 {
         if self.m == 0 {
             return 1.0;
         }
-        if self.n < self.m {
+        if self.n < self.m || !self.jac.iter().all(|x| x.is_finite()) {
             return 0.0;
         }
         let g = nalgebra::DMatrix::from_row_slice(self.m, self.n, &self.jac);

@@ -122,4 +122,9 @@ pub trait Constraints {
     /// g(q) into `out` (m entries), for any scalar type. The library calls it with slices of
     /// lengths [`Constraints::dim`] and [`Constraints::count`] only.
     fn value<D: Scalar>(&self, q: &[D], out: &mut [D]);
+
+    /// How errors name constraint `l` (0-based). Default: "constraint {l + 1}".
+    fn name(&self, l: usize) -> String {
+        format!("constraint {}", l + 1)
+    }
 }

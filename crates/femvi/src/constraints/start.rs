@@ -52,6 +52,16 @@ pub(super) fn begin<L: Lagrangian, C: Constraints>(
     let (q0, p_tilde, mut v) = start_state(lag, &problem.start, problem.t0, n)?;
     let mut jet = ConstraintJet::new(m, n);
     jet.eval(constraints, &q0, true);
+    if let Some(l) = jet.first_not_finite() {
+        return Err(invalid(
+            "initial q",
+            format!(
+                "{} is not finite at q0 (g = {:e}; its gradient must be finite too): check the initial coordinates",
+                constraints.name(l),
+                jet.g.get(l).copied().unwrap_or(f64::NAN)
+            ),
+        ));
+    }
     let qmax = q0.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
     let within = jet.residual() <= START_TOLERANCE * qmax * qmax;
     if !within {

@@ -193,6 +193,10 @@ fn tangent_basis<L: Lagrangian, C: Constraints>(
 ) -> Option<DMatrix<f64>> {
     let (n, m) = (q.len(), con.count());
     let c = tangent_rows(lag, con, t, q, p)?;
+    // Finite entries only: nalgebra's eigen-decomposition does not end on NaN.
+    if !c.iter().all(|x| x.is_finite()) {
+        return None;
+    }
     let eig = (c.transpose() * &c).symmetric_eigen();
     let mut order: Vec<usize> = (0..2 * n).collect();
     order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
