@@ -140,6 +140,9 @@ pub enum Command {
         #[arg(long, default_value = "svg")]
         plot_format: String,
     },
+    /// Print the problem-file reference: every table and key the loader accepts, with its
+    /// type, default and meaning (the guide's docs/src/problem-file.md).
+    Schema,
     /// List the built-in models, or print a complete problem file for one
     /// (`femvi models kepler > k.toml && femvi run k.toml`).
     Models {

@@ -96,8 +96,13 @@ pub(crate) fn plots(problem: &BvpProblem, dir: &Path, f: Format, times: &[f64], 
 
 /// Reads a trajectory.csv and interpolates q linearly at `times` (constant beyond its ends).
 pub(crate) fn guess_from_file(path: &Path, names: &[String], times: &[f64]) -> Result<Vec<f64>, String> {
-    let mut rdr = csv::Reader::from_path(path).map_err(|e| format!("cannot read the guess {}: {e}", path.display()))?;
-    let header = rdr.headers().map_err(|e| format!("{}: {e}", path.display()))?.clone();
+    let file = crate::bounded::open(path, crate::bounded::Limits::CSV)
+        .map_err(|e| format!("cannot read the guess {}: {e}", path.display()))?;
+    let mut rdr = csv::Reader::from_reader(file);
+    let header = rdr
+        .headers()
+        .map_err(|e| format!("the guess {}: {e}", path.display()))?
+        .clone();
     let col = |name: &str| {
         header
             .iter()
@@ -108,7 +113,7 @@ pub(crate) fn guess_from_file(path: &Path, names: &[String], times: &[f64]) -> R
     let qc: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
     let (mut ts, mut qs) = (vec![], vec![]);
     for (line, rec) in rdr.records().enumerate() {
-        let rec = rec.map_err(|e| format!("{}: {e}", path.display()))?;
+        let rec = rec.map_err(|e| format!("the guess {}: {e}", path.display()))?;
         let num = |i: usize| -> Result<f64, String> {
             rec.get(i)
                 .and_then(|v| v.trim().parse::<f64>().ok())

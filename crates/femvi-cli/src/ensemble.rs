@@ -252,7 +252,7 @@ pub struct EnsembleArgs {
 pub fn read_states(path: &Path, width: usize) -> Result<(Vec<f64>, usize), String> {
     let at = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let values: Vec<f64> = if path.extension().is_some_and(|e| e == "npy") {
-        let bytes = std::fs::read(path).map_err(|e| at(&e))?;
+        let bytes = crate::bounded::read(path, crate::bounded::Limits::BINARY).map_err(|e| at(&e))?;
         let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| at(&e))?;
         let shape = npy.shape().to_vec();
         if shape.len() != 2 || shape[1] as usize != width {
@@ -260,7 +260,7 @@ pub fn read_states(path: &Path, width: usize) -> Result<(Vec<f64>, usize), Strin
         }
         npy.into_vec::<f64>().map_err(|e| at(&e))?
     } else {
-        let text = std::fs::read_to_string(path).map_err(|e| at(&e))?;
+        let text = crate::bounded::read_to_string(path, crate::bounded::Limits::CSV).map_err(|e| at(&e))?;
         let mut v = Vec::new();
         for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
             let row: Result<Vec<f64>, _> = line.split(',').map(|x| x.trim().parse::<f64>()).collect();

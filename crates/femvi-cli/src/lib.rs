@@ -6,6 +6,7 @@
 //! catalogue's text), [`plot`]. `main.rs` is only the argument parsing and exit codes.
 
 pub mod adaptive;
+pub mod bounded;
 pub mod bvp;
 pub mod chaos;
 pub mod chaos_command;
@@ -22,6 +23,7 @@ pub mod models;
 pub mod plot;
 pub mod problem;
 pub mod record;
+pub mod reference;
 pub mod resume;
 pub mod run;
 pub mod signals;

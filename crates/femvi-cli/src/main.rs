@@ -128,6 +128,10 @@ fn dispatch(cli: Cli) -> ExitCode {
             }
         }
         Command::Models { name } => models::cmd_models(name.as_deref()),
+        Command::Schema => {
+            print!("{}", femvi_cli::reference::PROBLEM_FILE);
+            ExitCode::SUCCESS
+        }
         Command::Ensemble { problem, args } => match femvi_cli::ensemble::command(&problem, &args) {
             Ok(true) => ExitCode::SUCCESS,
             Ok(false) => ExitCode::from(NUMERICAL),
@@ -426,6 +430,11 @@ fn cmd_run(path: &std::path::Path, set: &[String], args: RunArgs) -> ExitCode {
             let advice = if error.starts_with("non-finite energy") {
                 // Overflow of an unstable run, or a Lagrangian outside its domain there.
                 "a smaller step if the run is unstable, or check that L is finite at that state (sqrt, ln, division)"
+            } else if error.contains("is degenerate") {
+                // The Hessian's condition number was measured: not a matter of steps or iterations.
+                "d2L/dv2 must be invertible along the path: check that the kinetic energy is positive definite at that state (a mass or length that vanishes, a coordinate singularity)"
+            } else if error.contains("inverse Legendre transform") {
+                "the velocity of that momentum was not found though d2L/dv2 is regular there: a smaller step keeps the guess closer; check that L is convex in the velocities on the way"
             } else {
                 "try a smaller step, a larger [solver] max_iterations, or method = \"newton\""
             };

@@ -139,8 +139,9 @@ pub fn save(dir: &Path, checkpoint: &RunCheckpoint) -> std::io::Result<()> {
 /// A message for the user: no checkpoint, a damaged one, or one of another run.
 pub fn load(dir: &Path, problem: &Problem, out: &RunOutput) -> Result<RunCheckpoint, String> {
     let path = dir.join(FILE);
-    let text = std::fs::read(&path).map_err(|e| {
-        let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap_or_default();
+    let json = crate::bounded::Limits::JSON;
+    let text = crate::bounded::read(&path, json).map_err(|e| {
+        let summary = crate::bounded::read_to_string(&dir.join("summary.json"), json).unwrap_or_default();
         if summary.contains("\"status\": \"done\"") {
             format!("nothing to resume: the run in {} has finished", dir.display())
         } else {
@@ -184,7 +185,7 @@ pub fn killed_before_first_checkpoint(dir: &Path, problem: &Problem) -> bool {
     if dir.join(FILE).exists() {
         return false;
     }
-    let Ok(text) = std::fs::read_to_string(dir.join("summary.json")) else {
+    let Ok(text) = crate::bounded::read_to_string(&dir.join("summary.json"), crate::bounded::Limits::JSON) else {
         return false;
     };
     let Ok(summary) = serde_json::from_str::<serde_json::Value>(&text) else {

@@ -229,11 +229,11 @@ fn loaded(path: &Path, text: &str, overrides: &[String], want_bvp: bool) -> Resu
 /// The text of a problem file (`-`: standard input), checked to be UTF-8 and not empty.
 fn read_text(path: &Path) -> Result<String, InputError> {
     let shown = label(path);
+    let limits = crate::bounded::Limits::PROBLEM;
     let bytes = if path == Path::new("-") {
-        let mut buf = Vec::new();
-        std::io::Read::read_to_end(&mut std::io::stdin(), &mut buf).map(|_| buf)
+        crate::bounded::read_from(std::io::stdin(), limits)
     } else {
-        std::fs::read(path)
+        crate::bounded::read(path, limits)
     }
     .map_err(|e| bad(format!("{}: cannot read the problem file: {e}", shown.display())))?;
     String::from_utf8(bytes).map_err(|e| {

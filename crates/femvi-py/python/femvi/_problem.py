@@ -89,6 +89,31 @@ def _looks_like_toml(s: str) -> bool:
         return True
 
 
+# The largest problem file read, as the command's (femvi_cli::bounded::MAX_PROBLEM_BYTES).
+MAX_PROBLEM_BYTES = 256 << 20
+
+
+def _read_bounded(path: Path) -> str:
+    """The text of a problem file, read in chunks: refused at its first NUL byte (not a text
+    file: /dev/zero) or past MAX_PROBLEM_BYTES (a FIFO that never ends), with ValueError."""
+    chunks, size = [], 0
+    with open(path, "rb") as f:
+        while True:
+            chunk = f.read(1 << 20)
+            if not chunk:
+                break
+            if b"\0" in chunk:
+                raise ValueError("it contains a NUL byte: it is not a text file")
+            size += len(chunk)
+            if size > MAX_PROBLEM_BYTES:
+                raise ValueError(f"larger than the limit of {MAX_PROBLEM_BYTES >> 20} MiB for a problem file")
+            chunks.append(chunk)
+    try:
+        return b"".join(chunks).decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ValueError(f"not UTF-8 text (byte {e.start})") from None
+
+
 def to_dict(problem: Any) -> Tuple[Dict[str, Any], Optional[Path]]:
     """The problem as a dict and the file it came from (None for text or a dict)."""
     from ._core import InputError
@@ -98,9 +123,11 @@ def to_dict(problem: Any) -> Tuple[Dict[str, Any], Optional[Path]]:
     if isinstance(problem, os.PathLike) or (isinstance(problem, str) and not _looks_like_toml(problem)):
         path = Path(problem)
         try:
-            return tomllib.loads(path.read_text(encoding="utf-8")), path
+            return tomllib.loads(_read_bounded(path)), path
         except OSError as e:
             raise InputError(f"{path}: cannot read the problem file: {e.strerror}") from None
+        except ValueError as e:
+            raise InputError(f"{path}: cannot read the problem file: {e}") from None
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
             raise InputError(f"{path}: {e}") from None
     if isinstance(problem, str):
