@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Problem-file fuzzing through the real binary: writes FEMVI_FUZZ_CASES (default 5000) mutated
-# copies of the bundled example problems (the mutator of crates/femvi-cli/tests/fuzz_problems.rs)
+# copies of the bundled example problems (the mutator of crates/femvi-cli/tests/all/fuzz_problems.rs)
 # and runs `femvi run` on each with a 20 s timeout, then reports the counts by exit code,
 # crashes (killed by a signal), panics ("panicked at" on stderr) and hangs (timeouts).
 #
@@ -19,7 +19,7 @@
 set -u
 cd "$(dirname "$0")/.."
 if [ "${1:-}" = "--in-process" ]; then
-  exec ${CARGO_WRAP:-} cargo test --release -p femvi-cli --test fuzz_problems
+  exec ${CARGO_WRAP:-} cargo test --release -p femvi-cli --test all -- fuzz_problems::
 fi
 CASES=${FEMVI_FUZZ_CASES:-5000}
 TIMEOUT=${FEMVI_FUZZ_TIMEOUT:-20}
@@ -31,7 +31,7 @@ if [ -z "$BIN" ]; then
 fi
 mkdir -p "$WORK/cases" "$WORK/timeouts" "$WORK/failures"
 FEMVI_FUZZ_CASES=$CASES FEMVI_FUZZ_WRITE="$WORK/cases" \
-  ${CARGO_WRAP:-} cargo test --release -p femvi-cli --test fuzz_problems -- --ignored write_cases >&2 || exit 2
+  ${CARGO_WRAP:-} cargo test --release -p femvi-cli --test all -- --ignored fuzz_problems::write_cases >&2 || exit 2
 declare -A codes
 crashes=0; panics=0; hangs=0; long=0; total=0
 for f in "$WORK"/cases/*.toml; do

@@ -1,5 +1,5 @@
 //! RATTLE for the spherical pendulum written out by hand (the reference of
-//! `tests/constraints.rs` and `tests/rattle_exact.rs`).
+//! `tests/all/constraints.rs` and `tests/all/rattle_exact.rs`).
 
 /// RATTLE for L = ½|v|² − g z on |q| = 1, written out: the position constraint is a quadratic
 /// in the multiplier (solved in closed form), the momentum projection a dot product. Written in

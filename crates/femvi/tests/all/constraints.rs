@@ -8,8 +8,7 @@ use femvi::{models, Element, Error, Lagrangian, NodeFamily, Problem, QuadratureK
 
 const G: f64 = 9.81;
 
-mod common;
-use common::rattle::rattle;
+use crate::common::rattle::rattle;
 
 fn sphere_start(theta: f64, phidot: f64) -> Start {
     Start::Velocity {
@@ -67,7 +66,7 @@ fn degree_one_trapezoid_is_rattle() {
     // the energy, amplified by the shear of the flow (an energy error becomes a phase error
     // growing with t): ~1e-16·k^{3/2}·h. Measured 3.4e-13 at k = 10⁴ (8.4e-13 while node row 0
     // was p_k + row 0, a bias; 1.7e-11 against the loop without increments and compensated
-    // summation). `tests/rattle_exact.rs` measures both against the map in double-double.
+    // summation). `tests/all/rattle_exact.rs` measures both against the map in double-double.
     // From femvi's node 0: the start's projection onto the hidden constraint may move p by an
     // ulp (asserted above), and a start an ulp off in energy drifts in phase linearly in t.
     let hand = rattle(

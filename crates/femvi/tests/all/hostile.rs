@@ -127,7 +127,7 @@ fn the_largest_documented_systems_set_up_in_linear_memory() {
 }
 
 /// Set-up times of large systems, one case per process, e.g.
-/// `FEMVI_SETUP="fpu 100000" cargo test --test hostile -- --ignored setup_time --nocapture`.
+/// `FEMVI_SETUP="fpu 100000" cargo test -p femvi --test all -- --ignored hostile::setup_time --nocapture`.
 #[test]
 #[ignore]
 fn setup_time() {

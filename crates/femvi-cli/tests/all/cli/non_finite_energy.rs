@@ -18,7 +18,7 @@ fn problem(coordinates: &str, lagrangian: &str, extra: &str, start: &str) -> Str
 
 /// Runs `femvi run` on `text` (the helper of `energy_nodes.rs`, no extra arguments).
 fn run(dir: &Path, text: &str) -> (Option<i32>, serde_json::Value, Vec<Vec<f64>>, String) {
-    crate::energy_nodes::run(dir, text, &[])
+    crate::cli::energy_nodes::run(dir, text, &[])
 }
 
 /// The checks the runs share: exit 1, the error at node 4, the written rows (node indices

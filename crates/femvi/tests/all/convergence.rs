@@ -3,8 +3,7 @@
 //! Kepler (2-D; reference: Kepler's equation), with uniform and random unequal steps; and the
 //! L² orders 2 and 3 of the interpolant for s = 1, 2 ((2.33), (2.56)).
 
-mod common;
-use common::{fit_order, kepler_exact, run_final, Errs, Lcg};
+use crate::common::{fit_order, kepler_exact, run_final, Errs, Lcg};
 use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
 
 fn gauss(s: usize) -> Element {

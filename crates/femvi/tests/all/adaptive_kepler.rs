@@ -3,9 +3,7 @@
 //! periods without drift (first against last tenth), the phase error against Kepler's
 //! equation, and adaptive against fixed steps of the same number of steps.
 
-mod common;
-
-use common::{fit_order, kepler_exact, Errs};
+use crate::common::{fit_order, kepler_exact, Errs};
 use femvi::adaptive::{solve_adaptive, AdaptiveOptions, AdaptiveSolution, KeplerMonitor};
 use femvi::{models, solve, Element, Problem, SolveOptions, Start};
 use std::f64::consts::PI;

@@ -8,9 +8,7 @@
 //! never shown a non-finite position. And `force_range` must give the bits of `force` on every
 //! range, the chain's force the bits it had before `force_range`.
 
-mod common;
-
-use common::snapshot::{bits, chain_start, snapshot, verlet, Snapshot};
+use crate::common::snapshot::{bits, chain_start, snapshot, verlet, Snapshot};
 use femvi::{models, Integrator, Lagrangian, Mechanical, Potential, Scalar, SolverOptions, Start, TimeGrid};
 use std::ops::Range;
 

@@ -3,8 +3,7 @@
 //! two pendulum solutions from two guesses, a problem with no solution, and the moving mesh
 //! (discrete energy conserved, action stationary in the times, folding reported).
 
-mod common;
-use common::{fit_order, Errs};
+use crate::common::{fit_order, Errs};
 use femvi::bvp::{line_guess, node_times, solve, BoundaryValues, BvpOptions};
 use femvi::{
     models, Element, Integrator, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions, Start,

@@ -10,7 +10,7 @@
 //!
 //! Cases per property: `PROPTEST_CASES` (default 256: a few seconds); the long sums and the
 //! deep nesting run at most 2 000 and 20 000 cases. A campaign:
-//! `PROPTEST_CASES=1000000 cargo test -p femvi --test fuzz_expr -- --nocapture` prints the
+//! `PROPTEST_CASES=1000000 cargo test -p femvi --test all -- fuzz_expr:: --nocapture` prints the
 //! count of each outcome.
 
 use femvi::expr::{ExprLagrangian, MAX_NESTING};

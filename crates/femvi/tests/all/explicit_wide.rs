@@ -6,9 +6,7 @@
 //! node and the run goes on from there; a run that overflows fails at the same step with the
 //! same state left behind.
 
-mod common;
-
-use common::snapshot::{bits, chain_start, snapshot, verlet, Snapshot};
+use crate::common::snapshot::{bits, chain_start, snapshot, verlet, Snapshot};
 use femvi::{models, Integrator, Lagrangian, SolverOptions, Start, TimeGrid};
 
 /// A node shown to the callback, as bits.

@@ -4,7 +4,7 @@
 //! non-unit masses and tangent maps. The expected bit patterns in `golden/final_states.txt`
 //! were produced by the code before the step pipeline was reshaped (commit 1575325's
 //! integrator); a refactor must reproduce them exactly. To regenerate after a deliberate
-//! change of results: `FEMVI_GOLDEN_WRITE=1 cargo test -p femvi --test golden`, and say so in
+//! change of results: `FEMVI_GOLDEN_WRITE=1 cargo test -p femvi --test all -- golden::`, and say so in
 //! the commit message.
 
 use femvi::bvp::{line_guess, solve, BoundaryValues, BvpOptions};

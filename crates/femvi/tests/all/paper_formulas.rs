@@ -3,8 +3,7 @@
 //! exact-integral cases have closed forms): (2.20), (2.30), corrected (2.48)–(2.50), and
 //! Störmer–Verlet for degree 1 with the trapezoid rule.
 
-mod common;
-use common::Lcg;
+use crate::common::Lcg;
 use femvi::{
     Element, Integrator, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions, Start, TimeGrid,
 };

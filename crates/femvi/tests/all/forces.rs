@@ -299,7 +299,7 @@ fn error_paths() {
         "{:?}",
         sol.solution.error
     );
-    // Energy mode is supported (tests/forces_energy.rs); a (q0, q1) start is a typed "not
+    // Energy mode is supported (tests/all/forces_energy.rs); a (q0, q1) start is a typed "not
     // supported" error.
     let energy = SolveOptions {
         steps: Steps::Energy {

@@ -14,8 +14,7 @@ use femvi::expr::ExprLagrangian;
 use femvi::forces::{solve_forced, ExprForces, LinearForce};
 use femvi::{models, Element, Lagrangian, Problem, SolveOptions, Start};
 
-mod common;
-use common::tangent_fd::{fd_difference, last_state, manifold_directions, unit_vectors};
+use crate::common::tangent_fd::{fd_difference, last_state, manifold_directions, unit_vectors};
 
 /// The last node (q, p) of a solution.
 fn duffing() -> (Problem<ExprLagrangian>, ExprForces) {

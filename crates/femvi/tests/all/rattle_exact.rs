@@ -3,7 +3,7 @@
 //! hand-written RATTLE loop to ≤ 1e-13 over 10⁴ steps", and how close a double-precision
 //! evaluation of the same map can come at all.
 //!
-//! `tests/constraints.rs` compares femvi with a double-precision RATTLE loop; both evaluate the
+//! `tests/all/constraints.rs` compares femvi with a double-precision RATTLE loop; both evaluate the
 //! map to round-off, and over long times their round-off differences grow with the shear of
 //! the flow (an energy error becomes a phase error). Against the double-double loop each
 //! double-precision evaluation's own deviation is measured separately.
@@ -12,8 +12,7 @@ use femvi::constraints::solve_constrained;
 use femvi::{models, Element, NodeFamily, Problem, QuadratureKind, SolveOptions, Start};
 use twofloat::TwoFloat;
 
-mod common;
-use common::rattle::rattle as rattle_f64;
+use crate::common::rattle::rattle as rattle_f64;
 
 const G: f64 = 9.81;
 type Node = ([f64; 3], [f64; 3]);

@@ -3,10 +3,8 @@
 //! computation (a Hénon–Heiles Poincaré section located by Hénon's trick on a fine RK4 run),
 //! `every`, `max_steps`, stopping events, and the prefix kept after a failure.
 
-mod common;
-#[path = "solution/energy_nodes.rs"]
 mod energy_nodes;
-use common::{fit_order, Errs};
+use crate::common::{fit_order, Errs};
 use femvi::solution::{Direction, Event};
 use femvi::{models, solve, Element, Problem, SolveOptions, Start, StepFailure};
 

@@ -2,9 +2,7 @@
 //! input gives exit code 2 (bad input) or 1 (numerical failure), a message naming the problem,
 //! and no panic.
 
-#[path = "cli/energy_nodes.rs"]
 mod energy_nodes;
-#[path = "cli/non_finite_energy.rs"]
 mod non_finite_energy;
 
 use assert_cmd::Command;

@@ -6,7 +6,7 @@
 //!
 //! The CI run takes `FEMVI_FUZZ_CASES` cases (300 by default, a few seconds; `FEMVI_FUZZ_SEED`
 //! picks another series); a long run:
-//! `FEMVI_FUZZ_CASES=20000 cargo test --release -p femvi-cli --test fuzz_problems`.
+//! `FEMVI_FUZZ_CASES=20000 cargo test --release -p femvi-cli --test all -- fuzz_problems::`.
 //! With `FEMVI_FUZZ_WRITE=DIR` the `write_cases` test (ignored by default) writes the mutated
 //! files instead, for `scripts/fuzz-problems.sh`, which runs them through the `femvi` binary.
 

@@ -2,8 +2,7 @@
 //! integrator at the end of §3, the discrete energy law (3.3) for a forced oscillator, honest
 //! degeneracy, and convergence as the first step shrinks.
 
-mod common;
-use common::{fit_order, Errs};
+use crate::common::{fit_order, Errs};
 use femvi::{
     models, Degenerate, Element, ElementWork, EnergyOptions, Integrator, Lagrangian, Mechanical, NodeFamily, Potential,
     QuadratureKind, Scalar, SolverOptions, Start, StepFailure, TimeGrid,
@@ -248,7 +247,7 @@ fn forced_oscillator_obeys_the_discrete_energy_law() {
                 q: vec![1.0],
                 v: vec![0.0],
             };
-            let (_, q, p) = common::run_final(&lag, &el6, grid, start);
+            let (_, q, p) = crate::common::run_final(&lag, &el6, grid, start);
             forced_h(t, q[0], p[0])
         };
         let dh = reference(tn) - reference(t1);
@@ -376,7 +375,7 @@ fn energy_mode_converges_as_the_first_step_shrinks() {
             while it.step().unwrap() {}
             let (tn, q, p) = (it.node().t, it.node().q.to_vec(), it.node().p.to_vec());
             let grid = TimeGrid::uniform(0.0, tn / 2000.0, tn).unwrap();
-            let (_, qr, pr) = common::run_final(&hh, &element(6), grid, start.clone());
+            let (_, qr, pr) = crate::common::run_final(&hh, &element(6), grid, start.clone());
             let err = q
                 .iter()
                 .zip(&qr)

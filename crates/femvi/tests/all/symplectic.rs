@@ -3,8 +3,7 @@
 //! double pendulum (and a non-symplectic map flagged), and the preserved two-form coefficient
 //! ∂²L_d/∂q_k∂q_{k+1} against the paper's (2.21), (2.31) and corrected (2.51).
 
-mod common;
-use common::Lcg;
+use crate::common::Lcg;
 use femvi::diagnostics::symplecticity_defect;
 use femvi::{
     models, Element, Integrator, Lagrangian, Mechanical, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions,

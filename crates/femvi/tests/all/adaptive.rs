@@ -2,9 +2,7 @@
 //! differentiation, the momentum is the physical one, the step map is symplectic, output at
 //! physical times against Kepler's closed form, and the refusals (typed errors, no hang).
 
-mod common;
-
-use common::{kepler_exact, Lcg};
+use crate::common::{kepler_exact, Lcg};
 use femvi::adaptive::{
     solve_adaptive, AdaptiveOptions, ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor, TimeTransformed,
 };

@@ -10,8 +10,7 @@ use femvi::expr::ExprLagrangian;
 use femvi::forces::{ExprForces, LinearForce};
 use femvi::{models, Element, Problem, SolveOptions, Start};
 
-mod common;
-use common::tangent_fd::{fd_difference, last_state, manifold_directions};
+use crate::common::tangent_fd::{fd_difference, last_state, manifold_directions};
 
 /// The spherical pendulum (unit mass, rod and g) from q = (0.6, 0, −0.8) with momentum p.
 fn sphere_problem(p: Vec<f64>, t_end: f64) -> Problem<femvi::Mechanical<models::UniformGravity>> {
@@ -48,7 +47,7 @@ fn forced_constrained_tangent_maps_agree_with_finite_differences_of_whole_runs()
         let r = solve_constrained_forced(&perturbed, &force, &sphere, &el, &opts, Enforcement::default()).unwrap();
         last_state(&r.constrained.solution)
     };
-    // As tests/chaos_forced_constrained.rs: starts q0 ± ε δq with G δq = 0 (off the sphere by
+    // As tests/all/chaos_forced_constrained.rs: starts q0 ± ε δq with G δq = 0 (off the sphere by
     // the same O(ε²) for both signs, which cancels), the central difference's error O(ε²).
     let dirs = manifold_directions(&[vec![0.0, 1.0, 0.0], vec![0.8, 0.0, 0.6]]);
     // Measured 7.5e-9, 2.4e-9 and 6.8e-10 at ε = 3e-7, 1e-6 and 3e-6: the runs' round-off

@@ -4,8 +4,7 @@
 //! damped oscillator's closed form, a zero force against the conservative energy-mode run bit
 //! for bit, and hostile forces.
 
-mod common;
-use common::{fit_order, Errs};
+use crate::common::{fit_order, Errs};
 use femvi::forces::{solve_forced, Force, ForcedSolution, LinearForce};
 use femvi::{
     models, solve, Degenerate, Element, EnergyOptions, Error, Lagrangian, Method, NodeFamily, Problem, QuadratureKind,

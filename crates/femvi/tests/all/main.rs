@@ -1,0 +1,47 @@
+//! femvi's integration tests as one test binary (one link instead of one per file; see
+//! `cargo test -p femvi --test all -- --list`). Each file is a module: run one with
+//! `cargo test -p femvi --test all -- golden::`. `tests/allocation.rs` stays a binary of its
+//! own: its counting global allocator would otherwise serve every test here.
+//!
+//! A new test file goes in this directory with its `mod` line below; shared helpers are in
+//! `common/` (`use crate::common::...`).
+
+mod common;
+
+mod adaptive;
+mod adaptive_drift;
+mod adaptive_events;
+mod adaptive_kepler;
+mod advance_observed;
+mod auto_step;
+mod bvp;
+mod bvp_scale;
+mod chaos;
+mod chaos_forced_constrained;
+mod chaos_forced_on_manifold;
+mod conservation;
+mod constrained_bvp;
+mod constraints;
+mod constraints_forced;
+mod convergence;
+mod energy;
+mod explicit_blocked;
+mod explicit_wide;
+mod expr_compiled;
+mod forces;
+mod forces_energy;
+mod forces_fixed_point;
+mod forces_newton;
+mod fuzz_expr;
+mod general_newton;
+mod golden;
+mod gyroscopic;
+mod hostile;
+mod model_params;
+mod paper_formulas;
+mod rattle_exact;
+mod setup_scale;
+mod solution;
+mod solver;
+mod streaming;
+mod symplectic;
