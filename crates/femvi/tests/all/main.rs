@@ -35,6 +35,7 @@ mod forces_newton;
 mod fuzz_expr;
 mod general_newton;
 mod golden;
+mod golden_terms;
 mod gyroscopic;
 mod hostile;
 mod model_params;
