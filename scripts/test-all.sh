@@ -18,17 +18,25 @@ fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 "$VENV/bin/python" -m pip install --quiet "maturin>=1.5,<2" numpy pytest "dask[distributed]" matplotlib
 
-# Build and install the package (release wheel, abi3) into the venv.
-"$VENV/bin/python" -m pip install --quiet --force-reinstall --no-deps ./crates/femvi-py
+# Build the package (release wheel, abi3) in the workspace's target directory and install it
+# into the venv. maturin turns on the extension crate's `extension-module` feature.
+WHEELS=$(mktemp -d)
+REPORT=$(mktemp)
+trap 'rm -rf "$WHEELS" "$REPORT"' EXIT
+"$VENV/bin/maturin" build --quiet --release -m crates/femvi-py/Cargo.toml -i "$VENV/bin/python" --out "$WHEELS"
+"$VENV/bin/python" -m pip install --quiet --force-reinstall --no-deps "$WHEELS"/*.whl
 
-cargo test --workspace
-# The command the Python results are compared with (the tests above built it already).
-cargo build -p femvi-cli
+# The Rust tests: unit, integration and doc tests. The extension crate has none (its tests
+# are pytest's, below); excluding it keeps libpython out of this build. The examples are not
+# built here (`cargo clippy --all-targets` in .ci/run checks them).
+cargo test --workspace --exclude femvi-py --lib --bins --tests
+cargo test --workspace --exclude femvi-py --doc
+# The command the Python results are compared with: the `femvi` binary the tests above built
+# for the command-line tests (test profile, in target/debug). `cargo build -p femvi-cli`
+# would compile femvi and femvi-cli once more, in the dev profile.
 export FEMVI_BIN="$TARGET/debug/femvi"
 
 # Run from outside the source tree so that the installed package is the one imported.
-REPORT=$(mktemp)
-trap 'rm -f "$REPORT"' EXIT
 (cd "$ROOT/crates/femvi-py/tests" && "$VENV/bin/python" -m pytest -q -p no:cacheprovider --junitxml="$REPORT" .)
 tests=$("$VENV/bin/python" -c "import sys, xml.etree.ElementTree as E; r = E.parse(sys.argv[1]).getroot(); s = r if r.tag == 'testsuite' else r[0]; print(int(s.get('tests')) - int(s.get('skipped')))" "$REPORT")
 if [ "$tests" -eq 0 ]; then
