@@ -182,3 +182,21 @@ def test_adaptive_events_from_python():
 def test_adaptive_problems_are_refused_where_fixed_steps_would_run():
     with pytest.raises(femvi.InputError, match="adaptive"):
         femvi.ensemble(EXAMPLES / "kepler-eccentric.toml", initial_states=np.array([[0.01, 0, 0, 14.1]]))
+
+
+def test_problem_files_are_read_with_a_bound(tmp_path, monkeypatch):
+    """A problem file with a NUL byte is refused as not text, and one past the size limit
+    (lowered here, the module's constant) as too large, both as InputError (issue 34)."""
+    import femvi._problem as problem
+
+    nul = tmp_path / "nul.toml"
+    nul.write_bytes(femvi.dumps(HARMONIC).encode() + b"\0")
+    with pytest.raises(femvi.InputError, match="NUL byte"):
+        femvi.solve(nul)
+    big = tmp_path / "big.toml"
+    big.write_text(femvi.dumps(HARMONIC) + "# padding\n" * 1000)
+    monkeypatch.setattr(problem, "MAX_PROBLEM_BYTES", 4096)
+    with pytest.raises(femvi.InputError, match="limit of"):
+        femvi.solve(big)
+    monkeypatch.setattr(problem, "MAX_PROBLEM_BYTES", 1 << 20)
+    assert femvi.solve(big).steps == 100

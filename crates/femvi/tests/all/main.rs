@@ -38,6 +38,7 @@ mod golden;
 mod golden_terms;
 mod gyroscopic;
 mod hostile;
+mod legendre_regular;
 mod model_params;
 mod paper_formulas;
 mod rattle_exact;
