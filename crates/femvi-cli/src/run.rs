@@ -93,8 +93,19 @@ pub fn run_as(
         plots: out.plots || problem.plots,
         ..out
     };
+    // Runs on the fixed grid of a problem with [constraints] or [forces] keep their rows until
+    // they end (issue 33): the output estimate refuses them up front like the plain run.
+    let estimate = |out: &RunOutput| match control.resume {
+        false => crate::estimate::check(problem, out, dir, control.max_output, 0),
+        true => Ok(()),
+    };
     match crate::constrained::settings(problem) {
-        Ok(Some(c)) => return crate::constrained::run(problem, &c, dir, out, control.resume, command),
+        Ok(Some(c)) => {
+            if let Err(msg) = estimate(&out) {
+                return Ok(Outcome::Rejected(msg));
+            }
+            return crate::constrained::run(problem, &c, dir, out, control.resume, command);
+        }
         Ok(None) => {}
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     }
@@ -109,7 +120,12 @@ pub fn run_as(
                 "--resume is not available for problems with [forces]".into(),
             ))
         }
-        Ok(Some(f)) => return crate::forced::run(problem, &f, dir, out, command),
+        Ok(Some(f)) => {
+            if let Err(msg) = estimate(&out) {
+                return Ok(Outcome::Rejected(msg));
+            }
+            return crate::forced::run(problem, &f, dir, out, command);
+        }
         Ok(None) => {}
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     }
