@@ -1,12 +1,12 @@
 //! The speed-up of the fixed-point forced step (`forces/fixed_point.rs`) against the forced
 //! Newton step, on two systems with a force F(t, q) independent of v: the driven harmonic
 //! oscillator (`models::harmonic`, F = f0 cos(ωt), h = 0.1) and the forced Duffing oscillator
-//! from expressions (L = ½v² + ½x² − ¼x⁴ as in tests/forces_fixed_point.rs, F = γ cos(ωt) +
+//! from expressions (L = ½v² + ½x² − ¼x⁴ as in tests/all/forces_fixed_point.rs, F = γ cos(ωt) +
 //! εx², h = 0.05), 2·10⁴ steps each, degrees 1, 2 and 4 (Gauss). The two methods run
 //! alternately, `REPS` times each; printed are the medians and the ratio of medians
 //! Newton / fixed point, and the largest difference of the final states (after t = 1000 the
 //! Duffing orbit at these parameters is chaotic: the two round-off-level differences grow to
-//! O(1) there; over t = 20 they agree to ≤ 1e-13, tests/forces_fixed_point.rs).
+//! O(1) there; over t = 20 they agree to ≤ 1e-13, tests/all/forces_fixed_point.rs).
 //!
 //! `cargo run --release -p femvi --example forces_fixed_point`
 
