@@ -728,40 +728,11 @@ fn bvp_runs(out: &mut Runs) {
     ));
 }
 
-fn render(runs: &[(&str, Vec<u64>)]) -> String {
-    let mut s = String::new();
-    for (name, bits) in runs {
-        s.push_str(name);
-        s.push('\n');
-        for chunk in bits.chunks(4) {
-            let line: Vec<String> = chunk.iter().map(|b| format!("{b:016x}")).collect();
-            s.push_str("  ");
-            s.push_str(&line.join(" "));
-            s.push('\n');
-        }
-    }
-    s
-}
-
 #[test]
 fn final_states_of_forced_constrained_adaptive_chaos_and_bvp_runs_are_bit_identical() {
     let all = runs();
     let mut seen = std::collections::HashSet::new();
     assert!(all.iter().all(|(name, _)| seen.insert(*name)), "run names are unique");
-    let got = render(&all);
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/terms.txt");
-    if std::env::var_os("FEMVI_GOLDEN_WRITE").is_some() {
-        std::fs::write(path, &got).unwrap();
-        return;
-    }
-    let want = std::fs::read_to_string(path).unwrap();
-    assert!(all.len() >= 30, "{} runs", all.len());
-    let mut run = "";
-    for (g, w) in got.lines().zip(want.lines()) {
-        if !w.starts_with(' ') {
-            run = w;
-        }
-        assert_eq!(g, w, "run '{run}' differs from the stored bits");
-    }
-    assert_eq!(got.lines().count(), want.lines().count(), "number of lines");
+    super::golden::compare_or_write(path, &all, 30);
 }
