@@ -197,6 +197,27 @@ fn splice(text: &str, a: usize, b: usize, new: &str) -> String {
     format!("{}{new}{}", &text[..a], &text[b..])
 }
 
+/// `text` with the keys of `line` (one `key = value` per line) set in `table`: those keys are
+/// removed from the file first (a key twice is only a TOML error), then `line` goes right
+/// after the table's header, or at the end under a new header.
+pub(crate) fn set_in_table(text: &str, table: &str, line: &str) -> String {
+    let keys: Vec<&str> = line
+        .lines()
+        .filter_map(|l| l.split('=').next())
+        .map(str::trim)
+        .collect();
+    let mut out: Vec<String> = text
+        .lines()
+        .filter(|l| !keys.contains(&l.split('=').next().unwrap_or("").trim()))
+        .map(|l| l.to_string())
+        .collect();
+    match out.iter().position(|l| l.trim() == table) {
+        Some(i) => out.insert(i + 1, line.to_string()),
+        None => out.push(format!("{table}\n{line}")),
+    }
+    out.join("\n")
+}
+
 /// One mutation of `text`.
 pub(crate) fn mutate(text: &str, rng: &mut Rng) -> String {
     let lines: Vec<&str> = text.lines().collect();
@@ -205,23 +226,7 @@ pub(crate) fn mutate(text: &str, rng: &mut Rng) -> String {
         // A known key set, in its own table, to a value at or past its documented limits.
         12 | 13 => {
             let (table, line) = *rng.pick::<(&str, &str)>(EXTREMES);
-            // Keys the extreme sets are removed from the file first (a key twice is only a
-            // TOML error).
-            let keys: Vec<&str> = line
-                .lines()
-                .filter_map(|l| l.split('=').next())
-                .map(str::trim)
-                .collect();
-            let mut out: Vec<String> = lines
-                .iter()
-                .filter(|l| !keys.contains(&l.split('=').next().unwrap_or("").trim()))
-                .map(|l| l.to_string())
-                .collect();
-            match out.iter().position(|l| l.trim() == table) {
-                Some(i) => out.insert(i + 1, line.to_string()),
-                None => out.push(format!("{table}\n{line}")),
-            }
-            out.join("\n")
+            set_in_table(text, table, line)
         }
         // Flip bits of a few bytes (the result may not be UTF-8: lossy).
         0 => {

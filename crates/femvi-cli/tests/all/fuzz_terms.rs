@@ -9,7 +9,7 @@
 //! The CI run takes `FEMVI_FUZZ_TERM_CASES` cases (120 by default); a long one:
 //! `FEMVI_FUZZ_TERM_CASES=3000 cargo test --release -p femvi-cli --test all -- fuzz_terms::`.
 
-use super::fuzz_problems::{mutate, Rng};
+use super::fuzz_problems::{mutate, set_in_table, Rng};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -83,17 +83,7 @@ fn mutate_terms(text: &str, rng: &mut Rng) -> String {
         return mutate(text, rng);
     }
     let (table, line) = *rng.pick::<(&str, &str)>(TERMS);
-    let key = line.split('=').next().unwrap_or("").trim();
-    let mut out: Vec<String> = text
-        .lines()
-        .filter(|l| l.split('=').next().unwrap_or("").trim() != key)
-        .map(str::to_string)
-        .collect();
-    match out.iter().position(|l| l.trim() == table) {
-        Some(i) => out.insert(i + 1, line.to_string()),
-        None => out.push(format!("{table}\n{line}")),
-    }
-    out.join("\n")
+    set_in_table(text, table, line)
 }
 
 fn cases() -> u64 {

@@ -128,10 +128,7 @@ fn iterate<L: Lagrangian>(
     let (mut prev_dv, mut prev_residual, mut halvings) = (f64::INFINITY, f64::INFINITY, 0);
     for _ in 0..MAX_ITERATIONS {
         lag.second_derivatives(t, q, v, false, work);
-        let residual = p
-            .iter()
-            .zip(work.l_v())
-            .fold(0.0f64, |m, (pi, li)| m.max((pi - li).abs()));
+        let residual = residual(p, work);
         let last: &mut [f64] = if n > 4 { &mut taken_any } else { &mut taken[..n] };
         if residual > 2.0 * prev_residual && prev_dv.is_finite() && halvings < MAX_HALVINGS {
             // The last correction made things worse: take half of it back.
@@ -168,16 +165,20 @@ fn iterate<L: Lagrangian>(
     if kappa.is_nan() || kappa > DEGENERATE_CONDITION {
         return Err(Error::DegenerateLagrangian { t, condition: kappa });
     }
-    let residual = p
-        .iter()
-        .zip(work.l_v())
-        .fold(0.0f64, |m, (pi, li)| m.max((pi - li).abs()));
+    let residual = residual(p, work);
     Err(Error::LegendreNotConverged {
         t,
         iterations: MAX_ITERATIONS,
         residual,
         condition: kappa,
     })
+}
+
+/// max |p − ∂L/∂v| with ∂L/∂v in `work`.
+fn residual(p: &[f64], work: &PointDerivatives) -> f64 {
+    p.iter()
+        .zip(work.l_v())
+        .fold(0.0f64, |m, (pi, li)| m.max((pi - li).abs()))
 }
 
 /// [`Error::DegenerateLagrangian`] with the condition number of ∂²L/∂v² in `work`.
