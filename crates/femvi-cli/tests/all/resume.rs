@@ -228,6 +228,14 @@ fn sigkill_at_random_points_then_resume_gives_identical_outputs() {
             if !kill_after(run_cmd(case, &problem, &out_args(&dir)), delay) {
                 continue;
             }
+            if !dir.join("summary.json").exists() {
+                // Killed before the run wrote anything (its directory may be made, empty):
+                // nothing to resume, and --resume says so rather than starting a run in a
+                // mistyped or unrelated directory (as a_checkpoint_of_another_run_is_refused).
+                let out = run_cmd(case, &problem, &resume_args(&dir)).output().unwrap();
+                assert_eq!(out.status.code(), Some(2), "{}: resume of no directory", case.name);
+                continue;
+            }
             kills += 1;
             // One resume in three is itself killed once before it is resumed to the end.
             if (attempt + c) % 3 == 0 {
