@@ -55,8 +55,8 @@ pub fn run(problem: &BvpProblem, dir: &Path) -> Result<BvpSummary, (String, u8)>
 
 /// [`run`], drawing the plots in format `plot` if given.
 pub fn run_plotted(problem: &BvpProblem, dir: &Path, plot: Option<Format>) -> Result<BvpSummary, (String, u8)> {
-    if let Some(c) = crate::constrained::bvp::settings(problem).map_err(|e| (e, 2))? {
-        return crate::constrained::bvp::run(problem, &c, dir, plot);
+    if let Some(c) = &problem.terms.constraints {
+        return crate::constrained::bvp::run(problem, c, dir, plot);
     }
     crate::with_system!(&problem.system, l => run_with(l, problem, dir, plot))
 }
@@ -187,7 +187,7 @@ fn run_with<L: Lagrangian>(
         command_line: std::env::args().collect(),
         problem: problem.source.clone(),
     };
-    match crate::forced::solve_bvp(lag, &problem.source, &problem.coordinates, el, bv, &guess, opts) {
+    match crate::forced::solve_bvp(lag, problem.terms.force.as_ref(), el, bv, &guess, opts) {
         Ok(sol) => {
             let n = lag.dim();
             let mut csv = csv::Writer::from_path(dir.join("trajectory.csv")).map_err(|e| (e.to_string(), 2))?;

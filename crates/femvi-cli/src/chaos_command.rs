@@ -3,6 +3,7 @@
 //! plot.
 
 use crate::chaos::{compute, write_map, Axis, Indicator, Indicators};
+use crate::problem::capabilities::Use;
 use crate::problem::Problem;
 use std::path::Path;
 
@@ -51,7 +52,7 @@ fn summary_of(
 pub fn cmd_chaos(problem: &Problem, args: &ChaosArgs) -> Result<bool, (String, u8)> {
     let clock = std::time::Instant::now();
     let bad = |m: String| (m, crate::BAD_INPUT);
-    crate::adaptive::refuse(problem, "femvi chaos").map_err(bad)?;
+    problem.refuse(Use::Chaos, "femvi chaos").map_err(bad)?;
     let mut wanted = args
         .indicators
         .iter()

@@ -7,6 +7,7 @@
 //! map (`--grid`), as for an unconstrained problem (`chaos.rs` calls [`Tables::of`] once and
 //! [`Tables::indicators`] per point).
 
+use crate::problem::capabilities::Use;
 use crate::problem::forces::ProblemForce;
 use crate::problem::Problem;
 use femvi::chaos::{
@@ -31,22 +32,19 @@ impl Tables {
     /// The tables of `problem` (its parameters as loaded).
     ///
     /// # Errors
-    /// A message (bad input, exit code 2): either table in energy mode.
+    /// A message (bad input, exit code 2): either table in energy mode
+    /// ([`Use::ChaosInEnergyMode`]).
     pub fn of(problem: &Problem) -> Result<Self, String> {
-        let force = crate::forced::force_of(problem)?;
-        let constraints = crate::constrained::settings(problem)?;
-        let tables = match (force, constraints) {
-            (None, None) => return Ok(Tables::None),
+        if problem.energy.is_some() {
+            problem.refuse(Use::ChaosInEnergyMode, "femvi chaos")?;
+        }
+        let terms = &problem.terms;
+        Ok(match (terms.force.clone(), terms.constraints.clone()) {
+            (None, None) => Tables::None,
             (Some(f), Some((c, e))) => Tables::Both(Box::new((f, c, e))),
             (Some(f), None) => Tables::Forces(f),
             (None, Some(c)) => Tables::Constraints(Box::new(c)),
-        };
-        if problem.energy.is_some() {
-            return Err(
-                "[time] mode = \"energy\" is not available with [forces] or [constraints]: use mode = \"fixed\"".into(),
-            );
-        }
-        Ok(tables)
+        })
     }
 
     /// Whether the problem has neither table.

@@ -85,9 +85,9 @@ pub struct Study {
 
 /// Runs the study; Err carries a message and an exit code.
 pub fn study(problem: &Problem, steps: &[f64], reference: Option<Reference>, l2: bool) -> Result<Study, (String, u8)> {
-    crate::adaptive::refuse(problem, "femvi convergence").map_err(|e| (e, crate::BAD_INPUT))?;
-    crate::forced::refuse(problem, "femvi convergence").map_err(|e| (e, crate::BAD_INPUT))?;
-    crate::constrained::refuse(problem, "femvi convergence").map_err(|e| (e, crate::BAD_INPUT))?;
+    problem
+        .refuse(crate::problem::capabilities::Use::Convergence, "femvi convergence")
+        .map_err(|e| (e, crate::BAD_INPUT))?;
     if problem.energy.is_some() {
         return Err((
             "convergence studies use fixed steps: set [time] mode = \"fixed\"".into(),

@@ -285,9 +285,9 @@ pub fn read_states(path: &Path, width: usize) -> Result<(Vec<f64>, usize), Strin
 pub fn command(path: &Path, args: &EnsembleArgs) -> Result<bool, (String, u8)> {
     let bad = |e: String| (e, crate::BAD_INPUT);
     let problem = crate::problem::load_with(path, &args.set).map_err(|e| bad(e.to_string()))?;
-    crate::adaptive::refuse(&problem, "femvi ensemble").map_err(|e| bad(format!("{}: {e}", path.display())))?;
-    crate::forced::refuse(&problem, "femvi ensemble").map_err(|e| bad(format!("{}: {e}", path.display())))?;
-    crate::constrained::refuse(&problem, "femvi ensemble").map_err(|e| bad(format!("{}: {e}", path.display())))?;
+    problem
+        .refuse(crate::problem::capabilities::Use::Ensemble, "femvi ensemble")
+        .map_err(|e| bad(format!("{}: {e}", path.display())))?;
     let n = problem.coordinates.len();
     let states = match &args.states {
         Some(f) => Some(read_states(f, 2 * n).map_err(bad)?),

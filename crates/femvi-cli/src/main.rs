@@ -228,19 +228,8 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
         Ok(p) => p,
         Err(code) => return code,
     };
-    match femvi_cli::forced::force_of(&problem) {
-        Ok(Some(f)) => {
-            if let Err(msg) = femvi_cli::adaptive::refuse(&problem, "femvi check") {
-                eprintln!("error: {}: {msg}", path.display());
-                return ExitCode::from(BAD_INPUT);
-            }
-            return forced_check(path, &problem, &f, json, out);
-        }
-        Ok(None) => {}
-        Err(msg) => {
-            eprintln!("error: {}: {msg}", path.display());
-            return ExitCode::from(BAD_INPUT);
-        }
+    if let Some(f) = &problem.terms.force {
+        return forced_check(path, &problem, f, json, out);
     }
     let report = match check::check(&problem) {
         Ok(r) => r,

@@ -8,6 +8,7 @@
 //! library's [`femvi::solution::solve_with`] instead, with the same outputs as observers and
 //! the located events written by [`crate::events`].
 
+use crate::problem::capabilities::Use;
 use crate::problem::Problem;
 use crate::record::{Checkpointing, Recorders};
 use crate::resume::{self, Policy};
@@ -59,6 +60,21 @@ pub struct RunControl {
     pub max_output: u64,
 }
 
+/// The run options that the problem's terms refuse (the table of
+/// [`crate::problem::capabilities`]), checked before anything is written.
+fn refuse(problem: &Problem, out: &RunOutput, resume: bool) -> Result<(), String> {
+    let asked = [
+        (!problem.events.is_empty(), Use::Events),
+        (resume, Use::Resume),
+        (out.plots, Use::Plots),
+        (out.npy, Use::Npy),
+    ];
+    asked
+        .iter()
+        .filter(|(on, _)| *on)
+        .try_for_each(|(_, what)| problem.refuse(*what, "femvi run"))
+}
+
 impl Default for RunControl {
     /// Checkpoints every 10 s, a fresh run, at most 10 GB of output.
     fn default() -> Self {
@@ -99,35 +115,23 @@ pub fn run_as(
         false => crate::estimate::check(problem, out, dir, control.max_output, 0),
         true => Ok(()),
     };
-    match crate::constrained::settings(problem) {
-        Ok(Some(c)) => {
-            if let Err(msg) = estimate(&out) {
-                return Ok(Outcome::Rejected(msg));
-            }
-            return crate::constrained::run(problem, &c, dir, out, control.resume, command);
+    if let Some(c) = &problem.terms.constraints {
+        if let Err(msg) = refuse(problem, &out, control.resume).and_then(|()| estimate(&out)) {
+            return Ok(Outcome::Rejected(msg));
         }
-        Ok(None) => {}
-        Err(msg) => return Ok(Outcome::Rejected(msg)),
+        return crate::constrained::run(problem, c, dir, command);
     }
-    match crate::adaptive::settings(problem) {
-        Ok(Some(a)) => return crate::adaptive::run(problem, &a, dir, out, command),
-        Ok(None) => {}
-        Err(msg) => return Ok(Outcome::Rejected(msg)),
+    if let Some(a) = &problem.terms.adaptive {
+        if let Err(msg) = refuse(problem, &out, control.resume) {
+            return Ok(Outcome::Rejected(msg));
+        }
+        return crate::adaptive::run(problem, a, dir, out, command);
     }
-    match crate::forced::force_of(problem) {
-        Ok(Some(_)) if control.resume => {
-            return Ok(Outcome::Rejected(
-                "--resume is not available for problems with [forces]".into(),
-            ))
+    if let Some(f) = &problem.terms.force {
+        if let Err(msg) = refuse(problem, &out, control.resume).and_then(|()| estimate(&out)) {
+            return Ok(Outcome::Rejected(msg));
         }
-        Ok(Some(f)) => {
-            if let Err(msg) = estimate(&out) {
-                return Ok(Outcome::Rejected(msg));
-            }
-            return crate::forced::run(problem, &f, dir, out, command);
-        }
-        Ok(None) => {}
-        Err(msg) => return Ok(Outcome::Rejected(msg)),
+        return crate::forced::run(problem, f, dir, out, command);
     }
     if problem.events.is_empty() {
         let args = RunArgs {

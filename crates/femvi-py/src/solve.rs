@@ -9,6 +9,7 @@ use crate::input_error;
 use crate::tables::{Added, Tables};
 use femvi::solution::{solve, DenseOutput, Solution, SolveOptions};
 use femvi::Lagrangian;
+use femvi_cli::problem::capabilities::Use;
 use femvi_cli::problem::{self, Problem};
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
@@ -42,9 +43,7 @@ pub struct Run {
 pub fn load(path: &Path) -> Result<Problem, String> {
     let problem = load_any(path)?;
     let named = |e: String| format!("{}: {e}", path.display());
-    femvi_cli::adaptive::refuse(&problem, "femvi.ensemble").map_err(named)?;
-    femvi_cli::forced::refuse(&problem, "femvi.ensemble").map_err(named)?;
-    femvi_cli::constrained::refuse(&problem, "femvi.ensemble").map_err(named)?;
+    problem.refuse(Use::Ensemble, "femvi.ensemble").map_err(named)?;
     Ok(problem)
 }
 
@@ -201,16 +200,17 @@ pub fn solve_file(
     let done = py.allow_threads(|| -> Result<Done, String> {
         let problem = load_any(&path)?;
         let named = |e: String| format!("{}: {e}", path.display());
-        let adaptive = femvi_cli::adaptive::settings(&problem).map_err(named)?;
-        let tables = Tables::of(&problem).map_err(named)?;
-        if let Some(tables) = tables {
-            if adaptive.is_some() || potential.is_some() {
-                return Err(named(
-                    "[forces] and [constraints] are not available in [time] mode = \"adaptive\" or with a Python potential".into(),
-                ));
-            }
+        let adaptive = problem.terms.adaptive.clone();
+        if potential.is_some() {
+            problem.refuse(Use::PythonPotential, "femvi.solve").map_err(named)?;
+        }
+        if let Some(tables) = Tables::of(&problem) {
             let (r, added) = tables.run(&problem, &path, &extras)?;
-            let labels = (problem.coordinates.clone(), problem.name.clone(), problem.scheme_label.clone());
+            let labels = (
+                problem.coordinates.clone(),
+                problem.name.clone(),
+                problem.scheme_label.clone(),
+            );
             return Ok((r, None, added, labels.0, labels.1, labels.2));
         }
         let (r, s) = match (potential, adaptive) {

@@ -5,14 +5,14 @@
 //! balance max |H − H0 − W| for forces; the multipliers (constraint force −Gᵀλ) and the
 //! residual max |g(q)| at the kept nodes for constraints. What these runs do not do yet
 //! (events, `saveat`, dense output, adaptive steps, a Python potential) is refused with a
-//! message rather than dropped.
+//! message rather than dropped, by the table of `femvi_cli::problem::capabilities`.
 
 use crate::solve::{Extras, Run};
 use femvi::constraints::{solve_constrained_forced, solve_constrained_with, ConstrainedSolution};
 use femvi::constraints::{Enforcement, ExprConstraints};
 use femvi::forces::solve_forced;
 use femvi::{Lagrangian, Solution};
-use femvi_cli::constrained::settings;
+use femvi_cli::problem::capabilities::Use;
 use femvi_cli::problem::forces::ProblemForce;
 use femvi_cli::problem::Problem;
 use std::path::Path;
@@ -34,14 +34,10 @@ pub struct Tables {
 }
 
 impl Tables {
-    /// The `[forces]` and `[constraints]` tables of `problem`; None if it has neither.
-    ///
-    /// # Errors
-    /// A table that does not compile (the command's message).
-    pub fn of(problem: &Problem) -> Result<Option<Self>, String> {
-        let force = femvi_cli::forced::force_of(problem)?;
-        let constraints = settings(problem)?;
-        Ok((force.is_some() || constraints.is_some()).then_some(Self { force, constraints }))
+    /// The `[forces]` and `[constraints]` terms of `problem`; None if it has neither.
+    pub fn of(problem: &Problem) -> Option<Self> {
+        let (force, constraints) = (problem.terms.force.clone(), problem.terms.constraints.clone());
+        (force.is_some() || constraints.is_some()).then_some(Self { force, constraints })
     }
 
     /// Runs `problem` under these tables with the Python side's `extras`.
@@ -51,17 +47,12 @@ impl Tables {
     // One arm of `with_system!` is a Copy type.
     #[allow(clippy::clone_on_copy)]
     pub fn run(&self, problem: &Problem, path: &Path, extras: &Extras) -> Result<(Run, Added), String> {
-        let refused = |what: &str| {
-            Err(format!(
-                "{}: {what} with [forces] or [constraints] (yet)",
-                path.display()
-            ))
-        };
+        let named = |e: String| format!("{}: {e}", path.display());
         if !problem.events.is_empty() || !extras.events.is_empty() {
-            return refused("events are not located");
+            problem.refuse(Use::Events, "femvi.solve").map_err(named)?;
         }
         if !extras.saveat.is_empty() || extras.dense {
-            return refused("saveat and dense output are not available");
+            problem.refuse(Use::SaveatOrDense, "femvi.solve").map_err(named)?;
         }
         let mut options = problem.solve_options(extras.every.unwrap_or(problem.every));
         options.max_steps = extras.max_steps;

@@ -13,7 +13,7 @@
 mod output;
 mod plots;
 
-use crate::problem::{Problem, ProblemFile, System};
+use crate::problem::{Problem, System};
 use crate::run::{empty_summary, finish, Outcome, RunOutput};
 use femvi::adaptive::{
     solve_adaptive, AdaptiveOptions, AdaptiveSolution, ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor,
@@ -22,50 +22,7 @@ use femvi::{Lagrangian, Scalar};
 use std::path::Path;
 use std::time::Instant;
 
-/// Adaptive mode's settings from `[time]`, checked.
-#[derive(Debug, Clone, PartialEq)]
-pub struct AdaptiveTime {
-    /// The step in fictitious time.
-    pub ds: f64,
-    /// "kepler", "nbody" or an expression in the coordinates; None: the model's default.
-    pub monitor: Option<String>,
-    /// Write rows at t0, t0 + output_step, … (physical times) instead of the nodes.
-    pub output_step: Option<f64>,
-}
-
-/// The adaptive settings of a loaded problem (its `[time]` table, re-read from the problem's
-/// text as run), or None for the other modes.
-///
-/// # Errors
-/// A message if the text does not parse (it did when the problem was loaded).
-pub fn settings(problem: &Problem) -> Result<Option<AdaptiveTime>, String> {
-    let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
-    let adaptive = match file.time {
-        Some(tt) => tt.adaptive_checked()?,
-        None => None,
-    };
-    if adaptive.is_some() && file.forces.is_some() {
-        // The adaptive integrator has no force terms: it would integrate the conservative part.
-        return Err("[forces] are not available with [time] mode = \"adaptive\" (yet): use mode = \"fixed\"".into());
-    }
-    Ok(adaptive)
-}
-
-/// Err for a problem in adaptive mode, which only `femvi run` (and the library's
-/// `femvi::adaptive`) integrate: `what` (another command or the Python package) would
-/// otherwise run the nominal grid of fixed steps.
-///
-/// # Errors
-/// The message to print (exit code 2).
-pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
-    match settings(problem)? {
-        Some(_) => Err(format!(
-            "{what} does not support [time] mode = \"adaptive\" (only `femvi run` and the library's \
-             femvi::adaptive do); use mode = \"fixed\""
-        )),
-        None => Ok(()),
-    }
-}
+pub use crate::problem::AdaptiveTime;
 
 /// The monitors a problem file can name.
 enum AnyMonitor {
@@ -112,13 +69,9 @@ fn monitor(problem: &Problem, name: Option<&str>) -> Result<AnyMonitor, String> 
     match (name, &problem.system) {
         (Some("kepler"), _) | (None, System::Kepler(_)) => Ok(AnyMonitor::Kepler(KeplerMonitor)),
         (Some("nbody"), _) | (None, System::Gravity(_)) => nbody(),
-        (Some(expr), _) => {
-            let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
-            let params: Vec<(String, f64)> = file.system.parameters.into_iter().collect();
-            ExprMonitor::new(expr, &problem.coordinates, &params)
-                .map(AnyMonitor::Expr)
-                .map_err(|e| format!("[time] monitor: {}", e.render()))
-        }
+        (Some(expr), _) => ExprMonitor::new(expr, &problem.coordinates, &problem.parameters)
+            .map(AnyMonitor::Expr)
+            .map_err(|e| format!("[time] monitor: {}", e.render())),
         (None, _) => Err(
             "[time] mode = \"adaptive\" needs `monitor` (\"kepler\", \"nbody\" or an expression in the coordinates)"
                 .to_string(),

@@ -10,8 +10,7 @@
 
 use crate::bvp::{guess_from_file, plots, BvpSummary};
 use crate::plot::Format;
-use crate::problem::forces::of_source;
-use crate::problem::{BvpProblem, ProblemFile};
+use crate::problem::BvpProblem;
 use femvi::bvp::{line_guess, node_times, BvpOptions};
 use femvi::constraints::{
     solve_constrained_bvp_with, solve_constrained_forced_bvp, ConstrainedBvpSolution, Enforcement, ExprConstraints,
@@ -20,24 +19,6 @@ use femvi::lagrangian::{hamiltonian, PointDerivatives};
 use femvi::Lagrangian;
 use std::path::Path;
 use std::time::Instant;
-
-/// The constraints of a loaded boundary value problem (re-read from its text as solved), or
-/// None.
-///
-/// # Errors
-/// A message if the table does not compile (it did when the problem was loaded).
-pub fn settings(problem: &BvpProblem) -> Result<Option<(ExprConstraints, Enforcement)>, String> {
-    let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
-    let Some(table) = file.constraints else {
-        return Ok(None);
-    };
-    let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
-    let src = crate::problem::source_of(&problem.source);
-    table
-        .resolve(&problem.coordinates, &params, &src)
-        .map(Some)
-        .map_err(|e| e.to_string())
-}
 
 /// Solves a constrained boundary value problem with output into `dir` (the module
 /// documentation), drawing the plots in format `plot` if given.
@@ -90,8 +71,7 @@ fn run_with<L: Lagrangian>(
         command_line: std::env::args().collect(),
         problem: problem.source.clone(),
     };
-    let force = of_source(&problem.source, &problem.coordinates).map_err(|e| (e, 2))?;
-    let solved = match &force {
+    let solved = match &problem.terms.force {
         Some(f) => solve_constrained_forced_bvp(lag, f, &constraints.0, el, bv, &guess, opts, constraints.1),
         None => solve_constrained_bvp_with(lag, &constraints.0, el, bv, &guess, opts, constraints.1),
     };

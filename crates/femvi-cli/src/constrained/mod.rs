@@ -9,14 +9,14 @@
 //! the energy balance as forced runs report it ([`crate::forced::report_work`]). `femvi check`
 //! measures symplecticity on the manifold (`check.rs`); `femvi bvp` solves constrained boundary
 //! value problems (`bvp.rs`). Commands and modes that cannot handle constraints refuse them
-//! ([`refuse`], exit code 2).
+//! through the table of [`crate::problem::capabilities`] (exit code 2).
 
 pub mod bvp;
 pub mod check;
 
 use crate::problem::forces::ProblemForce;
-use crate::problem::{Problem, ProblemFile};
-use crate::run::{finish, Outcome, RunOutput};
+use crate::problem::Problem;
+use crate::run::{finish, Outcome};
 use crate::summary::empty_summary;
 use femvi::constraints::{
     solve_constrained_forced, solve_constrained_with, ConstrainedSolution, Enforcement, ExprConstraints,
@@ -26,76 +26,15 @@ use femvi::Lagrangian;
 use std::path::Path;
 use std::time::Instant;
 
-/// The constraints of a loaded problem (re-read from its text as run), or None.
-///
-/// # Errors
-/// A message if the table does not compile (it did when the problem was loaded).
-pub fn settings(problem: &Problem) -> Result<Option<(ExprConstraints, Enforcement)>, String> {
-    let file: ProblemFile = toml::from_str(&problem.source).map_err(|e| e.to_string())?;
-    let Some(table) = file.constraints else {
-        return Ok(None);
-    };
-    let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
-    let src = crate::problem::source_of(&problem.source);
-    table
-        .resolve(&problem.coordinates, &params, &src)
-        .map(Some)
-        .map_err(|e| e.to_string())
-}
-
-/// Err for a constrained problem given to `what`, which does not handle constraints.
-///
-/// # Errors
-/// The message to print (exit code 2).
-pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
-    match settings(problem)? {
-        Some(_) => Err(format!(
-            "{what} does not support [constraints] (only `femvi run`, `femvi check`, `femvi chaos`, `femvi bvp`, Python's femvi.solve and femvi.bvp, and the library's femvi::constraints do)"
-        )),
-        None => Ok(()),
-    }
-}
-
-/// Why a constrained problem cannot run as given, if it cannot.
-fn unsupported(problem: &Problem, resume: bool) -> Option<String> {
-    if !problem.events.is_empty() {
-        return Some("[[events]] are not located with [constraints] (yet)".into());
-    }
-    if problem.energy.is_some() {
-        return Some("[time] mode = \"energy\" is not available with [constraints]".into());
-    }
-    if resume {
-        return Some("--resume is not available with [constraints]".into());
-    }
-    match crate::adaptive::settings(problem) {
-        Ok(Some(_)) => Some("[time] mode = \"adaptive\" is not available with [constraints]".into()),
-        Ok(None) => None,
-        Err(e) => Some(e),
-    }
-}
-
-/// Runs a constrained problem with output into `dir` (the module documentation).
+/// Runs a constrained problem with output into `dir` (the module documentation); the options
+/// its terms refuse were refused before ([`crate::problem::capabilities`]).
 pub fn run(
     problem: &Problem,
     constraints: &(ExprConstraints, Enforcement),
     dir: &Path,
-    out: RunOutput,
-    resume: bool,
     command: &[String],
 ) -> std::io::Result<Outcome> {
-    if let Some(msg) = unsupported(problem, resume) {
-        return Ok(Outcome::Rejected(msg));
-    }
-    if out.plots {
-        return Ok(Outcome::Rejected(
-            "plots are not drawn for [constraints] (yet); run without --plot".into(),
-        ));
-    }
-    let force = match crate::forced::force_of(problem) {
-        Ok(f) => f,
-        Err(msg) => return Ok(Outcome::Rejected(msg)),
-    };
-    crate::with_system!(&problem.system, l => run_with(l, problem, (constraints, force.as_ref()), dir, command))
+    crate::with_system!(&problem.system, l => run_with(l, problem, (constraints, problem.terms.force.as_ref()), dir, command))
 }
 
 /// The library's constrained solve of a loaded problem: what `femvi run` writes.

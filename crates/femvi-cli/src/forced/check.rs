@@ -46,8 +46,8 @@ const NOTE: &str = "the problem has non-conservative forces ([forces]): its flow
 /// # Errors
 /// The library's refusal of the problem's options (exit code 2).
 pub fn check(problem: &Problem, force: &ProblemForce) -> Result<ForcedCheck, (String, u8)> {
-    match crate::constrained::settings(problem).map_err(|e| (e, crate::BAD_INPUT))? {
-        Some(c) => crate::with_system!(&problem.system, l => check_constrained(l, problem, force, &c)),
+    match &problem.terms.constraints {
+        Some(c) => crate::with_system!(&problem.system, l => check_constrained(l, problem, force, c)),
         None => crate::with_system!(&problem.system, l => check_with(l, problem, force)),
     }
 }

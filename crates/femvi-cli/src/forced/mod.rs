@@ -9,15 +9,15 @@
 //! `discrete_energy` column Ẽ, summary.json the energy mode's step statistics and
 //! `max_rel_discrete_energy_balance_error`, the largest |Ẽ − Ẽ₀ − W| / |Ẽ₀| (round-off). `femvi bvp` solves them with
 //! [`femvi::forces::solve_forced_bvp`] ([`solve_bvp`]); `femvi check` reports the energy
-//! balance instead of symplecticity (`check.rs`). Commands that cannot handle forces refuse
-//! them ([`refuse`]).
+//! balance instead of symplecticity (`check.rs`). Commands and options that cannot handle
+//! forces refuse them through the table of [`crate::problem::capabilities`].
 
 mod check;
 pub mod models;
 
 pub use check::{check, print, ForcedCheck};
 
-use crate::problem::forces::{of_source, ProblemForce};
+use crate::problem::forces::ProblemForce;
 use crate::problem::Problem;
 use crate::run::{empty_summary, finish, Outcome, RunOutput};
 use crate::summary::Summary;
@@ -26,27 +26,6 @@ use femvi::forces::{solve_forced, EnergyBalance, ForcedSolution};
 use femvi::{Element, Lagrangian, Solution};
 use std::path::Path;
 use std::time::Instant;
-
-/// The force of a loaded problem, or None if it has no `[forces]` table.
-///
-/// # Errors
-/// A message if the problem's text does not check (it did when it was loaded).
-pub fn force_of(problem: &Problem) -> Result<Option<ProblemForce>, String> {
-    of_source(&problem.source, &problem.coordinates)
-}
-
-/// Err for a problem with `[forces]`, which `what` cannot handle.
-///
-/// # Errors
-/// The message to print (exit code 2).
-pub fn refuse(problem: &Problem, what: &str) -> Result<(), String> {
-    match force_of(problem)? {
-        Some(_) => Err(format!(
-            "{what} does not support [forces] (non-conservative forces); `femvi run`, `femvi check`, `femvi bvp`, `femvi chaos` and Python's femvi.solve do"
-        )),
-        None => Ok(()),
-    }
-}
 
 /// Integrates the loaded `problem` (its system as `lag`) under `force` with the problem's
 /// element, grid, solver options and `every`: what `femvi run` writes.
@@ -61,7 +40,7 @@ pub fn solve_problem<L: Lagrangian + Clone>(
     every: usize,
 ) -> Result<ForcedSolution, String> {
     if !problem.events.is_empty() {
-        return Err("[[events]] are not located with [forces] (yet)".into());
+        problem.refuse(crate::problem::capabilities::Use::Events, "femvi run")?;
     }
     let p = problem.library(lag.clone());
     let options = problem.solve_options(every);
@@ -88,11 +67,6 @@ fn run_with<L: Lagrangian + Clone>(
     command: &[String],
 ) -> std::io::Result<Outcome> {
     let clock = Instant::now();
-    if out.npy || out.plots {
-        return Ok(Outcome::Rejected(
-            "with [forces], `femvi run` writes trajectory.csv and summary.json only (no --format npy, no plots)".into(),
-        ));
-    }
     let sol = match solve_problem(lag, problem, force, problem.every) {
         Ok(s) => s,
         Err(msg) => return Ok(Outcome::Rejected(msg)),
@@ -166,27 +140,21 @@ fn write_csv(dir: &Path, problem: &Problem, sol: &ForcedSolution) -> std::io::Re
     w.flush()
 }
 
-/// The boundary value problem's solve, with the forces of `source` (the problem's text) if it
-/// has a `[forces]` table, else the conservative [`femvi::bvp::solve`].
+/// The boundary value problem's solve under `force` if it has one, else the conservative
+/// [`femvi::bvp::solve`].
 ///
 /// # Errors
-/// As the library's solvers; a `[forces]` table that does not check is an
-/// [`femvi::Error::Invalid`].
+/// As the library's solvers.
 pub fn solve_bvp<L: Lagrangian>(
     lag: &L,
-    source: &str,
-    coordinates: &[String],
+    force: Option<&ProblemForce>,
     element: &Element,
     bv: &BoundaryValues,
     guess: &[f64],
     options: BvpOptions,
 ) -> femvi::Result<BvpSolution> {
-    let force = of_source(source, coordinates).map_err(|reason| femvi::Error::Invalid {
-        what: "[forces]".into(),
-        reason,
-    })?;
     match force {
-        Some(f) => femvi::forces::solve_forced_bvp(lag, &f, element, bv, guess, options),
+        Some(f) => femvi::forces::solve_forced_bvp(lag, f, element, bv, guess, options),
         None => femvi::bvp::solve(lag, element, bv, guess, options),
     }
 }

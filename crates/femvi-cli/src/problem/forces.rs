@@ -1,12 +1,11 @@
 //! The `[forces]` table: non-conservative forces (issue 19), as one expression per coordinate
 //! (`generalized = ["-c*x_dot + f0*cos(w*t)", ...]`) and/or a Rayleigh dissipation function
 //! (`dissipation = "0.5*c*x_dot^2"`, F = −∂R/∂v), in t, the coordinates, their `_dot`
-//! velocities and the `[system]` parameters. Checked when the problem is loaded (errors point
-//! into the file); [`of_source`] rebuilds the force from a loaded problem's text for the
-//! commands that run it ([`crate::forced`]).
+//! velocities and the `[system]` parameters. Compiled once when the problem is loaded (errors
+//! point into the file) into [`super::Terms::force`], which the commands that run it use
+//! ([`crate::forced`]).
 
 use super::errors::{bad, InputError, Source};
-use super::ProblemFile;
 use femvi::expr::ExprError;
 use femvi::forces::{ExprForces, Force, Rayleigh, Sum};
 use femvi::Scalar;
@@ -115,20 +114,4 @@ fn located(src: &Source, expr: &toml::Spanned<String>, e: &ExprError) -> InputEr
     } else {
         src.error(format!("in [forces]: {}", e.render()))
     }
-}
-
-/// The force of a loaded problem, re-read from its text (`source`, as run), or None if it has
-/// no `[forces]` table.
-///
-/// # Errors
-/// A message if the text or the table does not check (it did when the problem was loaded).
-pub fn of_source(source: &str, coordinates: &[String]) -> Result<Option<ProblemForce>, String> {
-    let file: ProblemFile = toml::from_str(source).map_err(|e| e.to_string())?;
-    let Some(table) = file.forces else { return Ok(None) };
-    let params: Vec<(String, f64)> = file.system.parameters.into_iter().collect();
-    let src = Source {
-        path: std::path::Path::new("problem"),
-        text: source,
-    };
-    table.resolve(coordinates, &params, &src).map(Some).map_err(|e| e.0)
 }

@@ -12,6 +12,7 @@
 //! [`load_bvp_with`] and [`load_text`] (text in hand, as the Python package has it).
 
 mod boundary;
+pub mod capabilities;
 pub mod constraints;
 mod errors;
 pub mod events;
@@ -23,6 +24,7 @@ mod scheme;
 mod solver;
 mod symmetries;
 mod system;
+mod terms;
 mod time;
 
 pub use errors::{did_you_mean, InputError};
@@ -30,6 +32,8 @@ pub use events::EventSpec;
 pub use overrides::apply_overrides;
 pub use symmetries::{model_symmetries, Symmetry};
 pub use system::System;
+pub use terms::Terms;
+pub use time::AdaptiveTime;
 
 use errors::{bad, with_suggestion, Source};
 use femvi::{Element, SolverOptions, Start, TimeGrid};
@@ -64,9 +68,9 @@ pub struct ProblemFile {
     /// `[[events]]`: conditions whose zeros `femvi run` locates.
     #[serde(default)]
     pub events: Vec<events::EventTable>,
-    /// `[forces]`: non-conservative forces (run by [`crate::forced`]).
+    /// `[forces]`: non-conservative forces ([`Terms::force`]).
     pub forces: Option<forces::ForcesTable>,
-    /// `[constraints]`: holonomic constraints (`crate::constrained` runs such problems).
+    /// `[constraints]`: holonomic constraints ([`Terms::constraints`]).
     pub constraints: Option<constraints::ConstraintsTable>,
 }
 
@@ -108,6 +112,10 @@ pub struct Problem {
     pub steps: femvi::Steps,
     /// `[[events]]`, checked.
     pub events: Vec<EventSpec>,
+    /// The terms beside the Lagrangian (forces, constraints, adaptive time), compiled once.
+    pub terms: Terms,
+    /// The `[system]` parameters (name, value), for expressions compiled after loading.
+    pub parameters: Vec<(String, f64)>,
     /// The problem's TOML text as run (after `--set` overrides).
     pub source: String,
 }
@@ -153,6 +161,8 @@ pub struct BvpProblem {
     pub guess: Option<PathBuf>,
     /// `time_mode = "energy"`: the interior element end times are unknowns (a moving mesh).
     pub moving_mesh: bool,
+    /// The terms beside the Lagrangian (forces, constraints), compiled once.
+    pub terms: Terms,
     /// The problem's TOML text as solved (after `--set` overrides).
     pub source: String,
 }
@@ -277,6 +287,8 @@ struct Common {
     scheme_label: String,
     options: SolverOptions,
     directory: PathBuf,
+    terms: Terms,
+    parameters: Vec<(String, f64)>,
     source: String,
 }
 
@@ -297,20 +309,26 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
     });
     let system = file.system.resolve(src)?;
     let n = system.coordinates.len();
-    if let Some(c) = &file.constraints {
-        let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
-        c.resolve(&system.coordinates, &params, src)?;
-    }
+    let parameters: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
+    let constraints = match &file.constraints {
+        Some(c) => Some(c.resolve(&system.coordinates, &parameters, src)?),
+        None => None,
+    };
     let accuracy = file.time.as_ref().and_then(|t| t.accuracy);
     let (element, scheme_label) = file.scheme.element(accuracy, src)?;
     let options = file.solver.options(src)?;
     let every = file.output.every(src)?;
     let directory = file.output.directory(&name);
     let symmetries = symmetries::resolve(file.symmetries.as_ref(), n, system.model.as_ref(), src)?;
-    if let Some(f) = &file.forces {
-        let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
-        f.resolve(&system.coordinates, &params, src)?;
-    }
+    let force = match &file.forces {
+        Some(f) => Some(f.resolve(&system.coordinates, &parameters, src)?),
+        None => None,
+    };
+    let terms = Terms {
+        force,
+        constraints,
+        adaptive: None,
+    };
     let common = Common {
         name,
         system,
@@ -318,6 +336,8 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
         scheme_label,
         options,
         directory,
+        terms,
+        parameters,
         source: src.text.to_string(),
     };
     if want_bvp {
@@ -350,6 +370,7 @@ fn build_bvp(src: &Source, file: &ProblemFile, c: Common) -> Result<BvpProblem, 
         boundary: boundary.values,
         guess: boundary.guess,
         moving_mesh: boundary.moving_mesh,
+        terms: c.terms,
         source: c.source,
     })
 }
@@ -377,8 +398,12 @@ fn build_ivp(
         None => (grid, None),
     };
     let steps = tt.solve_steps(energy, auto_step.as_ref().map(|a| a.step));
-    let params: Vec<(String, f64)> = file.system.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect();
-    let events = events::resolve(&file.events, &c.system.coordinates, &params, src)?;
+    let events = events::resolve(&file.events, &c.system.coordinates, &c.parameters, src)?;
+    let terms = Terms {
+        adaptive: tt.adaptive(src)?,
+        ..c.terms
+    };
+    capabilities::check_terms(&terms, energy.is_some()).map_err(|e| src.error(e))?;
     Ok(Problem {
         name: c.name,
         coordinates: c.system.coordinates,
@@ -398,14 +423,8 @@ fn build_ivp(
         auto_step,
         steps,
         events,
+        terms,
+        parameters: c.parameters,
         source: c.source,
     })
-}
-
-/// A [`Source`] for messages about a problem's text as run (tables re-read after loading).
-pub(crate) fn source_of(text: &str) -> Source<'_> {
-    Source {
-        path: Path::new("problem"),
-        text,
-    }
 }

@@ -6,7 +6,6 @@
 
 use super::errors::{InputError, Source};
 use super::system::System;
-use crate::adaptive::AdaptiveTime;
 use femvi::step::auto::StepChoice;
 use femvi::{Element, SolverOptions, Start, TimeGrid};
 use serde::Deserialize;
@@ -34,6 +33,17 @@ pub enum OnDegenerate {
     Error,
     /// Take that step with the previous step size as a parameter, and count it.
     Fixed,
+}
+
+/// Adaptive mode's settings from `[time]`, checked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveTime {
+    /// The step in fictitious time.
+    pub ds: f64,
+    /// "kepler", "nbody" or an expression in the coordinates; None: the model's default.
+    pub monitor: Option<String>,
+    /// Write rows at t0, t0 + output_step, … (physical times) instead of the nodes.
+    pub output_step: Option<f64>,
 }
 
 /// `[time]` as written.

@@ -232,7 +232,7 @@ fn input_errors_and_failures() {
         &DAMPED.replace("FORCES", "generalized = [\"-c*x_dot\"]"),
     );
     assert_eq!(code, 2);
-    assert!(err.contains("no plots"), "{err}");
+    assert!(err.contains("plots are not available with [forces]"), "{err}");
 }
 
 /// `[forces]` with `[time] mode = "adaptive"`: the adaptive integrator has no force terms, so

@@ -6,6 +6,7 @@
 //! A new test file goes in this directory with its `mod` line below.
 
 mod adaptive;
+mod capabilities;
 mod chaos;
 mod chaos_forced_constrained;
 mod chunked_runs;

@@ -1,0 +1,249 @@
+//! Which uses each term of a problem goes through (issue 33, item 4): one table, [`REFUSED`],
+//! of the pairs (term, use) that stay refused, each with its reason. Every command, run
+//! option and the Python package ask it through [`check`] (or [`Problem::refuse`]); the
+//! combinations that no command can run (a term with another term, or with a time mode) are
+//! refused when the problem is loaded ([`check_terms`]). A pair that is not in the table works.
+//!
+//! The reasons say which are mathematical (a step whose equations are not derived for the
+//! pair) and which are the remaining seams of issue 33 (forced and constrained runs are solved
+//! to the end by the library's own run functions, outside the streaming run of `femvi run`).
+
+use super::terms::Terms;
+use super::Problem;
+
+/// A term of a problem beside its Lagrangian.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Term {
+    /// `[forces]`.
+    Forces,
+    /// `[constraints]`.
+    Constraints,
+    /// `[time] mode = "adaptive"`.
+    Adaptive,
+}
+
+impl Term {
+    /// How messages name the term.
+    pub fn label(self) -> &'static str {
+        match self {
+            Term::Forces => "[forces]",
+            Term::Constraints => "[constraints]",
+            Term::Adaptive => "[time] mode = \"adaptive\"",
+        }
+    }
+}
+
+/// What a user asks of a problem: a command, a run option, or another term with it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Use {
+    /// `femvi convergence`.
+    Convergence,
+    /// `femvi ensemble` and Python's `femvi.ensemble`.
+    Ensemble,
+    /// `femvi chaos`.
+    Chaos,
+    /// `femvi chaos` in `[time] mode = "energy"`.
+    ChaosInEnergyMode,
+    /// `femvi check`.
+    Check,
+    /// `[[events]]` located during a run (the command or Python's `events=`).
+    Events,
+    /// `femvi run --resume`.
+    Resume,
+    /// Plots (`--plot`, `[output] plots = true`).
+    Plots,
+    /// trajectory.npy (`--format npy`).
+    Npy,
+    /// Python's `saveat=` and `dense=True`.
+    SaveatOrDense,
+    /// `[time] mode = "energy"` (time steps as variables).
+    EnergyMode,
+    /// A Python potential (`femvi.solve(..., potential=...)`).
+    PythonPotential,
+    /// Another term in the same problem.
+    With(Term),
+}
+
+impl Use {
+    /// The subject of a refusal of an option ("… is not available with …"); None for a
+    /// command, which the caller names.
+    fn subject(self) -> Option<&'static str> {
+        Some(match self {
+            Use::Convergence | Use::Ensemble | Use::Chaos | Use::Check => return None,
+            Use::ChaosInEnergyMode => "`femvi chaos` in [time] mode = \"energy\" is",
+            Use::Events => "[[events]] are",
+            Use::Resume => "--resume is",
+            Use::Plots => "plots are",
+            Use::Npy => "trajectory.npy (--format npy) is",
+            Use::SaveatOrDense => "saveat and dense output are",
+            Use::EnergyMode => "[time] mode = \"energy\" is",
+            Use::PythonPotential => "a Python potential is",
+            Use::With(t) => match t {
+                Term::Forces => "[forces] are",
+                Term::Constraints => "[constraints] are",
+                Term::Adaptive => "[time] mode = \"adaptive\" is",
+            },
+        })
+    }
+}
+
+/// The reason shared by the uses that forced and constrained runs do not reach yet.
+const SOLVED_TO_THE_END: &str = "these runs are solved to the end by the library's run of the term \
+     (femvi::forces::solve_forced, femvi::constraints::solve_constrained_with), not by the streaming \
+     run the option is an observer of (issue 33)";
+
+/// What the plain integrator's commands do not take yet.
+const PLAIN_INTEGRATOR_ONLY: &str = "the command drives the integrator of the Lagrangian alone, \
+     which has no step with this term yet (issue 33)";
+
+/// The pairs (term present, use) that are refused, with the reason.
+pub const REFUSED: &[(Term, Use, &str)] = &[
+    (
+        Term::Adaptive,
+        Use::With(Term::Forces),
+        "the time transformation of femvi::adaptive is derived for a conservative system (its \
+         extended Hamiltonian is constant); with forces that is no longer so and the transformed \
+         step is not derived; use mode = \"fixed\"",
+    ),
+    (
+        Term::Adaptive,
+        Use::With(Term::Constraints),
+        "the time-transformed step with multipliers is not derived; use mode = \"fixed\"",
+    ),
+    (
+        Term::Constraints,
+        Use::EnergyMode,
+        "the energy equation that sets each step is not derived for the augmented action with \
+         multipliers; use mode = \"fixed\"",
+    ),
+    (
+        Term::Adaptive,
+        Use::Convergence,
+        "the study refines fixed steps h, and adaptive steps follow the monitor; use mode = \"fixed\"",
+    ),
+    (Term::Forces, Use::Convergence, PLAIN_INTEGRATOR_ONLY),
+    (Term::Constraints, Use::Convergence, PLAIN_INTEGRATOR_ONLY),
+    (
+        Term::Adaptive,
+        Use::Ensemble,
+        "the ensemble runs fixed steps; use mode = \"fixed\"",
+    ),
+    (Term::Forces, Use::Ensemble, PLAIN_INTEGRATOR_ONLY),
+    (Term::Constraints, Use::Ensemble, PLAIN_INTEGRATOR_ONLY),
+    (
+        Term::Adaptive,
+        Use::Chaos,
+        "the tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
+    ),
+    (
+        Term::Forces,
+        Use::ChaosInEnergyMode,
+        "the tangent map of the forced energy equation is not derived; use mode = \"fixed\"",
+    ),
+    (
+        Term::Constraints,
+        Use::ChaosInEnergyMode,
+        "constraints take fixed steps; use mode = \"fixed\"",
+    ),
+    (
+        Term::Adaptive,
+        Use::Check,
+        "the symplecticity check's tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
+    ),
+    (Term::Forces, Use::Events, SOLVED_TO_THE_END),
+    (Term::Constraints, Use::Events, SOLVED_TO_THE_END),
+    (
+        Term::Adaptive,
+        Use::Resume,
+        "adaptive runs write no checkpoints yet: their run is femvi::adaptive::solve_adaptive to the end (issue 33)",
+    ),
+    (Term::Forces, Use::Resume, SOLVED_TO_THE_END),
+    (Term::Constraints, Use::Resume, SOLVED_TO_THE_END),
+    (Term::Forces, Use::Plots, SOLVED_TO_THE_END),
+    (Term::Constraints, Use::Plots, SOLVED_TO_THE_END),
+    (Term::Forces, Use::Npy, SOLVED_TO_THE_END),
+    (Term::Constraints, Use::Npy, SOLVED_TO_THE_END),
+    (Term::Forces, Use::SaveatOrDense, SOLVED_TO_THE_END),
+    (Term::Constraints, Use::SaveatOrDense, SOLVED_TO_THE_END),
+    (
+        Term::Forces,
+        Use::PythonPotential,
+        "a Python potential replaces the problem file's system, and its runs take no terms",
+    ),
+    (
+        Term::Constraints,
+        Use::PythonPotential,
+        "a Python potential replaces the problem file's system, and its runs take no terms",
+    ),
+    (
+        Term::Adaptive,
+        Use::PythonPotential,
+        "a Python potential replaces the problem file's system, and its runs take no terms",
+    ),
+];
+
+/// The terms of `terms` that are present.
+fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
+    [
+        (Term::Forces, terms.force.is_some()),
+        (Term::Constraints, terms.constraints.is_some()),
+        (Term::Adaptive, terms.adaptive.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(t, on)| on.then_some(t))
+}
+
+/// Err if `terms` refuse `what` (named `name` in the message when it is a command).
+///
+/// # Errors
+/// The refusal, with its reason: "`name` does not support [forces] (reason)" for a command,
+/// "plots are not available with [forces]: reason" for an option.
+///
+/// # Example
+///
+/// ```
+/// use femvi_cli::problem::capabilities::{check, Use};
+/// let text = "[system]\nmodel = \"pendulum\"\n[initial]\nq = [1.0]\np = [0.0]\n\
+///             [time]\nstep = 0.1\nend = 1.0\n[forces]\ngeneralized = [\"-0.1*theta_dot\"]\n";
+/// let problem = femvi_cli::problem::load_text(std::path::Path::new("damped.toml"), text, &[])?;
+/// assert!(check(&problem.terms, Use::Check, "femvi check").is_ok());
+/// let refused = check(&problem.terms, Use::Ensemble, "femvi ensemble").unwrap_err();
+/// assert!(refused.starts_with("femvi ensemble does not support [forces]"));
+/// # Ok::<(), femvi_cli::problem::InputError>(())
+/// ```
+pub fn check(terms: &Terms, what: Use, name: &str) -> Result<(), String> {
+    for term in present(terms) {
+        if let Some((_, _, why)) = REFUSED.iter().find(|(t, u, _)| *t == term && *u == what) {
+            return Err(match what.subject() {
+                Some(subject) => format!("{subject} not available with {}: {why}", term.label()),
+                None => format!("{name} does not support {} ({why})", term.label()),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Err for the combinations that no command runs: a term with another, or
+/// `[time] mode = "energy"` (`energy_mode`) with a term that has no energy equation.
+///
+/// # Errors
+/// The refusal with its reason.
+pub fn check_terms(terms: &Terms, energy_mode: bool) -> Result<(), String> {
+    for other in present(terms) {
+        check(terms, Use::With(other), "")?;
+    }
+    if energy_mode {
+        check(terms, Use::EnergyMode, "")?;
+    }
+    Ok(())
+}
+
+impl Problem {
+    /// [`check`] on this problem's terms.
+    ///
+    /// # Errors
+    /// The refusal with its reason.
+    pub fn refuse(&self, what: Use, name: &str) -> Result<(), String> {
+        check(&self.terms, what, name)
+    }
+}

@@ -1,0 +1,219 @@
+//! The composition matrix (issue 33): every kind of problem (plain, forced, constrained,
+//! forced + constrained, adaptive) × every command and run option, through the binary. A
+//! cell either works (exit 0) or is refused with exit code 2 and the message of the one
+//! capability table (`femvi_cli::problem::capabilities`), and which of the two is decided by
+//! the table, not by each command: a command that ignored an option the table refuses (as
+//! `--format npy` on a constrained run and `--resume` on an adaptive run once were, silently)
+//! or refused one the table allows fails here. The matrix is printed (`--nocapture`).
+
+use assert_cmd::Command;
+use femvi_cli::problem::capabilities::{check, Use};
+use femvi_cli::problem::{load_with, Problem};
+use std::path::{Path, PathBuf};
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples").join(name)
+}
+
+/// (label, example file, overrides that keep the run short).
+const KINDS: [(&str, &str, &[&str]); 5] = [
+    ("plain", "pendulum.toml", &["time.end=1.0"]),
+    ("forced", "forces/damped-oscillator.toml", &["time.end=1.0"]),
+    ("constrained", "constrained/spherical-pendulum.toml", &["time.end=0.5"]),
+    (
+        "forced+constrained",
+        "constrained/damped-spherical-pendulum.toml",
+        &["time.end=0.5"],
+    ),
+    ("adaptive", "kepler-eccentric.toml", &["time.end=1.0"]),
+];
+
+/// An `[[events]]` table in the first coordinate, appended to a problem's text.
+fn with_event(text: &str, problem: &Problem) -> String {
+    let x = &problem.coordinates[0];
+    format!("{text}\n[[events]]\nname = \"cross\"\nwhen = \"{x}\"\nstop = false\n")
+}
+
+/// The initial state as one row of `femvi ensemble --states` (q then p or v) and whether it
+/// holds velocities.
+fn state_row(problem: &Problem) -> (String, bool) {
+    let (q, second, velocity) = match &problem.start {
+        femvi::Start::Velocity { q, v } => (q, v, true),
+        femvi::Start::Momentum { q, p } => (q, p, false),
+        femvi::Start::Positions { .. } => unreachable!("the examples start from (q, v) or (q, p)"),
+    };
+    let row: Vec<String> = q.iter().chain(second).map(|x| format!("{x:?}")).collect();
+    (row.join(",") + "\n", velocity)
+}
+
+struct Cell {
+    what: &'static str,
+    asked: Use,
+    args: Vec<String>,
+    /// The problem text to run (an event appended for the events column).
+    text: String,
+    /// Exit 0 is not required when allowed (resuming a finished run has nothing to resume).
+    must_succeed: bool,
+}
+
+fn cells(text: &str, problem: &Problem, dir: &Path) -> Vec<Cell> {
+    let out = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let (row, velocity) = state_row(problem);
+    let states = dir.join("states.csv");
+    std::fs::write(&states, row).unwrap();
+    let mut ensemble = vec!["ensemble".into(), "--quiet".into(), "--states".into()];
+    ensemble.push(states.to_string_lossy().into_owned());
+    if velocity {
+        ensemble.push("--velocity".into());
+    }
+    ensemble.extend(["--out".into(), out("ensemble")]);
+    let strings = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let cell = |what, asked, args: Vec<String>| Cell {
+        what,
+        asked,
+        args,
+        text: text.to_string(),
+        must_succeed: true,
+    };
+    vec![
+        cell(
+            "npy",
+            Use::Npy,
+            strings(&["run", "--quiet", "--format", "csv,npy", "--out", &out("npy")]),
+        ),
+        cell(
+            "plots",
+            Use::Plots,
+            strings(&["run", "--quiet", "--plot", "--out", &out("plots")]),
+        ),
+        Cell {
+            text: with_event(text, problem),
+            ..cell(
+                "events",
+                Use::Events,
+                strings(&["run", "--quiet", "--out", &out("events")]),
+            )
+        },
+        Cell {
+            must_succeed: false,
+            ..cell(
+                "resume",
+                Use::Resume,
+                strings(&["run", "--quiet", "--resume", &out("run")]),
+            )
+        },
+        cell("check", Use::Check, strings(&["check", "--out", &out("check")])),
+        cell(
+            "convergence",
+            Use::Convergence,
+            strings(&["convergence", "--steps", "0.1,0.05"]),
+        ),
+        cell("ensemble", Use::Ensemble, ensemble),
+        cell("chaos", Use::Chaos, strings(&["chaos", "--out", &out("chaos")])),
+    ]
+}
+
+#[test]
+fn every_cell_works_or_is_refused_by_the_capability_table() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut matrix = vec![];
+    for (kind, file, sets) in KINDS {
+        let dir = tmp.path().join(kind.replace('+', "-"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("problem.toml");
+        let original = std::fs::read_to_string(example(file)).unwrap();
+        let overrides: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        let text = femvi_cli::problem::apply_overrides(&original, &overrides).unwrap();
+        std::fs::write(&path, &text).unwrap();
+        let problem = load_with(&path, &[]).unwrap();
+        // The plain run of every kind works: the output directory the resume cell names.
+        let first = Command::cargo_bin("femvi")
+            .unwrap()
+            .args(["run", "--quiet", "--out"])
+            .arg(dir.join("run"))
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(
+            first.status.success(),
+            "{kind}: run: {}",
+            String::from_utf8_lossy(&first.stderr)
+        );
+        let mut row = vec![(kind.to_string(), "run".to_string())];
+        for c in cells(&text, &problem, &dir) {
+            let file = dir.join(format!("{}.toml", c.what));
+            std::fs::write(&file, &c.text).unwrap();
+            let shown = load_with(&file, &[]).unwrap();
+            let out = Command::cargo_bin("femvi")
+                .unwrap()
+                .args(&c.args)
+                .arg(&file)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            let code = out.status.code();
+            let name = format!("femvi {}", c.args[0]);
+            match check(&shown.terms, c.asked, &name) {
+                Err(refusal) => {
+                    assert_eq!(code, Some(2), "{kind} × {}: the table refuses it: {err}", c.what);
+                    assert!(
+                        err.contains(&refusal),
+                        "{kind} × {}: {err}\nexpected: {refusal}",
+                        c.what
+                    );
+                    row.push((c.what.to_string(), "refused".into()));
+                }
+                Ok(()) => {
+                    if c.must_succeed {
+                        assert_eq!(code, Some(0), "{kind} × {}: the table allows it: {err}", c.what);
+                    } else {
+                        assert!(!err.contains("not available with"), "{kind} × {}: {err}", c.what);
+                    }
+                    row.push((c.what.to_string(), "works".into()));
+                }
+            }
+        }
+        matrix.push(row);
+    }
+    for row in &matrix {
+        let cells: Vec<String> = row.iter().skip(1).map(|(what, how)| format!("{what} {how}")).collect();
+        eprintln!("{:>20}: {}", row[0].0, cells.join(", "));
+    }
+}
+
+/// The combinations no command runs are refused when the problem is loaded, by every command,
+/// with the table's reason.
+#[test]
+fn term_combinations_are_refused_at_load() {
+    let forced = std::fs::read_to_string(example("forces/damped-oscillator.toml")).unwrap();
+    let adaptive = forced.replace("step = 0.05", "mode = \"adaptive\"\nmonitor = \"1 + x^2\"\nds = 0.05");
+    let constrained = std::fs::read_to_string(example("constrained/spherical-pendulum.toml")).unwrap();
+    let energy = constrained.replace("[time]", "[time]\nmode = \"energy\"");
+    let cases = [
+        (adaptive, "[forces] are not available with [time] mode = \"adaptive\""),
+        (energy, "[time] mode = \"energy\" is not available with [constraints]"),
+    ];
+    let tmp = tempfile::tempdir().unwrap();
+    for (text, needle) in &cases {
+        let path = tmp.path().join("p.toml");
+        std::fs::write(&path, text).unwrap();
+        let loaded = load_with(&path, &[]);
+        let Err(e) = loaded else { panic!("{needle}: loaded") };
+        assert!(e.to_string().contains(needle), "{e}");
+        for cmd in [
+            &["run", "--quiet"][..],
+            &["check"],
+            &["chaos"],
+            &["convergence", "--steps", "0.1"],
+        ] {
+            let out = Command::cargo_bin("femvi")
+                .unwrap()
+                .args(cmd)
+                .arg(&path)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(out.status.code() == Some(2) && err.contains(needle), "{cmd:?}: {err}");
+        }
+    }
+}
