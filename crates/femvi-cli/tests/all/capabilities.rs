@@ -106,7 +106,7 @@ fn cells(text: &str, problem: &Problem, dir: &Path) -> Vec<Cell> {
         cell(
             "convergence",
             Use::Convergence,
-            strings(&["convergence", "--steps", "0.1,0.05"]),
+            strings(&["convergence", "--steps", "0.1,0.05", "--out", &out("convergence")]),
         ),
         cell("ensemble", Use::Ensemble, ensemble),
         cell("chaos", Use::Chaos, strings(&["chaos", "--out", &out("chaos")])),
@@ -200,12 +200,15 @@ fn term_combinations_are_refused_at_load() {
         let loaded = load_with(&path, &[]);
         let Err(e) = loaded else { panic!("{needle}: loaded") };
         assert!(e.to_string().contains(needle), "{e}");
-        for cmd in [
-            &["run", "--quiet"][..],
-            &["check"],
-            &["chaos"],
-            &["convergence", "--steps", "0.1"],
-        ] {
+        let out = tmp.path().join("out");
+        let out = out.to_str().unwrap();
+        let commands = [
+            &["run", "--quiet", "--out", out][..],
+            &["check", "--out", out],
+            &["chaos", "--out", out],
+            &["convergence", "--steps", "0.1", "--out", out],
+        ];
+        for cmd in commands {
             let out = Command::cargo_bin("femvi")
                 .unwrap()
                 .args(cmd)
