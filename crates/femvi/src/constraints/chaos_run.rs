@@ -59,7 +59,7 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
             element,
             grid: start.grid,
             max_steps: options.max_steps,
-            stepper: Stepper::new(element, start.layout, n, m, options.solver),
+            stepper: Stepper::new(element, start.layout, (n, m), options.solver, lag, false)?,
             q: start.q,
             p: start.p,
             v: start.v,

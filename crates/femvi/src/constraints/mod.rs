@@ -43,7 +43,10 @@
 //! constraints only restrict the interior unknowns over which L_d is made stationary), so it
 //! is symplectic on T*N ([`manifold_symplecticity`] measures it). Each step is solved by dense
 //! Newton on (Q^1 … Q^s, λ̂, Λ̂) with exact Jacobians (the element's Hessian, and the constraint
-//! derivatives by hyper-dual numbers, `jet.rs`), [`crate::solve::newton_dense`].
+//! derivatives by hyper-dual numbers, `jet.rs`), [`crate::solve::newton_dense`]; in the RATTLE
+//! case above without forces, unless the method is a Newton one (`Method::Auto`,
+//! `Method::Explicit` and `Method::FixedPoint`; the last two are refused elsewhere), by Newton
+//! on the m multipliers λ̂ alone and a linear projection (`rattle.rs`).
 //!
 //! Which interior enforcement keeps the nodal order 2s was measured on the spherical pendulum
 //! (README, "Holonomic constraints"): [`Enforcement::Weak`] is the default.
@@ -51,7 +54,8 @@
 //! Files: `expr.rs` (constraints from expressions), `jet.rs` (g, G, ∇²g by AD), `layout.rs`
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `start.rs` (the checked start of a run),
-//! `solve.rs` (the run), `stepper.rs` (one step), `forced.rs` (runs under non-conservative
+//! `solve.rs` (the run), `stepper.rs` (one step), `rattle.rs` (the RATTLE step on the
+//! multipliers), `forced.rs` (runs under non-conservative
 //! forces, [`solve_constrained_forced`]: the discrete Lagrange–d'Alembert principle on the
 //! augmented action, with the energy balance),
 //! `tangent.rs` (the step's tangent map, symplecticity on the manifold), `chart.rs`
@@ -72,6 +76,7 @@ mod forced;
 mod jet;
 mod layout;
 mod project;
+mod rattle;
 mod solve;
 mod start;
 mod step;

@@ -5,7 +5,7 @@
 
 use super::forced::Balance;
 use super::jet::ConstraintJet;
-use super::layout::{Enforcement, Layout};
+use super::layout::Enforcement;
 use super::project::state_multiplier;
 use super::start::begin;
 use super::stepper::Stepper;
@@ -138,7 +138,8 @@ pub(super) fn run_forced<L: Lagrangian, C: Constraints>(
     let lag = &problem.lagrangian;
     let (n, m) = (lag.dim(), constraints.count());
     let start = begin(problem, constraints, element, options, enforcement)?;
-    let mut run = Run::new(element, start.layout, n, m, enforcement, options);
+    let stepper = Stepper::new(element, start.layout, (n, m), options.solver, lag, forcing.is_some())?;
+    let mut run = Run::new(stepper, n, m, enforcement, options);
     run.defect = tangent.then_some(0.0);
     run.forcing = forcing;
     run.out.start_projection = start.projection;
@@ -166,17 +167,10 @@ struct Run<'r, 'f> {
 }
 
 impl Run<'_, '_> {
-    fn new(
-        element: &Element,
-        layout: Layout,
-        n: usize,
-        m: usize,
-        enforcement: Enforcement,
-        options: &SolveOptions,
-    ) -> Self {
+    fn new(stepper: Stepper, n: usize, m: usize, enforcement: Enforcement, options: &SolveOptions) -> Self {
         let solution = Solution::empty(n);
         Self {
-            stepper: Stepper::new(element, layout, n, m, options.solver),
+            stepper,
             kept_jet: ConstraintJet::new(m, n),
             every: options.every,
             max_steps: options.max_steps,

@@ -1,10 +1,13 @@
 //! One constrained step at a time: the Newton solve of the step equations (`step.rs`), the new
-//! node q_{k+1} by compensated summation and its momentum projected onto T*N (`project.rs`).
+//! node q_{k+1} by compensated summation and its momentum projected onto T*N (`project.rs`);
+//! or, where [`super::rattle::choose`] picks them, RATTLE steps solved on the multipliers
+//! (`rattle.rs`), committed the same way.
 //! The run of `solve.rs` and the chaos run on the manifold ([`crate::chaos`]) take their
 //! steps here, so both follow the same nodes.
 
 use super::layout::Layout;
 use super::project::Projector;
+use super::rattle::{conditioning, RattleStep};
 use super::solve::RANK_TOLERANCE;
 use super::start::{singular, step_error};
 use super::step::StepSystem;
@@ -12,10 +15,10 @@ use super::tangent::{step_map, StepEnds};
 use super::Constraints;
 use crate::bvp::ElementTerm;
 use crate::discrete::Element;
-use crate::error::{Error, StepFailure};
+use crate::error::{invalid, Error, StepFailure};
 use crate::lagrangian::Lagrangian;
 use crate::solve::{newton_dense, DenseNewtonWork};
-use crate::step::SolverOptions;
+use crate::step::{Method, SolverOptions};
 use nalgebra::DMatrix;
 
 /// The scratch of the constrained step and the node before the last step.
@@ -35,13 +38,32 @@ pub(crate) struct Stepper {
     pub mu: Vec<f64>,
     /// Newton iterations of the last step.
     pub iterations: usize,
+    /// The RATTLE step, if the run takes it ([`super::rattle::choose`]).
+    rattle: Option<RattleStep>,
+    /// Whether the method asked for explicit steps (an error under forces, which need Newton).
+    insist: bool,
+    /// m n scratch of the end node's conditioning.
+    scratch: Vec<f64>,
 }
 
 impl Stepper {
-    pub fn new(element: &Element, layout: Layout, n: usize, m: usize, solver: SolverOptions) -> Self {
+    /// The stepper of a run of `lag` (n coordinates, m constraints); `forced` if its steps
+    /// carry discrete forces.
+    ///
+    /// # Errors
+    /// A method that does not fit ([`super::rattle::choose`]).
+    pub fn new<L: Lagrangian>(
+        element: &Element,
+        layout: Layout,
+        (n, m): (usize, usize),
+        solver: SolverOptions,
+        lag: &L,
+        forced: bool,
+    ) -> Result<Self, Error> {
+        let fast = super::rattle::choose(solver.method, lag, element, &layout, forced)?;
         let sys = StepSystem::new(element, layout, n, m);
         let newton = DenseNewtonWork::new(sys.unknowns());
-        Self {
+        Ok(Self {
             x: vec![0.0; sys.unknowns()],
             sys,
             projector: Projector::new(n, m),
@@ -53,7 +75,10 @@ impl Stepper {
             p_prev: vec![0.0; n],
             mu: vec![0.0; m],
             iterations: 0,
-        }
+            rattle: fast.then(|| RattleStep::new(n, m)),
+            insist: matches!(solver.method, Method::Explicit | Method::FixedPoint),
+            scratch: vec![0.0; m * n],
+        })
     }
 
     /// Step k from (t, q, p, v) to t1 = t + h: on success (q, p, v) hold node k + 1 and the
@@ -63,7 +88,8 @@ impl Stepper {
     ///
     /// # Errors
     /// A failed Newton solve or projection ([`Error::Step`]), a singular constraint Jacobian
-    /// ([`Error::SingularConstraints`]); (q, p, v) are then those of node k.
+    /// ([`Error::SingularConstraints`]); (q, p, v) are then those of node k. Forces under a
+    /// method that asked for explicit steps ([`Error::Invalid`]).
     #[allow(clippy::too_many_arguments)]
     pub fn step<L: Lagrangian, C: Constraints>(
         &mut self,
@@ -76,6 +102,16 @@ impl Stepper {
         v: &mut [f64],
         term: Option<&dyn ElementTerm>,
     ) -> Result<(), Error> {
+        if term.is_none() && self.rattle.is_some() {
+            return self.rattle_step(lag, con, element, (k, t, h, t1), q, p, v);
+        }
+        if term.is_some() && self.insist {
+            return Err(invalid(
+                "solver method",
+                "a constrained run takes explicit (RATTLE) steps only with no non-conservative forces; \
+                 use the newton method (or auto) for this problem",
+            ));
+        }
         let (n, s) = (q.len(), element.degree());
         let x = &mut self.x;
         // Guess: straight line with the node velocity; multipliers from the last step.
@@ -147,6 +183,68 @@ impl Stepper {
         Ok(())
     }
 
+    /// The RATTLE step of [`Stepper::step`] (`rattle.rs`): the same unknowns (Δq and h·λ̂ in
+    /// `x`, λ̂ in `sys.mult`), the same commit of q_{k+1} and the same jets (`sys.start` at
+    /// q_k, without second derivatives; `sys.end` at q_{k+1}), μ̂ from the linear projection.
+    #[allow(clippy::too_many_arguments)]
+    fn rattle_step<L: Lagrangian, C: Constraints>(
+        &mut self,
+        lag: &L,
+        con: &C,
+        element: &Element,
+        (k, t, h, t1): (usize, f64, f64, f64),
+        q: &mut Vec<f64>,
+        p: &mut Vec<f64>,
+        v: &mut [f64],
+    ) -> Result<(), Error> {
+        let (Some(rattle), Some(mass)) = (self.rattle.as_mut(), lag.mass_matrix()) else {
+            return Err(invalid("solver method", "RATTLE steps need a mechanical Lagrangian"));
+        };
+        let (n, m) = (q.len(), self.mu.len());
+        self.sys.start.eval(con, q, false);
+        let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
+        let (dq, u) = self.x.split_at_mut(n);
+        let solved = rattle.solve(
+            (lag, mass, con),
+            (&self.sys.start, &mut self.sys.end),
+            (t, h),
+            (q, p, &self.comp),
+            (dq, &mut u[..m]),
+            (self.tol, self.max_iterations, scale),
+        );
+        self.iterations = solved.map_err(|f| {
+            if f.failure == StepFailure::Singular && self.sys.start.conditioning() <= RANK_TOLERANCE {
+                singular(k, t, &self.sys.start)
+            } else {
+                step_error(k, t, f)
+            }
+        })?;
+        let lambda = &mut self.sys.mult[..m];
+        for (l, &ul) in lambda.iter_mut().zip(&u[..m]) {
+            *l = ul / h;
+        }
+        rattle.momentum(lag, element, &self.sys.start, (t, h), &self.sys.mult[..m]);
+        let (q1, p1) = (&mut self.q_prev, &mut self.p_prev);
+        for c in 0..n {
+            let y = dq[c] + self.comp[c];
+            let sum = q[c] + y;
+            self.comp[c] = y - (sum - q[c]);
+            q1[c] = sum;
+        }
+        // `end` was evaluated at q1 itself (`RattleStep::solve`).
+        let end = &self.sys.end;
+        if conditioning(&end.jac, m, n, &mut self.scratch) <= RANK_TOLERANCE {
+            return Err(singular(k + 1, t1, end));
+        }
+        let Some(mu) = rattle.project(mass, end, p, p1, v) else {
+            return Err(singular(k + 1, t1, end));
+        };
+        self.mu.copy_from_slice(mu);
+        std::mem::swap(q, &mut self.q_prev);
+        std::mem::swap(p, &mut self.p_prev);
+        Ok(())
+    }
+
     /// −h Σ_i b_i ∂L/∂t at the quadrature points of the last step's element (the
     /// explicit-time part of the energy balance, `crate::forces`; 0 for an autonomous L).
     /// Call it after [`Stepper::step`] succeeded; it overwrites the element's scratch.
@@ -176,6 +274,8 @@ impl Stepper {
         v: &[f64],
         term: Option<&dyn ElementTerm>,
     ) -> Option<DMatrix<f64>> {
+        // The jet at q_k with second derivatives (the RATTLE step evaluates G only).
+        self.sys.start.eval(con, &self.q_prev, true);
         self.sys
             .eval(element, lag, con, t, h, &self.q_prev, &self.p_prev, &self.x, true);
         if let Some(term) = term {

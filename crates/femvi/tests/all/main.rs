@@ -23,6 +23,7 @@ mod conservation;
 mod constrained_bvp;
 mod constraints;
 mod constraints_forced;
+mod constraints_rattle;
 mod convergence;
 mod energy;
 mod explicit_blocked;

@@ -1,0 +1,365 @@
+//! RATTLE steps solved on the multipliers only: degree 1 with the trapezoid rule on a
+//! mechanical Lagrangian L = ½vᵀMv − V(t, q) (constant M, [`Lagrangian::mass_matrix`]) and no
+//! discrete forces. There the step equations of [`crate::constraints`] are RATTLE (Andersen
+//! 1983; Hairer–Lubich–Wanner, *Geometric Numerical Integration*, VII.1.4), with f = −∇V,
+//! u = hλ̂ and W = M⁻¹G(q_k)ᵀ:
+//!
+//!   Δq = q_{k+1} − q_k = h M⁻¹(p_k + (h/2) f(t_k, q_k)) − W u,   g(q_k + Δq) = 0,
+//!   p̃ = p_k + (h/2)(f(t_k, q_k) + f(t_{k+1}, q_{k+1})) − G(q_k)ᵀλ̂,
+//!   p_{k+1} = p̃ − G(q_{k+1})ᵀμ̂,   G(q_{k+1}) M⁻¹ p_{k+1} = 0.
+//!
+//! The position constraint is m equations in the m unknowns u, solved by Newton with the
+//! m×m matrix G(q_k + Δq) W (SHAKE's iteration with the exact Jacobian, quadratically
+//! convergent); the hidden constraint is the linear m×m system
+//! G(q_{k+1}) M⁻¹ G(q_{k+1})ᵀ μ̂ = G(q_{k+1}) M⁻¹ p̃. Both replace the dense Newton solve on
+//! (Q^1, λ̂) and the Newton projection of `project.rs` by O(m n + m³) work per iteration,
+//! with no allocation per step. The two paths solve the same equations to round-off (the same
+//! tolerance on the increments of u = hλ̂); p̃ is taken from the increment as RATTLE writes
+//! it, p̃ = M Δq/h + (h/2) f_{k+1}, and the end node's constraints are evaluated at the node
+//! that is stored (q_k + Δq with the compensation of the summed increments).
+//!
+//! [`choose`] decides when a constrained run takes these steps.
+
+use super::jet::ConstraintJet;
+use super::layout::Layout;
+use super::Constraints;
+use crate::discrete::Element;
+use crate::error::{invalid, Result, StepFailure};
+use crate::fem::QuadratureKind;
+use crate::lagrangian::{Lagrangian, MassMatrix};
+use crate::solve::NewtonFailure;
+use crate::step::Method;
+
+/// Whether a constrained run takes RATTLE steps ([`RattleStep`]): for `Method::Auto`,
+/// `Method::Explicit` and `Method::FixedPoint` when the element is degree 1 with the trapezoid
+/// rule (no interior multipliers), the Lagrangian mechanical and the run has no forces
+/// (`forced`); the Newton methods keep the dense Newton step.
+///
+/// # Errors
+/// `Method::Explicit` or `Method::FixedPoint` where the RATTLE step does not fit, naming why.
+pub(crate) fn choose<L: Lagrangian>(
+    method: Method,
+    lag: &L,
+    element: &Element,
+    layout: &Layout,
+    forced: bool,
+) -> Result<bool> {
+    let misfit = if element.degree() != 1 || element.rule.kind != QuadratureKind::Trapezoid || layout.sites != 0 {
+        Some("degree 1 with the trapezoid rule")
+    } else if lag.mass_matrix().is_none() {
+        Some("a mechanical Lagrangian (L = 1/2 v'Mv - V)")
+    } else if forced {
+        Some("no non-conservative forces")
+    } else {
+        None
+    };
+    match (method, misfit) {
+        (Method::Newton | Method::FullNewton | Method::SimplifiedNewton, _) => Ok(false),
+        (Method::Auto, m) => Ok(m.is_none()),
+        (Method::Explicit | Method::FixedPoint, None) => Ok(true),
+        (Method::Explicit | Method::FixedPoint, Some(need)) => Err(invalid(
+            "solver method",
+            format!(
+                "a constrained run takes explicit (RATTLE) steps only with {need}; \
+                 use the newton method (or auto) for this problem"
+            ),
+        )),
+    }
+}
+
+/// Scratch of the RATTLE step (n coordinates, m constraints).
+#[derive(Debug, Clone)]
+pub(crate) struct RattleStep {
+    n: usize,
+    m: usize,
+    /// f at the start and at the end of the step.
+    f0: Vec<f64>,
+    f1: Vec<f64>,
+    /// The unconstrained drift h M⁻¹(p_k + (h/2) f_0).
+    drift: Vec<f64>,
+    /// q_k + Δq.
+    y: Vec<f64>,
+    /// W = M⁻¹G(q_k)ᵀ stored by columns: `w[l n + a]`.
+    w: Vec<f64>,
+    /// M⁻¹ G(q_{k+1})ᵀ by columns, for the projection.
+    w1: Vec<f64>,
+    /// An m×m matrix, its right-hand side and a row of G.
+    mat: Vec<f64>,
+    rhs: Vec<f64>,
+    row: Vec<f64>,
+    /// The momentum increment (p̃ − p_k, then p_{k+1} − p_k) and the compensation of the
+    /// momentum's running sum.
+    p_tilde: Vec<f64>,
+    pcomp: Vec<f64>,
+    pub mu: Vec<f64>,
+}
+
+impl RattleStep {
+    /// Scratch for n coordinates and m constraints.
+    pub fn new(n: usize, m: usize) -> Self {
+        Self {
+            n,
+            m,
+            f0: vec![0.0; n],
+            f1: vec![0.0; n],
+            drift: vec![0.0; n],
+            y: vec![0.0; n],
+            w: vec![0.0; m * n],
+            w1: vec![0.0; m * n],
+            mat: vec![0.0; m * m],
+            rhs: vec![0.0; m],
+            row: vec![0.0; n],
+            p_tilde: vec![0.0; n],
+            pcomp: vec![0.0; n],
+            mu: vec![0.0; m],
+        }
+    }
+
+    /// Solves the position equations of the step from (t, q_k, p_k), whose constraint jet
+    /// (g, G) is `start`, for Δq (into `dq`) and u = hλ̂ (into `u`, which holds the guess);
+    /// `end` is left holding the jet at q_{k+1} = q_k + (Δq + `comp`), the node the compensated
+    /// summation of the increments will commit (`comp` its running compensation), so that the
+    /// constraints and the hidden constraint hold at the stored node itself (the dense path
+    /// evaluates them at q_k + Δq, an ulp away). Returns the Newton iterations.
+    ///
+    /// # Errors
+    /// A singular m×m matrix, a non-finite residual or no convergence within `max_iterations`
+    /// (increments of u above `tol · scale`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve<L: Lagrangian, C: Constraints>(
+        &mut self,
+        (lag, mass, con): (&L, &MassMatrix, &C),
+        (start, end): (&ConstraintJet, &mut ConstraintJet),
+        (t, h): (f64, f64),
+        (q, p, comp): (&[f64], &[f64], &[f64]),
+        (dq, u): (&mut [f64], &mut [f64]),
+        (tol, max_iterations, scale): (f64, usize, f64),
+    ) -> std::result::Result<usize, NewtonFailure> {
+        let (n, m) = (self.n, self.m);
+        let half = h * 0.5;
+        lag.force(t, q, &mut self.f0);
+        // h M⁻¹(p_k + (c + (h/2) f_0)), c the carried compensation of p_k.
+        for ((r, &cc), &fc) in self.row.iter_mut().zip(&self.pcomp).zip(&self.f0) {
+            *r = cc + half * fc;
+        }
+        mass.solve(&self.row, &mut self.y);
+        mass.solve(p, &mut self.drift);
+        for (d, &s) in self.drift.iter_mut().zip(&self.y) {
+            *d = h * (*d + s);
+        }
+        for l in 0..m {
+            mass.solve(&start.jac[l * n..(l + 1) * n], &mut self.w[l * n..(l + 1) * n]);
+        }
+        let fail = |failure, residual: f64, iterations| NewtonFailure {
+            failure,
+            residual,
+            iterations,
+        };
+        let mut iterations = 0;
+        let mut converged = false;
+        loop {
+            self.increment(u, dq);
+            // The node the step commits (compensated summation): the constraints hold there.
+            for (((y, &qc), &d), &cc) in self.y.iter_mut().zip(q).zip(dq.iter()).zip(comp) {
+                *y = qc + (d + cc);
+            }
+            end.eval(con, &self.y, false);
+            let rnorm = end.residual();
+            if !rnorm.is_finite() || !end.jac.iter().all(|x| x.is_finite()) {
+                return Err(fail(StepFailure::NonFinite, rnorm, iterations));
+            }
+            if converged || rnorm == 0.0 {
+                return Ok(iterations);
+            }
+            if iterations == max_iterations {
+                return Err(fail(StepFailure::NotConverged, rnorm, iterations));
+            }
+            // G(y) W δ = g(y), u += δ.
+            for i in 0..m {
+                let gi = &end.jac[i * n..(i + 1) * n];
+                for l in 0..m {
+                    self.mat[i * m + l] = dot(gi, &self.w[l * n..(l + 1) * n]);
+                }
+            }
+            self.rhs.copy_from_slice(&end.g);
+            if !solve_small(&mut self.mat, &mut self.rhs, m) {
+                return Err(fail(StepFailure::Singular, rnorm, iterations + 1));
+            }
+            let dnorm = self.rhs.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            for (ul, dl) in u.iter_mut().zip(&self.rhs) {
+                *ul += dl;
+            }
+            iterations += 1;
+            converged = dnorm <= tol * scale;
+        }
+    }
+
+    /// Δq = drift − W u.
+    fn increment(&self, u: &[f64], dq: &mut [f64]) {
+        let n = self.n;
+        dq.copy_from_slice(&self.drift);
+        for (l, &ul) in u.iter().enumerate() {
+            for (d, &wa) in dq.iter_mut().zip(&self.w[l * n..(l + 1) * n]) {
+                *d -= ul * wa;
+            }
+        }
+    }
+
+    /// The momentum increment after [`RattleStep::solve`] (the end force at the new node
+    /// `y`): a = c + h Σ_i b_i f(c_i) − G(q_k)ᵀλ̂ (λ̂ = u/h), so that p̃ = p_k + a, with c the
+    /// compensation that the last step's momentum sum left ([`RattleStep::project`]).
+    pub fn momentum<L: Lagrangian>(
+        &mut self,
+        lag: &L,
+        element: &Element,
+        start: &ConstraintJet,
+        (t, h): (f64, f64),
+        lambda: &[f64],
+    ) {
+        lag.force(t + h, &self.y, &mut self.f1);
+        let (b0, b1) = (element.rule.weights[0], element.rule.weights[1]);
+        for ((d, &a), &b) in self.p_tilde.iter_mut().zip(&self.f0).zip(&self.f1) {
+            *d = h * (b0 * a + b1 * b);
+        }
+        start.add_transpose_times(lambda, -1.0, &mut self.p_tilde);
+        for (d, &c) in self.p_tilde.iter_mut().zip(&self.pcomp) {
+            *d += c;
+        }
+    }
+
+    /// The projection of p̃ = p_k + a ([`RattleStep::momentum`]) onto T*N at the node whose jet
+    /// is `end`: (G M⁻¹ Gᵀ) μ̂ = G M⁻¹ p̃, p_{k+1} = p_k + (a − Gᵀμ̂) by compensated summation
+    /// (into `p1`; the compensation is carried to the next step, as for q), v = M⁻¹p_{k+1}.
+    /// Returns μ̂, or None if G M⁻¹ Gᵀ is singular.
+    ///
+    /// The momentum is summed with compensation because its rounding, ulp(p) per step, is
+    /// what made the nodes drift from the RATTLE map evaluated exactly: a random walk of
+    /// energy errors that the shear of the flow turns into a phase error growing like t^{3/2}.
+    /// With it the nodes follow the double-double RATTLE map more closely than the dense path
+    /// and the hand-written loop do (`tests/all/rattle_exact.rs`).
+    pub fn project(
+        &mut self,
+        mass: &MassMatrix,
+        end: &ConstraintJet,
+        p: &[f64],
+        p1: &mut [f64],
+        v: &mut [f64],
+    ) -> Option<&[f64]> {
+        let (n, m) = (self.n, self.m);
+        for l in 0..m {
+            mass.solve(&end.jac[l * n..(l + 1) * n], &mut self.w1[l * n..(l + 1) * n]);
+        }
+        for i in 0..m {
+            let gi = &end.jac[i * n..(i + 1) * n];
+            for l in 0..m {
+                self.mat[i * m + l] = dot(gi, &self.w1[l * n..(l + 1) * n]);
+            }
+            let wi = &self.w1[i * n..(i + 1) * n];
+            self.rhs[i] = dot(wi, p) + dot(wi, &self.p_tilde);
+        }
+        if !solve_small(&mut self.mat, &mut self.rhs, m) {
+            return None;
+        }
+        self.mu.copy_from_slice(&self.rhs);
+        end.add_transpose_times(&self.mu, -1.0, &mut self.p_tilde);
+        for c in 0..n {
+            let y = self.p_tilde[c];
+            let sum = p[c] + y;
+            self.pcomp[c] = y - (sum - p[c]);
+            p1[c] = sum;
+        }
+        mass.solve(p1, v);
+        Some(&self.mu)
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Solves the row-major m×m system `a` x = `b` in place (x into `b`) by Gaussian elimination
+/// with partial pivoting; false if a pivot is zero or not finite.
+fn solve_small(a: &mut [f64], b: &mut [f64], m: usize) -> bool {
+    if m == 1 {
+        let x = b[0] / a[0];
+        b[0] = x;
+        return a[0] != 0.0 && x.is_finite();
+    }
+    for k in 0..m {
+        let piv = (k..m).fold(k, |best, i| {
+            if a[i * m + k].abs() > a[best * m + k].abs() {
+                i
+            } else {
+                best
+            }
+        });
+        let d = a[piv * m + k];
+        if d == 0.0 || !d.is_finite() {
+            return false;
+        }
+        if piv != k {
+            for j in 0..m {
+                a.swap(k * m + j, piv * m + j);
+            }
+            b.swap(k, piv);
+        }
+        for i in k + 1..m {
+            let f = a[i * m + k] / d;
+            for j in k..m {
+                a[i * m + j] -= f * a[k * m + j];
+            }
+            b[i] -= f * b[k];
+        }
+    }
+    for k in (0..m).rev() {
+        let s: f64 = (k + 1..m).map(|j| a[k * m + j] * b[j]).sum();
+        b[k] = (b[k] - s) / a[k * m + k];
+    }
+    b.iter().all(|x| x.is_finite())
+}
+
+/// Ratio of the smallest to the largest singular value of the row-major m×n matrix `g`
+/// without allocating (one-sided Jacobi on the rows, in `scratch`, m n entries): the
+/// [`ConstraintJet::conditioning`] of a step's end node, checked every step.
+pub(crate) fn conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -> f64 {
+    if m == 0 {
+        return 1.0;
+    }
+    if n < m || !g.iter().all(|x| x.is_finite()) {
+        return 0.0;
+    }
+    let a = &mut scratch[..m * n];
+    a.copy_from_slice(&g[..m * n]);
+    for _sweep in 0..30 {
+        let mut rotated = false;
+        for i in 0..m {
+            for j in i + 1..m {
+                let (ri, rj) = (&a[i * n..(i + 1) * n], &a[j * n..(j + 1) * n]);
+                let (aii, ajj, aij) = (dot(ri, ri), dot(rj, rj), dot(ri, rj));
+                if aij == 0.0 || aij.abs() <= 1e-15 * (aii * ajj).sqrt() {
+                    continue;
+                }
+                rotated = true;
+                let zeta = (ajj - aii) / (2.0 * aij);
+                let t = zeta.signum() / (zeta.abs() + (1.0 + zeta * zeta).sqrt());
+                let c = 1.0 / (1.0 + t * t).sqrt();
+                let s = c * t;
+                for k in 0..n {
+                    let (x, y) = (a[i * n + k], a[j * n + k]);
+                    a[i * n + k] = c * x - s * y;
+                    a[j * n + k] = s * x + c * y;
+                }
+            }
+        }
+        if !rotated {
+            break;
+        }
+    }
+    let norms = (0..m).map(|i| dot(&a[i * n..(i + 1) * n], &a[i * n..(i + 1) * n]).sqrt());
+    let (lo, hi) = norms.fold((f64::INFINITY, 0.0f64), |(lo, hi), s| (lo.min(s), hi.max(s)));
+    if hi > 0.0 && hi.is_finite() {
+        lo / hi
+    } else {
+        0.0
+    }
+}
