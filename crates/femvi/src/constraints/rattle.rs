@@ -116,7 +116,8 @@ impl RattleStep {
     }
 
     /// Solves the position equations of the step from (t, q_k, p_k), whose constraint jet
-    /// (g, G) is `start`, for Δq (into `dq`) and u = hλ̂ (into `u`, which holds the guess);
+    /// (g, G) is `start` (with `reuse_force`, the end force of the last step is the force at
+    /// q_k: an autonomous L and the same node), for Δq (into `dq`) and u = hλ̂ (into `u`, which holds the guess);
     /// `end` is left holding the jet at q_{k+1} = q_k + (Δq + `comp`), the node the compensated
     /// summation of the increments will commit (`comp` its running compensation), so that the
     /// constraints and the hidden constraint hold at the stored node itself (the dense path
@@ -130,14 +131,19 @@ impl RattleStep {
         &mut self,
         (lag, mass, con): (&L, &MassMatrix, &C),
         (start, end): (&ConstraintJet, &mut ConstraintJet),
-        (t, h): (f64, f64),
+        (t, h, reuse_force): (f64, f64, bool),
         (q, p, comp): (&[f64], &[f64], &[f64]),
         (dq, u): (&mut [f64], &mut [f64]),
         (tol, max_iterations, scale): (f64, usize, f64),
     ) -> std::result::Result<usize, NewtonFailure> {
         let (n, m) = (self.n, self.m);
         let half = h * 0.5;
-        lag.force(t, q, &mut self.f0);
+        if reuse_force {
+            // The last end force, evaluated at this node (an autonomous L).
+            std::mem::swap(&mut self.f0, &mut self.f1);
+        } else {
+            lag.force(t, q, &mut self.f0);
+        }
         // h M⁻¹(p_k + (c + (h/2) f_0)), c the carried compensation of p_k.
         for ((r, &cc), &fc) in self.row.iter_mut().zip(&self.pcomp).zip(&self.f0) {
             *r = cc + half * fc;

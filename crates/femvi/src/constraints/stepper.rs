@@ -44,6 +44,9 @@ pub(crate) struct Stepper {
     insist: bool,
     /// m n scratch of the end node's conditioning.
     scratch: Vec<f64>,
+    /// Whether `sys.end` (and the RATTLE step's end force) are those of the current node,
+    /// evaluated there by the last RATTLE step: the next step takes them as its start.
+    end_at_node: bool,
 }
 
 impl Stepper {
@@ -78,6 +81,7 @@ impl Stepper {
             rattle: fast.then(|| RattleStep::new(n, m)),
             insist: matches!(solver.method, Method::Explicit | Method::FixedPoint),
             scratch: vec![0.0; m * n],
+            end_at_node: false,
         })
     }
 
@@ -103,8 +107,12 @@ impl Stepper {
         term: Option<&dyn ElementTerm>,
     ) -> Result<(), Error> {
         if term.is_none() && self.rattle.is_some() {
-            return self.rattle_step(lag, con, element, (k, t, h, t1), q, p, v);
+            let reuse = std::mem::take(&mut self.end_at_node);
+            self.rattle_step(lag, con, element, (k, t, h, t1), q, p, v, reuse)?;
+            self.end_at_node = true;
+            return Ok(());
         }
+        self.end_at_node = false;
         if term.is_some() && self.insist {
             return Err(invalid(
                 "solver method",
@@ -186,6 +194,9 @@ impl Stepper {
     /// The RATTLE step of [`Stepper::step`] (`rattle.rs`): the same unknowns (Δq and h·λ̂ in
     /// `x`, λ̂ in `sys.mult`), the same commit of q_{k+1} and the same jets (`sys.start` at
     /// q_k, without second derivatives; `sys.end` at q_{k+1}), μ̂ from the linear projection.
+    /// With `reuse` (`sys.end` and the end force were evaluated at this very node q_k by the
+    /// step before), the start jet is copied from `sys.end` and, for an autonomous L, the start
+    /// force is the last end force: the same bits as evaluating them again.
     #[allow(clippy::too_many_arguments)]
     fn rattle_step<L: Lagrangian, C: Constraints>(
         &mut self,
@@ -196,18 +207,24 @@ impl Stepper {
         q: &mut Vec<f64>,
         p: &mut Vec<f64>,
         v: &mut [f64],
+        reuse: bool,
     ) -> Result<(), Error> {
         let (Some(rattle), Some(mass)) = (self.rattle.as_mut(), lag.mass_matrix()) else {
             return Err(invalid("solver method", "RATTLE steps need a mechanical Lagrangian"));
         };
         let (n, m) = (q.len(), self.mu.len());
-        self.sys.start.eval(con, q, false);
+        if reuse {
+            self.sys.start.g.copy_from_slice(&self.sys.end.g);
+            self.sys.start.jac.copy_from_slice(&self.sys.end.jac);
+        } else {
+            self.sys.start.eval(con, q, false);
+        }
         let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
         let (dq, u) = self.x.split_at_mut(n);
         let solved = rattle.solve(
             (lag, mass, con),
             (&self.sys.start, &mut self.sys.end),
-            (t, h),
+            (t, h, reuse && lag.is_autonomous()),
             (q, p, &self.comp),
             (dq, &mut u[..m]),
             (self.tol, self.max_iterations, scale),
@@ -274,7 +291,9 @@ impl Stepper {
         v: &[f64],
         term: Option<&dyn ElementTerm>,
     ) -> Option<DMatrix<f64>> {
-        // The jet at q_k with second derivatives (the RATTLE step evaluates G only).
+        // The jet at q_k with second derivatives (the RATTLE step evaluates G only); `sys.end`
+        // moves to Q^s of the dense system.
+        self.end_at_node = false;
         self.sys.start.eval(con, &self.q_prev, true);
         self.sys
             .eval(element, lag, con, t, h, &self.q_prev, &self.p_prev, &self.x, true);
