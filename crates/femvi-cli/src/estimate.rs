@@ -5,7 +5,7 @@
 //! refused with the estimate and the ways out (`[output] every`, `--max-output`).
 
 use crate::problem::Problem;
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 use std::path::Path;
 
 /// The default `--max-output`: 10 GB.

@@ -6,10 +6,12 @@
 //! numbers in shortest round-trip form) and, with plots on, to a Poincaré plot per event
 //! (`poincare_<event>.svg`: the first coordinate against its momentum, as points).
 
+use crate::outcome::{finish, Outcome};
 use crate::plot::{file, scatter, Series};
 use crate::problem::Problem;
 use crate::record::Recorders;
-use crate::run::{empty_summary, finish, run_summary, Outcome, RunEnd, RunOutput};
+use crate::run_output::RunOutput;
+use crate::summary::{empty_summary, run_summary, RunEnd};
 use femvi::solution::{solve_with, EventRecord};
 use femvi::{Lagrangian, SolveOptions};
 use std::path::Path;

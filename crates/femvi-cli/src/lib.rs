@@ -8,11 +8,13 @@
 pub mod adaptive;
 pub mod bounded;
 pub mod bvp;
+pub mod bvp_output;
 pub mod chaos;
 pub mod chaos_command;
 pub mod chaos_forced;
 pub mod chaos_plot;
 pub mod check;
+pub mod check_report;
 pub mod constrained;
 pub mod convergence;
 pub mod ensemble;
@@ -20,12 +22,14 @@ pub mod estimate;
 pub mod events;
 pub mod forced;
 pub mod models;
+pub mod outcome;
 pub mod plot;
 pub mod problem;
 pub mod record;
 pub mod reference;
 pub mod resume;
 pub mod run;
+pub mod run_output;
 pub mod signals;
 pub mod summary;
 

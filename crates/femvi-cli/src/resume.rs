@@ -14,7 +14,7 @@
 //! (see [`resumable`]).
 
 use crate::problem::Problem;
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 use femvi::step::Checkpoint;
 use serde::{Deserialize, Serialize};
 use sha2::Digest;
@@ -79,6 +79,9 @@ pub struct RunCheckpoint {
     pub npy_rows: Option<u64>,
     /// The energy observer's state.
     pub energy: EnergySaved,
+    /// Runs with forces: the energy balance's state ([`crate::record::WorkBalance::words`]).
+    #[serde(default)]
+    pub balance: Option<[u64; 3]>,
     /// The integrator's state.
     pub integrator: Checkpoint,
 }

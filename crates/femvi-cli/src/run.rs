@@ -12,42 +12,16 @@ use crate::problem::capabilities::Use;
 use crate::problem::Problem;
 use crate::record::{Checkpointing, Recorders};
 use crate::resume::{self, Policy};
-use crate::signals::{self, Signal};
+use crate::signals;
 use femvi::{Integrator, Lagrangian};
 use std::path::Path;
 use std::time::Instant;
 
-pub(crate) use crate::summary::{empty_summary, run_summary, RunEnd};
+pub use crate::outcome::Outcome;
+use crate::outcome::{finish, interrupted};
+pub use crate::run_output::RunOutput;
+use crate::summary::{empty_summary, run_summary, running_summary, write_summary, RunEnd};
 pub use crate::summary::{is_autonomous, AutoStep, Summary};
-use crate::summary::{running_summary, write_summary};
-
-/// How a run ended.
-pub enum Outcome {
-    /// Finished; the summary.
-    Done(Summary),
-    /// A numerical failure after some steps (written to disk); the summary has the error.
-    Failed(Summary),
-    /// Stopped by a signal at a step boundary (outputs complete up to there, a checkpoint
-    /// written); the summary has the error "interrupted by …".
-    Interrupted(Summary, Signal),
-    /// The problem could not be started (bad input the library detected).
-    Rejected(String),
-}
-
-/// Output formats of a run and whether a progress bar may be shown.
-#[derive(Debug, Clone, Copy)]
-pub struct RunOutput {
-    /// Write trajectory.csv.
-    pub csv: bool,
-    /// Write trajectory.npy and columns.txt.
-    pub npy: bool,
-    /// Show a progress bar (on a terminal, after a second).
-    pub progress: bool,
-    /// Draw plots.
-    pub plots: bool,
-    /// Image format of the plots.
-    pub plot_format: crate::plot::Format,
-}
 
 /// How a run is controlled beyond its outputs: checkpoints, resume, the output limit.
 #[derive(Debug, Clone, PartialEq)]
@@ -127,11 +101,17 @@ pub fn run_as(
         }
         return crate::adaptive::run(problem, a, dir, out, command);
     }
-    if let Some(f) = &problem.terms.force {
+    if let (Some(f), Some(_)) = (&problem.terms.force, problem.energy) {
+        // Forces with time steps as variables: the forced energy equation's own run.
         if let Err(msg) = refuse(problem, &out, control.resume).and_then(|()| estimate(&out)) {
             return Ok(Outcome::Rejected(msg));
         }
         return crate::forced::run(problem, f, dir, out, command);
+    }
+    if problem.terms.force.is_some() {
+        if let Err(msg) = refuse(problem, &out, control.resume) {
+            return Ok(Outcome::Rejected(msg));
+        }
     }
     if problem.events.is_empty() {
         let args = RunArgs {
@@ -189,7 +169,7 @@ fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
 
 /// Builds the integrator, attaches the outputs (or resumes them), drives the run and writes
 /// summary.json.
-fn run_with<L: Lagrangian>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<Outcome> {
+fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<Outcome> {
     let RunArgs {
         problem,
         dir,
@@ -199,9 +179,10 @@ fn run_with<L: Lagrangian>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<Outcome>
     } = *a;
     let clock = Instant::now();
     let (grid, start) = (problem.grid.clone(), problem.start.clone());
-    let made = match problem.energy {
-        None => Integrator::new(lag, &problem.element, grid, start, problem.options),
-        Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
+    let made = match (problem.energy, &problem.terms.force) {
+        (None, None) => Integrator::new(lag, &problem.element, grid, start, problem.options),
+        (None, Some(f)) => Integrator::with_force(lag, &problem.element, grid, start, problem.options, f),
+        (Some(e), _) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
     };
     let mut it = match made {
         Ok(it) => it,
@@ -297,27 +278,4 @@ fn resume_outputs<'a, L: Lagrangian>(
     }
     write_summary(dir, &running_summary(problem, Instant::now(), a.command))?;
     Ok(Ok(recorders))
-}
-
-/// Writes the summary of a run stopped by `sig`.
-fn interrupted(dir: &Path, mut summary: Summary, sig: Signal) -> std::io::Result<Outcome> {
-    summary.status = "interrupted".into();
-    summary.error = Some(format!(
-        "interrupted by {} at step {}, t = {}",
-        sig.name(),
-        summary.steps,
-        summary.final_t
-    ));
-    write_summary(dir, &summary)?;
-    Ok(Outcome::Interrupted(summary, sig))
-}
-
-/// Writes summary.json and classifies the outcome by its error.
-pub(crate) fn finish(dir: &Path, summary: Summary) -> std::io::Result<Outcome> {
-    write_summary(dir, &summary)?;
-    Ok(if summary.error.is_some() {
-        Outcome::Failed(summary)
-    } else {
-        Outcome::Done(summary)
-    })
 }

@@ -136,6 +136,8 @@ pub(crate) fn run_summary(
     command: &[String],
 ) -> Summary {
     let stats = end.stats;
+    // With forces H is not conserved: the balance H − H0 = W is what is measured.
+    let balance = recorders.work_balance();
     Summary {
         name: problem.name.clone(),
         status: status_of(end.error.as_deref()).into(),
@@ -155,11 +157,13 @@ pub(crate) fn run_summary(
         max_step: stats.map(|s| s.max_step),
         degenerate_steps: stats.map(|s| s.degenerate_steps),
         auto_step: auto_step(problem),
-        energy_conserved: is_autonomous(problem),
-        max_rel_energy_balance_error: recorders.max_rel_energy_balance_error(),
+        energy_conserved: balance.is_none() && is_autonomous(problem),
+        max_rel_energy_balance_error: balance
+            .map(|b| b.max_rel())
+            .or(recorders.max_rel_energy_balance_error()),
         events_located: None,
         stopped_by_event: None,
-        final_work: None,
+        final_work: balance.map(|b| b.work()),
         max_rel_discrete_energy_balance_error: None,
         chaos: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -232,4 +236,15 @@ pub(crate) fn running_summary(problem: &Problem, clock: Instant, command: &[Stri
 pub fn write_summary(dir: &Path, s: &Summary) -> std::io::Result<()> {
     let text = serde_json::to_string_pretty(s).map_err(std::io::Error::other)?;
     crate::resume::write_atomic(&dir.join("summary.json"), (text + "\n").as_bytes())
+}
+
+/// The energy change of a forced run `s` (its `energy_report`), its energy `balance` and the
+/// work `work` at its kept nodes, into summary.json's fields (the docs of `crate::forced`; also
+/// for forced constrained runs, `crate::constrained`).
+pub fn report_work(summary: &mut Summary, s: &femvi::Solution, balance: &femvi::forces::EnergyBalance, work: &[f64]) {
+    let report = s.energy_report;
+    summary.max_rel_energy_error = report.map_or(f64::NAN, |r| r.max_rel_error);
+    summary.energy_conserved = false;
+    summary.max_rel_energy_balance_error = Some(balance.max_rel);
+    summary.final_work = work.last().copied();
 }

@@ -4,7 +4,7 @@
 //! their physical time t and, in `s`, their fictitious time, and the located events (the
 //! problem file's, then Python's).
 
-use crate::solve::{Extras, Run};
+use crate::run::{Extras, Run};
 use femvi::adaptive::AdaptiveSolution;
 use femvi::solution::Solution;
 use femvi_cli::adaptive::AdaptiveTime;

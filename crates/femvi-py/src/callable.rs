@@ -17,7 +17,7 @@
 //! value becomes NaN, which stops the run at that step, and the exception is re-raised.
 
 use crate::events::Raised;
-use crate::solve::{run_on, run_with, Extras, Run};
+use crate::run::{run_on, run_with, Extras, Run};
 use femvi::{MassMatrix, Mechanical, Potential, Scalar};
 use femvi_cli::problem::Problem;
 use numpy::{IntoPyArray, PyReadonlyArray1};

@@ -7,7 +7,7 @@
 
 use crate::arrays::{rows, vec1};
 use crate::input_error;
-use crate::solve::load;
+use crate::run::load;
 use femvi_cli::ensemble::{run_all, run_member, run_member_saving, start_of, Member};
 use numpy::{PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;

@@ -10,6 +10,7 @@ mod callable;
 mod ensemble;
 mod events;
 mod info;
+mod run;
 mod solve;
 mod tables;
 

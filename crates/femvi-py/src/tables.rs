@@ -7,7 +7,7 @@
 //! (events, `saveat`, dense output, adaptive steps, a Python potential) is refused with a
 //! message rather than dropped, by the table of `femvi_cli::problem::capabilities`.
 
-use crate::solve::{Extras, Run};
+use crate::run::{Extras, Run};
 use femvi::constraints::{solve_constrained_forced, solve_constrained_with, ConstrainedSolution};
 use femvi::constraints::{Enforcement, ExprConstraints};
 use femvi::forces::solve_forced;
@@ -60,7 +60,7 @@ impl Tables {
             .map_err(|e| format!("{}: {e}", path.display()))
     }
 
-    fn run_with<L: Lagrangian>(
+    fn run_with<L: Lagrangian + Sync>(
         &self,
         lag: L,
         problem: &Problem,

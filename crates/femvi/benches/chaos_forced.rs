@@ -11,7 +11,7 @@ use femvi::forces::{solve_forced, ExprForces, Force, LinearForce};
 use femvi::{models, Element, Lagrangian, Problem, SolveOptions, Start};
 use std::hint::black_box;
 
-fn group<L: Lagrangian, F: Force>(c: &mut Criterion, name: &str, problem: &Problem<L>, force: &F) {
+fn group<L: Lagrangian + Sync, F: Force + Sync>(c: &mut Criterion, name: &str, problem: &Problem<L>, force: &F) {
     let (el, options) = (
         Element::with_order(4).unwrap(),
         SolveOptions {

@@ -23,7 +23,7 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-fn run<L: Lagrangian, F: Force>(
+fn run<L: Lagrangian + Sync, F: Force + Sync>(
     problem: &Problem<L>,
     force: &F,
     element: &Element,
@@ -38,7 +38,12 @@ fn run<L: Lagrangian, F: Force>(
     (clock.elapsed().as_secs_f64(), sol)
 }
 
-fn measure<L: Lagrangian, F: Force>(name: &str, problem: &Problem<L>, force: &F, h: f64) -> Result<(), femvi::Error> {
+fn measure<L: Lagrangian + Sync, F: Force + Sync>(
+    name: &str,
+    problem: &Problem<L>,
+    force: &F,
+    h: f64,
+) -> Result<(), femvi::Error> {
     for s in [1, 2, 4] {
         let element = Element::with_order(2 * s)?;
         let (mut tn, mut tf) = (vec![], vec![]);

@@ -13,8 +13,10 @@
 mod output;
 mod plots;
 
+use crate::outcome::{finish, Outcome};
 use crate::problem::{Problem, System};
-use crate::run::{empty_summary, finish, Outcome, RunOutput};
+use crate::run_output::RunOutput;
+use crate::summary::empty_summary;
 use femvi::adaptive::{
     solve_adaptive, AdaptiveOptions, AdaptiveSolution, ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor,
 };

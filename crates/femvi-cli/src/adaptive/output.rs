@@ -5,7 +5,7 @@
 //! NPY output is on, as trajectory.npy (float64, the same columns) with columns.txt.
 
 use crate::problem::Problem;
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 use femvi::adaptive::AdaptiveSolution;
 use femvi::Lagrangian;
 use std::path::Path;

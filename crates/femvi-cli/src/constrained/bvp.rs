@@ -8,7 +8,7 @@
 //! `--plot`, coordinates.svg. With `[forces]` too, the forced constrained problem
 //! ([`femvi::constraints::solve_constrained_forced_bvp`]).
 
-use crate::bvp::{guess_from_file, plots, BvpSummary};
+use crate::bvp_output::{guess_from_file, plots, BvpSummary};
 use crate::plot::Format;
 use crate::problem::BvpProblem;
 use femvi::bvp::{line_guess, node_times, BvpOptions};

@@ -4,7 +4,7 @@
 //! notes on the constraint residuals; the time-reversal test and the Noether momenta of
 //! `[symmetries]` are not measured (notes say so).
 
-use crate::check::CheckReport;
+use crate::check_report::CheckReport;
 use crate::problem::Problem;
 use femvi::constraints::{manifold_symplecticity, Enforcement, ExprConstraints};
 use femvi::Lagrangian;

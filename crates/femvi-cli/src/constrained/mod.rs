@@ -6,7 +6,7 @@
 //! projected onto the manifold's cotangent space, the enforcement). With a `[forces]` table too
 //! the run is [`femvi::constraints::solve_constrained_forced`] (discrete Lagrange–d'Alembert on
 //! the augmented action): trajectory.csv gains the `work` column after `energy` and summary.json
-//! the energy balance as forced runs report it ([`crate::forced::report_work`]). `femvi check`
+//! the energy balance as forced runs report it ([`crate::summary::report_work`]). `femvi check`
 //! measures symplecticity on the manifold (`check.rs`); `femvi bvp` solves constrained boundary
 //! value problems (`bvp.rs`). Commands and modes that cannot handle constraints refuse them
 //! through the table of [`crate::problem::capabilities`] (exit code 2).
@@ -14,9 +14,9 @@
 pub mod bvp;
 pub mod check;
 
+use crate::outcome::{finish, Outcome};
 use crate::problem::forces::ProblemForce;
 use crate::problem::Problem;
-use crate::run::{finish, Outcome};
 use crate::summary::empty_summary;
 use femvi::constraints::{
     solve_constrained_forced, solve_constrained_with, ConstrainedSolution, Enforcement, ExprConstraints,
@@ -100,7 +100,7 @@ fn run_with<L: Lagrangian + Clone>(
     let scale = if e0 == 0.0 { 1.0 } else { e0.abs() };
     summary.max_rel_energy_error = sol.energy.iter().fold(0.0, |m, h| m.max((h - e0).abs() / scale));
     if let Some((work, balance)) = &forced {
-        crate::forced::report_work(&mut summary, sol, balance, work);
+        crate::summary::report_work(&mut summary, sol, balance, work);
     }
     summary.mean_solver_iterations = sol.mean_iterations;
     summary.error = sol.error.as_ref().map(|e| e.to_string());

@@ -52,7 +52,7 @@ pub fn check(problem: &Problem, force: &ProblemForce) -> Result<ForcedCheck, (St
     }
 }
 
-fn check_with<L: Lagrangian + Clone>(
+fn check_with<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     force: &ProblemForce,

@@ -17,13 +17,14 @@ pub mod models;
 
 pub use check::{check, print, ForcedCheck};
 
+use crate::outcome::{finish, Outcome};
 use crate::problem::forces::ProblemForce;
 use crate::problem::Problem;
-use crate::run::{empty_summary, finish, Outcome, RunOutput};
-use crate::summary::Summary;
+use crate::run_output::RunOutput;
+use crate::summary::{empty_summary, report_work};
 use femvi::bvp::{BoundaryValues, BvpOptions, BvpSolution};
-use femvi::forces::{solve_forced, EnergyBalance, ForcedSolution};
-use femvi::{Element, Lagrangian, Solution};
+use femvi::forces::{solve_forced, ForcedSolution};
+use femvi::{Element, Lagrangian};
 use std::path::Path;
 use std::time::Instant;
 
@@ -33,7 +34,7 @@ use std::time::Instant;
 /// # Errors
 /// The library's message for options it does not support with forces (events, a start from
 /// (q0, q1)) or bad input.
-pub fn solve_problem<L: Lagrangian + Clone>(
+pub fn solve_problem<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     force: &ProblemForce,
@@ -58,7 +59,7 @@ pub fn run(
     crate::with_system!(&problem.system, l => run_with(l, problem, force, dir, out, command))
 }
 
-fn run_with<L: Lagrangian + Clone>(
+fn run_with<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     force: &ProblemForce,
@@ -97,17 +98,6 @@ fn run_with<L: Lagrangian + Clone>(
     summary.status = crate::summary::status_of(summary.error.as_deref()).into();
     summary.wall_seconds = clock.elapsed().as_secs_f64();
     finish(dir, summary)
-}
-
-/// The energy change of a forced run `s` (its `energy_report`), its energy `balance` and the
-/// work `work` at its kept nodes, into summary.json's fields (the module documentation; also
-/// for forced constrained runs, `crate::constrained`).
-pub fn report_work(summary: &mut Summary, s: &Solution, balance: &EnergyBalance, work: &[f64]) {
-    let report = s.energy_report;
-    summary.max_rel_energy_error = report.map_or(f64::NAN, |r| r.max_rel_error);
-    summary.energy_conserved = false;
-    summary.max_rel_energy_balance_error = Some(balance.max_rel);
-    summary.final_work = work.last().copied();
 }
 
 /// trajectory.csv: step, t, q, p, energy, work at the kept nodes.

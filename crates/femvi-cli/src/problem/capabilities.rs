@@ -5,8 +5,9 @@
 //! refused when the problem is loaded ([`check_terms`]). A pair that is not in the table works.
 //!
 //! The reasons say which are mathematical (a step whose equations are not derived for the
-//! pair) and which are the remaining seams of issue 33 (forced and constrained runs are solved
-//! to the end by the library's own run functions, outside the streaming run of `femvi run`).
+//! pair) and which are the remaining seams of issue 33 (constrained runs and forced runs in
+//! energy mode are solved to the end by the library's own run functions, outside the
+//! streaming run of `femvi run`; events go through the plain integrator's `solve_with`).
 
 use super::terms::Terms;
 use super::Problem;
@@ -20,6 +21,9 @@ pub enum Term {
     Constraints,
     /// `[time] mode = "adaptive"`.
     Adaptive,
+    /// `[forces]` in `[time] mode = "energy"` (time steps as variables): the forced energy
+    /// equation's own run, apart from the one integrator.
+    ForcesInEnergyMode,
 }
 
 impl Term {
@@ -29,6 +33,7 @@ impl Term {
             Term::Forces => "[forces]",
             Term::Constraints => "[constraints]",
             Term::Adaptive => "[time] mode = \"adaptive\"",
+            Term::ForcesInEnergyMode => "[forces] in [time] mode = \"energy\"",
         }
     }
 }
@@ -82,15 +87,21 @@ impl Use {
                 Term::Forces => "[forces] are",
                 Term::Constraints => "[constraints] are",
                 Term::Adaptive => "[time] mode = \"adaptive\" is",
+                Term::ForcesInEnergyMode => "[forces] in [time] mode = \"energy\" are",
             },
         })
     }
 }
 
-/// The reason shared by the uses that forced and constrained runs do not reach yet.
+/// The reason shared by the uses that constrained runs and forced runs in energy mode do not
+/// reach yet.
 const SOLVED_TO_THE_END: &str = "these runs are solved to the end by the library's run of the term \
-     (femvi::forces::solve_forced, femvi::constraints::solve_constrained_with), not by the streaming \
-     run the option is an observer of (issue 33)";
+     (femvi::constraints::solve_constrained_with, the forced energy equation of \
+     femvi::forces::solve_forced), not by the streaming run the option is an observer of (issue 33)";
+
+/// Events and Python's saveat and dense output go through femvi::solution::solve_with.
+const SOLVE_WITH_PLAIN: &str = "femvi::solution::solve_with, which locates events and samples the \
+     dense output, drives the integrator of the Lagrangian alone (issue 33)";
 
 /// What the plain integrator's commands do not take yet.
 const PLAIN_INTEGRATOR_ONLY: &str = "the command drives the integrator of the Lagrangian alone, \
@@ -150,20 +161,20 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         Use::Check,
         "the symplecticity check's tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
     ),
-    (Term::Forces, Use::Events, SOLVED_TO_THE_END),
+    (Term::Forces, Use::Events, SOLVE_WITH_PLAIN),
     (Term::Constraints, Use::Events, SOLVED_TO_THE_END),
     (
         Term::Adaptive,
         Use::Resume,
         "adaptive runs write no checkpoints yet: their run is femvi::adaptive::solve_adaptive to the end (issue 33)",
     ),
-    (Term::Forces, Use::Resume, SOLVED_TO_THE_END),
+    (Term::ForcesInEnergyMode, Use::Resume, SOLVED_TO_THE_END),
     (Term::Constraints, Use::Resume, SOLVED_TO_THE_END),
-    (Term::Forces, Use::Plots, SOLVED_TO_THE_END),
+    (Term::ForcesInEnergyMode, Use::Plots, SOLVED_TO_THE_END),
     (Term::Constraints, Use::Plots, SOLVED_TO_THE_END),
-    (Term::Forces, Use::Npy, SOLVED_TO_THE_END),
+    (Term::ForcesInEnergyMode, Use::Npy, SOLVED_TO_THE_END),
     (Term::Constraints, Use::Npy, SOLVED_TO_THE_END),
-    (Term::Forces, Use::SaveatOrDense, SOLVED_TO_THE_END),
+    (Term::Forces, Use::SaveatOrDense, SOLVE_WITH_PLAIN),
     (Term::Constraints, Use::SaveatOrDense, SOLVED_TO_THE_END),
     (
         Term::Forces,
@@ -188,6 +199,7 @@ fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
         (Term::Forces, terms.force.is_some()),
         (Term::Constraints, terms.constraints.is_some()),
         (Term::Adaptive, terms.adaptive.is_some()),
+        (Term::ForcesInEnergyMode, terms.force.is_some() && terms.energy_mode),
     ]
     .into_iter()
     .filter_map(|(t, on)| on.then_some(t))

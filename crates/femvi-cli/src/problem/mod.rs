@@ -328,6 +328,7 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
         force,
         constraints,
         adaptive: None,
+        energy_mode: false,
     };
     let common = Common {
         name,
@@ -401,6 +402,7 @@ fn build_ivp(
     let events = events::resolve(&file.events, &c.system.coordinates, &c.parameters, src)?;
     let terms = Terms {
         adaptive: tt.adaptive(src)?,
+        energy_mode: energy.is_some(),
         ..c.terms
     };
     capabilities::check_terms(&terms, energy.is_some()).map_err(|e| src.error(e))?;

@@ -28,6 +28,8 @@ pub struct Terms {
     pub constraints: Option<(ExprConstraints, Enforcement)>,
     /// `[time] mode = "adaptive"`: the step in fictitious time and the monitor.
     pub adaptive: Option<AdaptiveTime>,
+    /// `[time] mode = "energy"`: time steps as variables (the energy equation sets each step).
+    pub energy_mode: bool,
 }
 
 impl Terms {

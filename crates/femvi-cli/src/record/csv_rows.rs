@@ -105,6 +105,9 @@ impl<L: Lagrangian> Observer<L> for CsvRows {
         self.row.extend(node.q.iter().map(|&x| num(x)));
         self.row.extend(node.p.iter().map(|&x| num(x)));
         self.row.push(num(self.energy.get().h));
+        if it.has_term() {
+            self.row.push(num(it.work()));
+        }
         if let Some(st) = it.energy_stats() {
             self.row.push(num(st.energy));
         }

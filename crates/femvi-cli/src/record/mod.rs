@@ -6,6 +6,7 @@
 //! first non-finite node, flushes the rows at least every second ([`Pacer`]) and writes the
 //! checkpoints; [`Progress`] draws the bar.
 
+mod balance;
 mod chunks;
 mod csv_rows;
 mod energy;
@@ -15,6 +16,7 @@ mod plot_data;
 mod progress;
 mod recorders;
 
+pub use balance::WorkBalance;
 pub use chunks::drive_in_chunks;
 pub use csv_rows::CsvRows;
 pub use energy::{EnergyError, NodeEnergy};
@@ -30,13 +32,17 @@ use std::fs::File;
 use std::path::Path;
 use std::rc::Rc;
 
-/// The column names of a trajectory: step, t, the coordinates, their momenta, the energy and,
-/// in energy mode, the discrete energy.
+/// The column names of a trajectory: step, t, the coordinates, their momenta, the energy,
+/// with forces the discrete work, and in energy mode the discrete energy.
 pub fn columns(problem: &Problem) -> Vec<String> {
     let mut header = vec!["step".to_string(), "t".to_string()];
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
     header.push("energy".into());
+    if problem.terms.force.is_some() {
+        // The discrete work W of the forces: energy − energy₀ − work is the balance error.
+        header.push("work".into());
+    }
     if problem.energy.is_some() {
         header.push("discrete_energy".into());
     }

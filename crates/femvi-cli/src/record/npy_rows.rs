@@ -132,6 +132,9 @@ impl NpyRows {
             self.push(x)?;
         }
         self.push(self.energy.get().h)?;
+        if it.has_term() {
+            self.push(it.work())?;
+        }
         if let Some(st) = it.energy_stats() {
             self.push(st.energy)?;
         }

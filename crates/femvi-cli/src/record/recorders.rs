@@ -8,10 +8,10 @@
 //! [`Policy`](crate::resume::Policy) and when a stop signal ends the run; and it resumes the
 //! outputs of a stopped run from a checkpoint.
 
-use super::{columns, CsvRows, EnergyError, NodeEnergy, NpyRows, Pacer, PlotData, Progress, WriteFailure};
+use super::{columns, CsvRows, EnergyError, NodeEnergy, NpyRows, Pacer, PlotData, Progress, WorkBalance, WriteFailure};
 use crate::problem::Problem;
 use crate::resume::{self, EnergySaved, Policy, RunCheckpoint};
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 use crate::signals::{self, Signal};
 use femvi::step::Observer;
 use femvi::{Integrator, Lagrangian};
@@ -65,6 +65,8 @@ pub struct Recorders<'a> {
     chunked: bool,
     good: Good,
     signal: Option<Signal>,
+    /// Runs with forces: the energy balance H − H0 = W over every node.
+    balance: Option<WorkBalance>,
 }
 
 impl<'a> Recorders<'a> {
@@ -140,9 +142,10 @@ impl<'a> Recorders<'a> {
             nodes: 0,
             first_k: None,
             every: problem.every.max(1),
-            chunked: problem.energy.is_none(),
+            chunked: chunked(problem),
             good: Good::new(0, f64::NAN),
             signal: None,
+            balance: problem.terms.force.is_some().then(WorkBalance::default),
         })
     }
 
@@ -202,9 +205,14 @@ impl<'a> Recorders<'a> {
             nodes: 0,
             first_k: None,
             every: problem.every.max(1),
-            chunked: problem.energy.is_none(),
+            chunked: chunked(problem),
             good: Good::new(cp.steps, cp.integrator.t),
             signal: None,
+            balance: problem
+                .terms
+                .force
+                .is_some()
+                .then(|| cp.balance.map(WorkBalance::from_words).unwrap_or_default()),
         })
     }
 
@@ -227,6 +235,11 @@ impl<'a> Recorders<'a> {
     /// Time-dependent L: the largest relative error of the energy balance H − H0 = −∫∂L/∂t.
     pub fn max_rel_energy_balance_error(&self) -> Option<f64> {
         self.energy.max_rel_balance()
+    }
+
+    /// Runs with forces: the energy balance over the nodes recorded.
+    pub fn work_balance(&self) -> Option<WorkBalance> {
+        self.balance
     }
 
     /// An output file that could not be completed at the end of the run.
@@ -316,6 +329,7 @@ impl<'a> Recorders<'a> {
                     max_rel_bits: self.max_rel_energy_error().to_bits(),
                     tracker: self.energy.words(),
                 },
+                balance: self.balance.map(|b| b.words()),
                 integrator: it.checkpoint(&c.tag),
             })
         });
@@ -358,9 +372,20 @@ fn resumed_energy<L: Lagrangian>(problem: &Problem, fresh: &Integrator<'_, L>) -
     Ok(energy.with_nodes(energy_nodes(problem), &problem.element.basis, problem.every))
 }
 
-/// The nodes the energy error covers (`[output] energy_nodes` for the problem's Lagrangian).
+/// The nodes the energy error covers (`[output] energy_nodes` for the problem's Lagrangian);
+/// every node with forces, whose energy balance is over every node.
 fn energy_nodes(problem: &Problem) -> femvi::solution::EnergyNodes {
+    if problem.terms.force.is_some() {
+        return femvi::solution::EnergyNodes::Every;
+    }
     crate::with_system!(&problem.system, l => problem.energy_nodes.resolve(l))
+}
+
+/// Whether a run of `problem` may be driven in chunks: not in energy mode (its discrete
+/// energy is checked at every node) nor with forces (the balance needs the work at every
+/// node, which only [`Observer::node`] sees).
+fn chunked(problem: &Problem) -> bool {
+    problem.energy.is_none() && problem.terms.force.is_none()
 }
 
 /// The discrete energy of energy mode at the node `it` is at (0 otherwise): fixed by the
@@ -375,6 +400,10 @@ fn discrete_energy<L: Lagrangian>(it: &Integrator<'_, L>) -> f64 {
 impl<L: Lagrangian> Observer<L> for Recorders<'_> {
     fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
         self.each_node(it.lagrangian(), it.node(), discrete_energy(it))?;
+        if let Some(b) = self.balance.as_mut() {
+            self.energy.publish();
+            b.at(self.current.get().h, it.work());
+        }
         self.boundary(it, last)
     }
 

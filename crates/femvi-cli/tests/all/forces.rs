@@ -226,13 +226,30 @@ fn input_errors_and_failures() {
     let (code, err, _d) = run_text(&["run"], &format!("{energy}\n[solver]\nmethod = \"fixed-point\"\n"));
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("Newton"), "{err}");
-    // Plots are refused with a message.
-    let (code, err, _d) = run_text(
-        &["run", "--plot"],
+    // A forced run is a run of the one integrator: plots and NPY as for any run (issue 33).
+    let (code, err, d) = run_text(
+        &["run", "--plot", "--format", "csv,npy"],
         &DAMPED.replace("FORCES", "generalized = [\"-c*x_dot\"]"),
     );
-    assert_eq!(code, 2);
-    assert!(err.contains("plots are not available with [forces]"), "{err}");
+    assert_eq!(code, 0, "{err}");
+    let out = d.path().join("out");
+    let svgs = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "svg"))
+        .count();
+    assert!(svgs > 0, "no plots in {}", out.display());
+    let columns = std::fs::read_to_string(out.join("columns.txt")).unwrap();
+    assert!(columns.lines().any(|c| c == "work"), "{columns}");
+    // In energy mode the forced energy equation's own run still refuses them, by the table.
+    let energy = DAMPED
+        .replace("FORCES", "generalized = [\"-c*x_dot\"]")
+        .replace("end = 5.0", "end = 5.0\nmode = \"energy\"");
+    let (code, err, _d) = run_text(&["run", "--plot"], &energy);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("plots are not available with [forces] in [time] mode = \"energy\""),
+        "{err}"
+    );
 }
 
 /// `[forces]` with `[time] mode = "adaptive"`: the adaptive integrator has no force terms, so

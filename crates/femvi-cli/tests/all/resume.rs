@@ -20,7 +20,7 @@ struct Case {
     args: &'static [&'static str],
 }
 
-const CASES: [Case; 6] = [
+const CASES: [Case; 8] = [
     Case {
         name: "explicit",
         end: 20.0,
@@ -61,10 +61,25 @@ const CASES: [Case; 6] = [
         toml: "name = \"kept\"\n[system]\ncoordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2) + (x_dot^2 + y_dot^2)^2/800\"\n[initial]\nq = [0.4, 0.0]\np = [0.0, 2.0]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 7\n",
         args: &["--checkpoint-every-steps", "101", "--checkpoint-every-seconds", "0.05"],
     },
+    // Forces (issue 33): a velocity-dependent friction takes the forced Newton step, a force
+    // of t and q alone on a mechanical L the forced fixed point; both stream their rows and
+    // the work column, and resume to the same bytes.
+    Case {
+        name: "forced-newton",
+        end: 50.0,
+        toml: "name = \"forced-newton\"\n[system]\ncoordinates = [\"x\"]\nparameters = { c = 0.1, f0 = 0.3, w = 1.2 }\nlagrangian = \"0.5*x_dot^2 - 0.5*x^2 - 0.25*x^4\"\n[forces]\ngeneralized = [\"f0*cos(w*t)\"]\ndissipation = \"0.5*c*x_dot^2\"\n[initial]\nq = [1.0]\nv = [0.0]\n[scheme]\ndegree = 2\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 5\n",
+        args: &["--format", "csv,npy", "--checkpoint-every-steps", "97"],
+    },
+    Case {
+        name: "forced-fixed-point",
+        end: 50.0,
+        toml: "name = \"forced-fixed-point\"\n[system]\ncoordinates = [\"x\", \"y\"]\nparameters = { f0 = 0.2 }\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) - (1 - cos(x)) - 0.5*y^2 - 0.1*(1 - cos(x))*y^2\"\n[forces]\ngeneralized = [\"f0*cos(t)\", \"-0.05*y\"]\n[initial]\nq = [0.5, 0.1]\nv = [0.0, 0.2]\n[scheme]\ndegree = 3\n[time]\nstep = 0.02\nend = {end}\n",
+        args: &["--checkpoint-every-seconds", "0.05"],
+    },
 ];
 
 /// The summary.json keys that describe the final state (not the wall time or command line).
-const FINAL_STATE: [&str; 14] = [
+const FINAL_STATE: [&str; 15] = [
     "status",
     "energy_nodes",
     "error",
@@ -79,6 +94,7 @@ const FINAL_STATE: [&str; 14] = [
     "max_step",
     "degenerate_steps",
     "max_rel_energy_balance_error",
+    "final_work",
 ];
 
 fn femvi() -> Command {

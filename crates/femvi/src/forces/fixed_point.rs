@@ -8,18 +8,17 @@
 //! equations are the mechanical ones with the force −∇V replaced by −∇V + F(t, q) at the
 //! quadrature points, and the fixed point's collocation-like form
 //! Y_l = h a_l u + h² Σ_i B_li M⁻¹f_i, Δp = h Σ_i b_i f_i holds with f_i = (−∇V + F)(t_i, q_i).
-//! [`WithForce`] is that augmented force, handed to the unchanged [`Integrator`]; the discrete
-//! work W_k is then evaluated on each solved element exactly as the Newton step does
-//! ([`super::element_forces`] on the element's nodes, and −h Σ b_i ∂L/∂t for a time-dependent
+//! [`WithForce`] is that augmented force, handed to the unchanged fixed-point solver of
+//! [`crate::step`] by the force term (`term.rs`); the discrete work W_k is then evaluated on
+//! each solved element exactly as the Newton step does ([`ElementWorkOf`]:
+//! [`super::element_forces`] on the element's nodes, and −h Σ b_i ∂L/∂t for a time-dependent
 //! L), so [`super::solve_forced`] reports the same quantities either way.
 
 use super::element::element_forces;
-use super::solve::{Node, Run};
-use super::{Force, ForcedSolution};
+use super::Force;
 use crate::discrete::Element;
-use crate::error::Result;
 use crate::lagrangian::{Lagrangian, MassMatrix, PointDerivatives, Scalar};
-use crate::step::{ElementNodes, Integrator, Method, SolverOptions, Start, TimeGrid};
+use crate::step::ElementNodes;
 
 /// Largest dimension whose force buffers live on the stack (larger ones allocate per call).
 const STACK: usize = 16;
@@ -91,93 +90,8 @@ impl<L: Lagrangian, F: Force> Lagrangian for WithForce<'_, L, F> {
     }
 }
 
-/// The start, grid and limits of a forced run, checked by [`super::solve_forced`].
-pub(super) struct Setup<'s> {
-    pub(super) grid: TimeGrid,
-    pub(super) q0: &'s [f64],
-    pub(super) p0: &'s [f64],
-    pub(super) v0: Vec<f64>,
-    pub(super) t0: f64,
-    pub(super) every: usize,
-    pub(super) max_steps: Option<usize>,
-}
-
-/// The forced run by fixed-point iteration (module docs); the caller has checked that `lag`
-/// has a mass matrix and `force` does not depend on v.
-///
-/// # Errors
-/// As [`Integrator::new`] for the fixed-point method; a failed step is recorded in the
-/// solution, not returned.
-pub(super) fn solve_fixed_point<L: Lagrangian, F: Force>(
-    lag: &L,
-    force: &F,
-    element: &Element,
-    solver: SolverOptions,
-    setup: Setup<'_>,
-) -> Result<ForcedSolution> {
-    let n = lag.dim();
-    let wrapped = WithForce::new(lag, force);
-    let opts = SolverOptions {
-        method: Method::FixedPoint,
-        ..solver
-    };
-    let start = Start::Momentum {
-        q: setup.q0.to_vec(),
-        p: setup.p0.to_vec(),
-    };
-    let mut it = Integrator::new(&wrapped, element, setup.grid, start, opts)?;
-    let mut run = Run::new(n, setup.every);
-    let mut node = Node {
-        k: 0,
-        t: setup.t0,
-        q: setup.q0.to_vec(),
-        p: setup.p0.to_vec(),
-        cq: vec![],
-        cp: vec![],
-        work: 0.0,
-    };
-    let mut v = setup.v0;
-    let mut work = ElementWorkOf::new(element, n);
-    let (mut error, mut stopped) = (None, false);
-    loop {
-        let finished = it.finished();
-        if let Err(e) = run.record(lag, &node, &mut v, finished) {
-            error = Some(e);
-            break;
-        }
-        if finished {
-            break;
-        }
-        if setup.max_steps.is_some_and(|m| node.k >= m) {
-            stopped = true;
-            break;
-        }
-        match it.step() {
-            Err(e) => {
-                error = Some(e);
-                break;
-            }
-            Ok(false) => break,
-            Ok(true) => {}
-        }
-        if let Some(el) = it.last_element() {
-            node.work += work.of(lag, force, el);
-        }
-        let at = it.node();
-        node.k = at.k;
-        node.t = at.t;
-        node.q.copy_from_slice(at.q);
-        node.p.copy_from_slice(at.p);
-    }
-    if stopped || error.is_some() {
-        run.keep_last(&node, &v);
-    }
-    let iterations = (it.mean_iterations() * node.k as f64).round() as usize;
-    Ok(run.finish(node.k, iterations, stopped, error))
-}
-
 /// Buffers for the work of one element.
-struct ElementWorkOf<'e> {
+pub(super) struct ElementWorkOf<'e> {
     element: &'e Element,
     fd: Vec<f64>,
     q: Vec<f64>,
@@ -186,7 +100,7 @@ struct ElementWorkOf<'e> {
 }
 
 impl<'e> ElementWorkOf<'e> {
-    fn new(element: &'e Element, n: usize) -> Self {
+    pub(super) fn new(element: &'e Element, n: usize) -> Self {
         Self {
             element,
             fd: vec![0.0; element.nodes() * n],
@@ -198,7 +112,7 @@ impl<'e> ElementWorkOf<'e> {
 
     /// The element's work of F, h Σ_i b_i F·q̇_h(c_i), and for a time-dependent L its
     /// −h Σ_i b_i ∂L/∂t(c_i): what the Newton step adds (`step.rs`).
-    fn of<L: Lagrangian, F: Force>(&mut self, lag: &L, force: &F, el: ElementNodes<'_>) -> f64 {
+    pub(super) fn of<L: Lagrangian, F: Force>(&mut self, lag: &L, force: &F, el: ElementNodes<'_>) -> f64 {
         let element = self.element;
         let mut w = element_forces(element, force, el.t, el.h, el.base, el.incr, &mut self.fd);
         if lag.is_autonomous() {

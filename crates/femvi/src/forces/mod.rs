@@ -62,6 +62,7 @@ mod solve;
 mod step;
 mod sum;
 mod tangent;
+mod term;
 
 pub use bvp::solve_forced_bvp;
 pub(crate) use bvp::ForceTerm;

@@ -1,17 +1,17 @@
-//! [`solve_forced`]: a run with non-conservative forces, node by node with the forced Newton
-//! step (`step.rs`) or, for a constant mass matrix and a force independent of v, the
-//! fixed-point solver (`fixed_point.rs`), returning the usual [`Solution`] with the accumulated discrete work and
+//! [`solve_forced`]: a run with non-conservative forces on the one integrator
+//! ([`Integrator::with_force`], `term.rs`: the forced Newton step of `step.rs` or, for a
+//! constant mass matrix and a force independent of v, the fixed-point solver of
+//! `fixed_point.rs`), returning the usual [`Solution`] with the accumulated discrete work and
 //! the energy balance max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
 
 use super::energy::{solve_energy, Begin};
-use super::fixed_point::{solve_fixed_point, Setup};
-use super::step::{ForcedStep, Taken};
+use super::step::Taken;
 use super::Force;
 use crate::discrete::Element;
 use crate::error::{check_len, finite_energy, invalid, Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::{grid, EnergyReport, Problem, Solution, SolveOptions, Steps};
-use crate::step::{Method, Start};
+use crate::step::{Integrator, Method, Start};
 
 /// How well the energy balance H(t_k) − H(t_0) = W_k holds over a run (every node).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -77,7 +77,7 @@ pub struct ForcedSolution {
 /// assert!(sol.balance.max_abs < 1e-7);
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn solve_forced<L: Lagrangian, F: Force>(
+pub fn solve_forced<L: Lagrangian + Sync, F: Force + Sync>(
     problem: &Problem<L>,
     force: &F,
     element: &Element,
@@ -100,55 +100,45 @@ pub fn solve_forced<L: Lagrangian, F: Force>(
         };
         return solve_energy(lag, force, element, options, (grid, *energy), begin);
     }
-    if fixed_point_fits(lag, force, options.solver.method)? {
-        let setup = Setup {
-            grid,
-            q0: &q0,
-            p0: &p0,
-            v0,
-            t0: problem.t0,
-            every: options.every,
-            max_steps: options.max_steps,
-        };
-        return solve_fixed_point(lag, force, element, options.solver, setup);
-    }
-    let mut stepper = ForcedStep::new(lag, force, element, options.solver)?;
+    let mut it = Integrator::with_force(lag, element, grid, problem.start.clone(), options.solver, force)?;
     let mut run = Run::new(n, options.every);
     let mut node = Node {
         k: 0,
         t: problem.t0,
         q: q0,
         p: p0,
-        cq: vec![0.0; n],
-        cp: vec![0.0; n],
+        cq: vec![],
+        cp: vec![],
         work: 0.0,
     };
     let mut v = v0;
-    let mut error = None;
-    let mut stopped = false;
-    let mut taken = Taken::default();
-    let mut iterations = 0usize;
+    let (mut error, mut stopped) = (None, false);
     loop {
-        let next = grid.next(node.k, node.t);
-        if let Err(e) = run.record(lag, &node, &mut v, next.is_none()) {
+        let finished = it.finished();
+        if let Err(e) = run.record(lag, &node, &mut v, finished) {
             error = Some(e);
             break;
         }
-        let Some((h, t_next)) = next else { break };
+        if finished {
+            break;
+        }
         if options.max_steps.is_some_and(|m| node.k >= m) {
             stopped = true;
             break;
         }
-        if let Err(e) = stepper.step(node.k, node.t, h, &node.q, &node.p, &v, &mut taken) {
-            error = Some(e);
-            break;
+        match it.step() {
+            Err(e) => {
+                error = Some(e);
+                break;
+            }
+            Ok(false) => break,
+            Ok(true) => node.copy_from(&it),
         }
-        iterations += taken.iterations;
-        node.advance(&taken, t_next);
     }
     if stopped || error.is_some() {
         run.keep_last(&node, &v);
     }
+    let iterations = (it.mean_iterations() * node.k as f64).round() as usize;
     Ok(run.finish(node.k, iterations, stopped, error))
 }
 
@@ -158,7 +148,7 @@ pub fn solve_forced<L: Lagrangian, F: Force>(
 /// converges in two sweeps) when they fit, never for `Method::Newton`.
 ///
 /// Errors: fixed point or explicit asked for where it does not fit.
-fn fixed_point_fits<L: Lagrangian, F: Force>(lag: &L, force: &F, method: Method) -> Result<bool> {
+pub(super) fn fixed_point_fits<L: Lagrangian, F: Force>(lag: &L, force: &F, method: Method) -> Result<bool> {
     let fits = lag.mass_matrix().is_some() && !force.depends_on_velocity();
     match method {
         Method::Newton | Method::FullNewton | Method::SimplifiedNewton => Ok(false),
@@ -220,7 +210,8 @@ pub(super) fn start<L: Lagrangian>(lag: &L, start: &Start, t0: f64) -> Result<(V
     }
 }
 
-/// The current node with the compensation terms of its sums.
+/// The current node with the compensation terms of its sums (the energy mode's and the
+/// tangent run's own loops; the run on the integrator leaves them empty).
 pub(super) struct Node {
     pub(super) k: usize,
     pub(super) t: f64,
@@ -238,6 +229,16 @@ impl Node {
         self.work += taken.work + taken.time_work;
         self.k += 1;
         self.t = t_next;
+    }
+
+    /// The integrator's current node and work.
+    fn copy_from<L: Lagrangian>(&mut self, it: &Integrator<'_, L>) {
+        let at = it.node();
+        self.k = at.k;
+        self.t = at.t;
+        self.q.copy_from_slice(at.q);
+        self.p.copy_from_slice(at.p);
+        self.work = it.work();
     }
 }
 

@@ -158,6 +158,18 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
         Ok(())
     }
 
+    /// Sets the predictor's previous element (node increments `incr`, step `h`): a run
+    /// restored from a checkpoint continues with the starting values it would have had.
+    pub(super) fn set_previous(&mut self, incr: &[f64], h: f64) {
+        match &mut self.last {
+            Some((last, last_h)) => {
+                last.copy_from_slice(incr);
+                *last_h = h;
+            }
+            None => self.last = Some((incr.to_vec(), h)),
+        }
+    }
+
     /// The last solved element's node increments Q^j − q_k (j = 0 … s, the first block zero),
     /// for the step's tangent map (`tangent.rs`).
     pub(super) fn increments(&self) -> &[f64] {

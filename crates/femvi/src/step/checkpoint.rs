@@ -100,7 +100,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
     /// What the run is, for checking a checkpoint against the integrator it is restored into.
     fn fingerprint(&self, tag: &str) -> String {
         format!(
-            "n={} element={:?}/{:?}/{} solver={:?} grid={:?} options={:?} energy={:?} tag={tag}",
+            "n={} element={:?}/{:?}/{} solver={:?} grid={:?} options={:?} energy={:?}{} tag={tag}",
             self.state.n,
             self.element.basis.nodes,
             self.element.rule.kind,
@@ -109,6 +109,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
             self.grid,
             self.opts,
             self.energy.as_ref().map(|e| e.options()),
+            if self.term.is_some() { " term=forces" } else { "" },
         )
     }
 
@@ -157,6 +158,10 @@ impl<L: Lagrangian> Integrator<'_, L> {
         }
         if let Some(e) = &self.energy {
             e.save(&mut w);
+        }
+        if let Some(term) = &self.term {
+            w.f(self.work);
+            term.save(&mut w);
         }
         Checkpoint {
             format: FORMAT,
@@ -226,10 +231,20 @@ impl<L: Lagrangian> Integrator<'_, L> {
         if let Some(e) = energy.as_mut() {
             e.load(&mut r)?;
         }
+        let work = match &self.term {
+            Some(_) => r.f()?,
+            None => 0.0,
+        };
+        // The term's state is read last, into the term itself: the checkpoint was checked up to
+        // here, and its last part is the term's own fixed-size state.
+        if let Some(term) = self.term.as_mut() {
+            term.load(&mut r, &last)?;
+        }
         if r.at != checkpoint.words.len() {
             return Err(invalid("checkpoint", "more state than this run has"));
         }
         (self.state, self.last, self.solver, self.energy, self.pending) = (state, last, solver, energy, pending);
+        self.work = work;
         Ok(())
     }
 }

@@ -11,6 +11,7 @@ use super::grid::TimeGrid;
 use super::options::{SolverOptions, Start};
 use super::solver::{choose, Kind, Solver, StepContext};
 use super::state::{ElementNodes, Increments, LastElement, Node, RunState};
+use super::term::StepTerm;
 use crate::discrete::Element;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
@@ -79,6 +80,10 @@ pub struct Integrator<'a, L: Lagrangian> {
     /// The node at t1 of a start from (q0, q1), returned by the first step.
     pub(super) pending: Option<(f64, Vec<f64>, Vec<f64>)>,
     pub(super) energy: Option<EnergyState>,
+    /// A term that owns the solve of each step (forces, `term.rs`); None for a plain run.
+    pub(super) term: Option<Box<dyn StepTerm + Send + 'a>>,
+    /// The discrete work of the term accumulated from t0 (0 without a term).
+    pub(super) work: f64,
 }
 
 impl<'a, L: Lagrangian> Integrator<'a, L> {
@@ -116,10 +121,42 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             bufs: None,
             pending: None,
             energy: None,
+            term: None,
+            work: 0.0,
             grid,
         };
         me.start(start)?;
         Ok(me)
+    }
+
+    /// [`Integrator::new`] with `term` solving every step (`term.rs`): fixed or variable steps
+    /// from (q0, v0) or (q0, p0), not the energy mode.
+    ///
+    /// # Errors
+    /// As [`Integrator::new`].
+    pub(crate) fn with_term(
+        lag: &'a L,
+        element: &'a Element,
+        grid: TimeGrid,
+        start: Start,
+        opts: SolverOptions,
+        term: Box<dyn StepTerm + Send + 'a>,
+    ) -> Result<Self> {
+        let mut me = Self::build(Held::Borrowed(lag), Held::Borrowed(element), grid, start, opts)?;
+        me.term = Some(term);
+        Ok(me)
+    }
+
+    /// The discrete work of the run's term (the forces of [`crate::forces`]) from t0 to the
+    /// current node: Σ_k W_k, each element's h Σ_i b_i F·q̇_h(c_i) (and −h Σ_i b_i ∂L/∂t for a
+    /// time-dependent L, so that H_k − H_0 − W_k is the balance error). 0 without a term.
+    pub fn work(&self) -> f64 {
+        self.work
+    }
+
+    /// Whether a term (forces) solves the steps.
+    pub fn has_term(&self) -> bool {
+        self.term.is_some()
     }
 
     /// The current node.
@@ -206,6 +243,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             self.state.steps += 1;
             return Ok(true);
         }
+        if self.term.is_some() {
+            return self.step_term();
+        }
         if self.energy.is_some() {
             return self.step_energy();
         }
@@ -222,6 +262,23 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// Solves the step equations from the current node with step h into `inc`, without
     /// moving the state.
+    /// A step solved by the term: its increments are committed like the solvers', and its
+    /// element's work is added to the run's.
+    fn step_term(&mut self) -> Result<bool> {
+        let Some((h, t_next)) = self.grid.next(self.state.k, self.state.t) else {
+            return Ok(false);
+        };
+        let Some(term) = self.term.as_mut() else {
+            return Ok(false);
+        };
+        self.state.iterations += term.solve(&self.state, &mut self.last, h, &mut self.inc)?;
+        term.accepted(self.state.n);
+        let work = self.work + term.element_work();
+        self.state.commit(&mut self.last, &mut self.inc, true, h, t_next)?;
+        self.work = work;
+        Ok(true)
+    }
+
     pub(super) fn solve_at(&mut self, h: f64) -> Result<()> {
         let cx = context!(self);
         let iterations = self
@@ -341,7 +398,11 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let Solver::Explicit(ex) = &mut self.solver else {
             return None;
         };
-        if self.pending.is_some() || self.energy.is_some() || !self.lag.mass_matrix()?.is_identity() {
+        if self.pending.is_some()
+            || self.energy.is_some()
+            || self.term.is_some()
+            || !self.lag.mass_matrix()?.is_identity()
+        {
             return None;
         }
         let (lag, grid) = (&*self.lag, &self.grid);
@@ -362,7 +423,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let Solver::Explicit(ex) = &mut self.solver else {
             return None;
         };
-        if self.pending.is_some() || self.energy.is_some() {
+        if self.pending.is_some() || self.energy.is_some() || self.term.is_some() {
             return None;
         }
         let mass = self.lag.mass_matrix()?;

@@ -43,7 +43,7 @@
 //!   committed step (`tangent.rs`) applied to tangent vectors, an observer of each node.
 
 pub mod auto;
-mod checkpoint;
+pub(crate) mod checkpoint;
 pub mod drive;
 mod element_work;
 mod energy;
@@ -51,7 +51,7 @@ mod energy_search;
 mod explicit;
 mod first;
 pub mod fixed_point;
-mod fixed_point_step;
+pub(crate) mod fixed_point_step;
 pub mod grid;
 mod guess;
 mod guess_correction;
@@ -60,10 +60,11 @@ pub mod integrator;
 mod newton_residual;
 mod newton_step;
 pub mod options;
-mod solver;
+pub(crate) mod solver;
 mod start;
-mod state;
+pub(crate) mod state;
 mod tangent;
+pub(crate) mod term;
 
 pub use checkpoint::Checkpoint;
 pub use drive::{drive, DriveReport, Observer};

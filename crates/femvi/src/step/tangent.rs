@@ -33,6 +33,13 @@ impl<L: Lagrangian> Integrator<'_, L> {
     /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn tangent_map(&mut self) -> Result<Vec<f64>> {
+        if self.term.is_some() {
+            // The map below linearises the conservative step equations only.
+            return Err(invalid(
+                "tangent map",
+                "not of a step with forces here (femvi::chaos::forced_indicators carries the forced step's map)",
+            ));
+        }
         if !self.last.valid {
             return Err(invalid("tangent map", "no step has been taken"));
         }

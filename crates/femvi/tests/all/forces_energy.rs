@@ -55,7 +55,7 @@ fn damped(c: f64, t: f64) -> (f64, f64) {
     (x, v)
 }
 
-fn run(problem: &Problem<impl Lagrangian>, c: f64, el: &Element, opts: &SolveOptions) -> ForcedSolution {
+fn run(problem: &Problem<impl Lagrangian + Sync>, c: f64, el: &Element, opts: &SolveOptions) -> ForcedSolution {
     solve_forced(problem, &LinearForce::damping(1, c), el, opts).unwrap()
 }
 

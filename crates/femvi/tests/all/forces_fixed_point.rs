@@ -76,7 +76,13 @@ fn identical(a: &ForcedSolution, b: &ForcedSolution) -> bool {
 
 /// Auto (the fixed point here), an explicit `Method::FixedPoint` and Newton on one problem:
 /// Auto is the fixed point bit for bit, not Newton, and Newton agrees to `tol`.
-fn compare<L: Lagrangian, F: Force>(problem: &Problem<L>, force: &F, element: &Element, h: f64, tol: f64) -> f64 {
+fn compare<L: Lagrangian + Sync, F: Force + Sync>(
+    problem: &Problem<L>,
+    force: &F,
+    element: &Element,
+    h: f64,
+    tol: f64,
+) -> f64 {
     let auto = solve_forced(problem, force, element, &options(h, Method::Auto)).unwrap();
     let fixed = solve_forced(problem, force, element, &options(h, Method::FixedPoint)).unwrap();
     let newton = solve_forced(problem, force, element, &options(h, Method::Newton)).unwrap();
