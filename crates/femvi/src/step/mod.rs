@@ -31,8 +31,9 @@
 //! extensions add terms or unknowns here without touching the solvers' loops:
 //! - *Non-conservative forces* (discrete Lagrange–d'Alembert): a term
 //!   h Σ_i b_i F(t_i, q_h(c_i), q̇_h(c_i)) ℓ_j(c_i) added to R_j; for the fixed-point solver
-//!   the force at the stages gains F (the `Lagrangian::forces` call becomes forces + F), so a
-//!   wrapper type around the Lagrangian carries it into every solver.
+//!   the force at the stages gains F (the `Lagrangian::forces` call becomes forces + F). Done
+//!   as a term (`term.rs`): `Integrator::with_force` (`forces/term.rs`) hands each step's
+//!   solve to the term and keeps the rest of the run.
 //! - *Holonomic constraints* g(q) = 0: multipliers λ as extra unknowns of the Newton solver
 //!   (R_j gains −∇g(Q^j)ᵀλ and the system gains g(Q^s) = 0), and a projection of p; a new
 //!   `Solver` variant owning the enlarged workspace, selected by `choose`.
