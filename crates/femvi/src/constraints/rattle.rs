@@ -92,6 +92,9 @@ pub(crate) struct RattleStep {
     p_tilde: Vec<f64>,
     pcomp: Vec<f64>,
     pub mu: Vec<f64>,
+    /// u of the step before the last, for the extrapolated guess.
+    u_last: Vec<f64>,
+    have_last: bool,
 }
 
 impl RattleStep {
@@ -112,6 +115,8 @@ impl RattleStep {
             p_tilde: vec![0.0; n],
             pcomp: vec![0.0; n],
             mu: vec![0.0; m],
+            u_last: vec![0.0; m],
+            have_last: false,
         }
     }
 
@@ -155,6 +160,17 @@ impl RattleStep {
         }
         for l in 0..m {
             mass.solve(&start.jac[l * n..(l + 1) * n], &mut self.w[l * n..(l + 1) * n]);
+        }
+        // Guess: u extrapolated linearly from the last two steps (u = hλ̂ varies smoothly).
+        if self.have_last {
+            for (ul, last) in u.iter_mut().zip(self.u_last.iter_mut()) {
+                let guess = 2.0 * *ul - *last;
+                *last = *ul;
+                *ul = guess;
+            }
+        } else {
+            self.u_last.copy_from_slice(u);
+            self.have_last = true;
         }
         let fail = |failure, residual: f64, iterations| NewtonFailure {
             failure,
