@@ -44,9 +44,10 @@
 //! is symplectic on T*N ([`manifold_symplecticity`] measures it). Each step is solved by dense
 //! Newton on (Q^1 … Q^s, λ̂, Λ̂) with exact Jacobians (the element's Hessian, and the constraint
 //! derivatives by hyper-dual numbers, `jet.rs`), [`crate::solve::newton_dense`]; in the RATTLE
-//! case above without forces, unless the method is a Newton one (`Method::Auto`,
-//! `Method::Explicit` and `Method::FixedPoint`; the last two are refused elsewhere), by Newton
-//! on the m multipliers λ̂ alone and a linear projection (`rattle.rs`).
+//! case above without forces, under `Method::Auto`, `Method::Explicit` and `Method::FixedPoint`
+//! (the Newton methods keep dense Newton; Explicit and FixedPoint are input errors where RATTLE
+//! does not fit), by Newton on the m multipliers λ̂ alone and a linear projection
+//! (`rattle.rs`).
 //!
 //! Which interior enforcement keeps the nodal order 2s was measured on the spherical pendulum
 //! (README, "Holonomic constraints"): [`Enforcement::Weak`] is the default.

@@ -14,9 +14,13 @@
 //! G(q_{k+1}) M⁻¹ G(q_{k+1})ᵀ μ̂ = G(q_{k+1}) M⁻¹ p̃. Both replace the dense Newton solve on
 //! (Q^1, λ̂) and the Newton projection of `project.rs` by O(m n + m³) work per iteration,
 //! with no allocation per step. The two paths solve the same equations to round-off (the same
-//! tolerance on the increments of u = hλ̂); p̃ is taken from the increment as RATTLE writes
-//! it, p̃ = M Δq/h + (h/2) f_{k+1}, and the end node's constraints are evaluated at the node
-//! that is stored (q_k + Δq with the compensation of the summed increments).
+//! tolerance on the increments of u = hλ̂, p̃ by the sums of `StepSystem::momentum_by_sums`);
+//! here the end node's constraints are evaluated at the node that is stored (q_k + Δq with the
+//! compensation of the summed increments), p is summed with compensation as q is
+//! ([`RattleStep::project`]), and Newton starts from u extrapolated from the last two steps
+//! (about 2 iterations per step on the spherical pendulum). The nodes then follow the RATTLE
+//! map evaluated in double-double arithmetic to a few ulps over 10⁴ steps
+//! (`tests/all/constraints_rattle.rs`).
 //!
 //! [`choose`] decides when a constrained run takes these steps.
 
