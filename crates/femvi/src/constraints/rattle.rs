@@ -389,3 +389,39 @@ pub(crate) fn conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -
         0.0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{conditioning, solve_small};
+
+    /// The one-sided Jacobi ratio against nalgebra's SVD, on full-rank and nearly dependent rows.
+    #[test]
+    fn conditioning_matches_the_svd() {
+        let cases: [(usize, usize, Vec<f64>); 4] = [
+            (1, 3, vec![0.3, -1.2, 2.0]),
+            (2, 4, vec![1.0, 2.0, -0.5, 0.3, 0.7, -1.1, 2.2, 0.9]),
+            (3, 5, (0..15).map(|i| ((i * 7 + 3) % 11) as f64 - 5.0).collect()),
+            (2, 3, vec![1.0, 2.0, 3.0, 1.0, 2.0, 3.0 + 1e-9]),
+        ];
+        for (m, n, g) in cases {
+            let sv = nalgebra::DMatrix::from_row_slice(m, n, &g).singular_values();
+            let svd = sv.min() / sv.max();
+            let jacobi = conditioning(&g, m, n, &mut vec![0.0; m * n]);
+            assert!(
+                (jacobi - svd).abs() <= 1e-6 * svd,
+                "{m}x{n}: {jacobi:e} against {svd:e}"
+            );
+        }
+        assert_eq!(conditioning(&[1.0, 2.0, 2.0, 4.0], 2, 2, &mut [0.0; 4]), 0.0);
+        assert_eq!(conditioning(&[f64::NAN, 1.0], 1, 2, &mut [0.0; 2]), 0.0);
+    }
+
+    #[test]
+    fn small_solves_pivot_and_refuse_singular_systems() {
+        let (mut a, mut b) = (vec![0.0, 2.0, 1.0, 1.0], vec![4.0, 3.0]);
+        assert!(solve_small(&mut a, &mut b, 2));
+        assert_eq!(b, [1.0, 2.0]);
+        assert!(!solve_small(&mut [1.0, 2.0, 2.0, 4.0], &mut [1.0, 1.0], 2));
+        assert!(!solve_small(&mut [0.0], &mut [1.0], 1));
+    }
+}
