@@ -56,7 +56,7 @@
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `start.rs` (the checked start of a run),
 //! `solve.rs` (the run), `stepper.rs` (one step), `rattle.rs` (the RATTLE step on the
-//! multipliers), `forced.rs` (runs under non-conservative
+//! multipliers, with `small.rs`), `forced.rs` (runs under non-conservative
 //! forces, [`solve_constrained_forced`]: the discrete Lagrange–d'Alembert principle on the
 //! augmented action, with the energy balance),
 //! `tangent.rs` (the step's tangent map, symplecticity on the manifold), `chart.rs`
@@ -78,6 +78,7 @@ mod jet;
 mod layout;
 mod project;
 mod rattle;
+mod small;
 mod solve;
 mod start;
 mod step;

@@ -7,7 +7,8 @@
 
 use super::layout::Layout;
 use super::project::Projector;
-use super::rattle::{conditioning, RattleStep};
+use super::rattle::RattleStep;
+use super::small::conditioning;
 use super::solve::RANK_TOLERANCE;
 use super::start::{singular, step_error};
 use super::step::StepSystem;

@@ -1,0 +1,132 @@
+//! Small dense linear algebra of the RATTLE step (`rattle.rs`) without allocation: the m×m
+//! solves of its Newton iteration on the multipliers and of the projection
+//! (Hairer–Lubich–Wanner VII.1.4: G(q_k + Δq) M⁻¹ G(q_k)ᵀ δ = g, G M⁻¹ Gᵀ μ̂ = G M⁻¹ p̃), and the
+//! conditioning of the constraint Jacobian G checked at every node (the ratio of its extreme
+//! singular values, by one-sided Jacobi rotations of its rows, Hestenes 1958).
+
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Solves the row-major m×m system `a` x = `b` in place (x into `b`) by Gaussian elimination
+/// with partial pivoting; false if a pivot is zero or not finite.
+pub(super) fn solve_small(a: &mut [f64], b: &mut [f64], m: usize) -> bool {
+    if m == 1 {
+        let x = b[0] / a[0];
+        b[0] = x;
+        return a[0] != 0.0 && x.is_finite();
+    }
+    for k in 0..m {
+        let piv = (k..m).fold(k, |best, i| {
+            if a[i * m + k].abs() > a[best * m + k].abs() {
+                i
+            } else {
+                best
+            }
+        });
+        let d = a[piv * m + k];
+        if d == 0.0 || !d.is_finite() {
+            return false;
+        }
+        if piv != k {
+            for j in 0..m {
+                a.swap(k * m + j, piv * m + j);
+            }
+            b.swap(k, piv);
+        }
+        for i in k + 1..m {
+            let f = a[i * m + k] / d;
+            for j in k..m {
+                a[i * m + j] -= f * a[k * m + j];
+            }
+            b[i] -= f * b[k];
+        }
+    }
+    for k in (0..m).rev() {
+        let s: f64 = (k + 1..m).map(|j| a[k * m + j] * b[j]).sum();
+        b[k] = (b[k] - s) / a[k * m + k];
+    }
+    b.iter().all(|x| x.is_finite())
+}
+
+/// Ratio of the smallest to the largest singular value of the row-major m×n matrix `g`
+/// without allocating (one-sided Jacobi on the rows, in `scratch`, m n entries): the
+/// [`ConstraintJet::conditioning`] of a step's end node, checked every step.
+pub(crate) fn conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -> f64 {
+    if m == 0 {
+        return 1.0;
+    }
+    if n < m || !g.iter().all(|x| x.is_finite()) {
+        return 0.0;
+    }
+    let a = &mut scratch[..m * n];
+    a.copy_from_slice(&g[..m * n]);
+    for _sweep in 0..30 {
+        let mut rotated = false;
+        for i in 0..m {
+            for j in i + 1..m {
+                let (ri, rj) = (&a[i * n..(i + 1) * n], &a[j * n..(j + 1) * n]);
+                let (aii, ajj, aij) = (dot(ri, ri), dot(rj, rj), dot(ri, rj));
+                if aij == 0.0 || aij.abs() <= 1e-15 * (aii * ajj).sqrt() {
+                    continue;
+                }
+                rotated = true;
+                let zeta = (ajj - aii) / (2.0 * aij);
+                let t = zeta.signum() / (zeta.abs() + (1.0 + zeta * zeta).sqrt());
+                let c = 1.0 / (1.0 + t * t).sqrt();
+                let s = c * t;
+                for k in 0..n {
+                    let (x, y) = (a[i * n + k], a[j * n + k]);
+                    a[i * n + k] = c * x - s * y;
+                    a[j * n + k] = s * x + c * y;
+                }
+            }
+        }
+        if !rotated {
+            break;
+        }
+    }
+    let norms = (0..m).map(|i| dot(&a[i * n..(i + 1) * n], &a[i * n..(i + 1) * n]).sqrt());
+    let (lo, hi) = norms.fold((f64::INFINITY, 0.0f64), |(lo, hi), s| (lo.min(s), hi.max(s)));
+    if hi > 0.0 && hi.is_finite() {
+        lo / hi
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{conditioning, solve_small};
+
+    /// The one-sided Jacobi ratio against nalgebra's SVD, on full-rank and nearly dependent rows.
+    #[test]
+    fn conditioning_matches_the_svd() {
+        let cases: [(usize, usize, Vec<f64>); 4] = [
+            (1, 3, vec![0.3, -1.2, 2.0]),
+            (2, 4, vec![1.0, 2.0, -0.5, 0.3, 0.7, -1.1, 2.2, 0.9]),
+            (3, 5, (0..15).map(|i| ((i * 7 + 3) % 11) as f64 - 5.0).collect()),
+            (2, 3, vec![1.0, 2.0, 3.0, 1.0, 2.0, 3.0 + 1e-9]),
+        ];
+        for (m, n, g) in cases {
+            let sv = nalgebra::DMatrix::from_row_slice(m, n, &g).singular_values();
+            let svd = sv.min() / sv.max();
+            let jacobi = conditioning(&g, m, n, &mut vec![0.0; m * n]);
+            assert!(
+                (jacobi - svd).abs() <= 1e-6 * svd,
+                "{m}x{n}: {jacobi:e} against {svd:e}"
+            );
+        }
+        assert_eq!(conditioning(&[1.0, 2.0, 2.0, 4.0], 2, 2, &mut [0.0; 4]), 0.0);
+        assert_eq!(conditioning(&[f64::NAN, 1.0], 1, 2, &mut [0.0; 2]), 0.0);
+    }
+
+    #[test]
+    fn small_solves_pivot_and_refuse_singular_systems() {
+        let (mut a, mut b) = (vec![0.0, 2.0, 1.0, 1.0], vec![4.0, 3.0]);
+        assert!(solve_small(&mut a, &mut b, 2));
+        assert_eq!(b, [1.0, 2.0]);
+        assert!(!solve_small(&mut [1.0, 2.0, 2.0, 4.0], &mut [1.0, 1.0], 2));
+        assert!(!solve_small(&mut [0.0], &mut [1.0], 1));
+    }
+}
