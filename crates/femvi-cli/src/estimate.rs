@@ -1,6 +1,7 @@
 //! The output estimate of `femvi run` (issue 16): before the first step, the rows the run
 //! will write (the grid's steps, or in energy mode the span over the first step, thinned by
-//! `every`) times the bytes of a row in each format. A run whose estimate exceeds
+//! `every`; for adaptive steps with `output_step` the rows at those times,
+//! [`crate::adaptive::estimated_rows`]) times the bytes of a row in each format. A run whose estimate exceeds
 //! `--max-output` (default 10 GB) or the free space of the output device (`statvfs`) is
 //! refused with the estimate and the ways out (`[output] every`, `--max-output`).
 
@@ -45,6 +46,12 @@ pub fn estimate(problem: &Problem, out: &RunOutput) -> Estimate {
     // Node 0, every `every`-th node and the last.
     let every = problem.every.max(1) as f64;
     let rows = (steps / every).floor() + 1.0 + if steps % every == 0.0 { 0.0 } else { 1.0 };
+    of_rows(problem, out, rows, steps)
+}
+
+/// The estimate for `rows` rows of `problem`'s columns, the step numbers up to `steps`: for
+/// runs whose rows are not the grid's (adaptive steps, [`crate::adaptive::estimated_rows`]).
+pub fn of_rows(problem: &Problem, out: &RunOutput, rows: f64, steps: f64) -> Estimate {
     let cols = crate::record::columns(problem).len() as f64;
     let mut bytes = 0.0;
     if out.csv {
@@ -90,7 +97,14 @@ pub fn free_space(dir: &Path) -> Option<u64> {
 /// # Errors
 /// The message for the user: the estimate and the ways out.
 pub fn check(problem: &Problem, out: &RunOutput, dir: &Path, max_output: u64, already: u64) -> Result<(), String> {
-    let e = estimate(problem, out);
+    check_estimate(problem, estimate(problem, out), dir, max_output, already)
+}
+
+/// [`check`] for the estimate `e`.
+///
+/// # Errors
+/// The message for the user: the estimate and the ways out.
+pub fn check_estimate(problem: &Problem, e: Estimate, dir: &Path, max_output: u64, already: u64) -> Result<(), String> {
     let need = (e.bytes - already as f64).max(0.0);
     let (limit, what) = match free_space(dir) {
         Some(free) if (free as f64) < need && free < max_output => {
@@ -101,9 +115,20 @@ pub fn check(problem: &Problem, out: &RunOutput, dir: &Path, max_output: u64, al
     if need <= limit as f64 {
         return Ok(());
     }
-    let every = (problem.every as f64 * (need / limit.max(1) as f64)).ceil();
+    let factor = need / limit.max(1) as f64;
+    let fewer = match problem.terms.adaptive.as_ref().and_then(|a| a.output_step) {
+        // Rows at uniform physical times: their spacing sets the count.
+        Some(h) => format!(
+            "a larger [time] output_step (e.g. --set time.output_step={:e})",
+            h * factor.ceil()
+        ),
+        None => format!(
+            "[output] every (e.g. --set output.every={:.0})",
+            (problem.every as f64 * factor).ceil()
+        ),
+    };
     Err(format!(
-        "the run would write about {} ({:.3e} rows), more than {what}; write fewer rows with [output] every (e.g. --set output.every={every:.0}), shorten the run, or raise --max-output",
+        "the run would write about {} ({:.3e} rows), more than {what}; write fewer rows with {fewer}, shorten the run, or raise --max-output",
         size(e.bytes),
         e.rows
     ))

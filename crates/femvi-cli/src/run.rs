@@ -96,7 +96,17 @@ pub fn run_as(
         return crate::constrained::run(problem, c, dir, command);
     }
     if let Some(a) = &problem.terms.adaptive {
-        if let Err(msg) = refuse(problem, &out, control.resume) {
+        // Adaptive runs keep their rows until they end (and the times at `output_step`, which
+        // were allocated before any check: `end = 1e12` aborted): refused up front when the
+        // rows are known and too many, like every run.
+        let estimated = match crate::adaptive::estimated_rows(problem, a) {
+            Some(rows) => {
+                let e = crate::estimate::of_rows(problem, &out, rows, rows);
+                crate::estimate::check_estimate(problem, e, dir, control.max_output, 0)
+            }
+            None => Ok(()),
+        };
+        if let Err(msg) = refuse(problem, &out, control.resume).and(estimated) {
             return Ok(Outcome::Rejected(msg));
         }
         return crate::adaptive::run(problem, a, dir, out, command);

@@ -26,6 +26,16 @@ use std::time::Instant;
 
 pub use crate::problem::AdaptiveTime;
 
+/// The rows an adaptive run of `problem` will write when they are known before it starts:
+/// with `output_step` h, ⌊span/h⌋ + 1 rows at uniform physical times (and as many times held
+/// in memory). None for one row per node: their number follows the monitor along the orbit
+/// (from g(q0)·ds it was 550× too large for the e = 0.9 Kepler example, which starts at
+/// pericentre), so such runs are not estimated until adaptive runs stream (issue 33).
+pub fn estimated_rows(problem: &Problem, settings: &AdaptiveTime) -> Option<f64> {
+    let span = problem.grid.end() - problem.grid.t0();
+    settings.output_step.map(|h| (span / h).floor() + 1.0)
+}
+
 /// The monitors a problem file can name.
 enum AnyMonitor {
     Kepler(KeplerMonitor),

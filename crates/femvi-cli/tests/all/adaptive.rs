@@ -215,3 +215,34 @@ fn adaptive_events_and_npy() {
         "{final_t}"
     );
 }
+
+/// `end = 1e12` with rows at `output_step`: their number is known before the run, so the
+/// output estimate refuses it up front, naming `output_step` as the way out (the run used to
+/// allocate the 1.6e12 output times first and grow until it was killed).
+#[test]
+fn an_adaptive_run_with_too_many_output_times_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let clock = std::time::Instant::now();
+    let out = femvi()
+        .args(["run", "--quiet", "--set", "time.end=1e12", "--out"])
+        .arg(dir.path().join("out"))
+        .arg(examples().join("kepler-eccentric.toml"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("1.592e12 rows") && err.contains("--set time.output_step="),
+        "{err}"
+    );
+    assert!(clock.elapsed().as_secs_f64() < 10.0, "{:?}", clock.elapsed());
+    assert!(!dir.path().join("out").exists(), "nothing is written");
+    // Within the limit the run goes on as before.
+    let ok = femvi()
+        .args(["run", "--quiet", "--set", "time.end=62.83185307179586", "--out"])
+        .arg(dir.path().join("ok"))
+        .arg(examples().join("kepler-eccentric.toml"))
+        .output()
+        .unwrap();
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+}
