@@ -93,7 +93,7 @@ pub fn run_as(
         if let Err(msg) = refuse(problem, &out, control.resume).and_then(|()| estimate(&out)) {
             return Ok(Outcome::Rejected(msg));
         }
-        return crate::constrained::run(problem, c, dir, command);
+        return crate::constrained::run(problem, c, dir, out, command);
     }
     if let Some(a) = &problem.terms.adaptive {
         // Adaptive runs keep their rows until they end (and the times at `output_step`, which

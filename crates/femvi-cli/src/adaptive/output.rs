@@ -22,13 +22,7 @@ pub(super) fn write_trajectory<L: Lagrangian>(
     out: RunOutput,
 ) -> std::io::Result<()> {
     let (header, rows) = table(problem, lag, sol, settings);
-    if out.csv {
-        write_csv(dir, &header, &rows)?;
-    }
-    if out.npy {
-        crate::record::write_table(&dir.join("trajectory.npy"), &dir.join("columns.txt"), &header, &rows)?;
-    }
-    Ok(())
+    crate::record::write_trajectory(dir, &header, &rows, &out)
 }
 
 /// The column names and the row-major values (the first column, the node or row index, as a
@@ -78,18 +72,4 @@ fn table<L: Lagrangian>(
         }
     }
     (header, rows)
-}
-
-fn write_csv(dir: &Path, header: &[String], rows: &[f64]) -> std::io::Result<()> {
-    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
-    w.write_record(header)?;
-    let mut record = Vec::with_capacity(header.len());
-    for row in rows.chunks_exact(header.len().max(1)) {
-        record.clear();
-        // The index column as an integer, the others in shortest round-trip form.
-        record.push(format!("{}", row[0] as u64));
-        record.extend(row[1..].iter().map(|x| format!("{x:?}")));
-        w.write_record(&record)?;
-    }
-    w.flush()
 }

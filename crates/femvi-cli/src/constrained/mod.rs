@@ -17,6 +17,7 @@ pub mod check;
 use crate::outcome::{finish, Outcome};
 use crate::problem::forces::ProblemForce;
 use crate::problem::Problem;
+use crate::run_output::RunOutput;
 use crate::summary::empty_summary;
 use femvi::constraints::{
     solve_constrained_forced, solve_constrained_with, ConstrainedSolution, Enforcement, ExprConstraints,
@@ -32,9 +33,10 @@ pub fn run(
     problem: &Problem,
     constraints: &(ExprConstraints, Enforcement),
     dir: &Path,
+    out: RunOutput,
     command: &[String],
 ) -> std::io::Result<Outcome> {
-    crate::with_system!(&problem.system, l => run_with(l, problem, (constraints, problem.terms.force.as_ref()), dir, command))
+    crate::with_system!(&problem.system, l => run_with(l, problem, (constraints, problem.terms.force.as_ref()), (dir, out), command))
 }
 
 /// The library's constrained solve of a loaded problem: what `femvi run` writes.
@@ -73,7 +75,7 @@ fn run_with<L: Lagrangian + Clone>(
     lag: &L,
     problem: &Problem,
     (constraints, force): (&(ExprConstraints, Enforcement), Option<&ProblemForce>),
-    dir: &Path,
+    (dir, out): (&Path, RunOutput),
     command: &[String],
 ) -> std::io::Result<Outcome> {
     let clock = Instant::now();
@@ -87,7 +89,8 @@ fn run_with<L: Lagrangian + Clone>(
     };
     let work = forced.as_ref().map(|(w, _)| &w[..]);
     std::fs::create_dir_all(dir)?;
-    write_csv(dir, problem, &run, work)?;
+    let (header, rows) = table(problem, &run, work);
+    crate::record::write_trajectory(dir, &header, &rows, &out)?;
     write_json(dir, &run)?;
     let sol = &run.solution;
     let mut summary = empty_summary(problem, clock, String::new(), command);
@@ -109,12 +112,11 @@ fn run_with<L: Lagrangian + Clone>(
     finish(dir, summary)
 }
 
-/// trajectory.csv: step, t, q, p, energy, the work (forced runs), the multipliers and the
-/// constraint residual.
-fn write_csv(dir: &Path, problem: &Problem, run: &ConstrainedSolution, work: Option<&[f64]>) -> std::io::Result<()> {
+/// The trajectory's table: step, t, q, p, energy, the work (forced runs), the multipliers
+/// and the constraint residual at the kept nodes.
+fn table(problem: &Problem, run: &ConstrainedSolution, work: Option<&[f64]>) -> (Vec<String>, Vec<f64>) {
     let (sol, m) = (&run.solution, run.m);
     let n = sol.n;
-    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
     let mut header = vec!["step".to_string(), "t".to_string()];
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
@@ -124,21 +126,19 @@ fn write_csv(dir: &Path, problem: &Problem, run: &ConstrainedSolution, work: Opt
     }
     header.extend((1..=m).map(|l| format!("lambda_{l}")));
     header.push("residual".into());
-    w.write_record(&header)?;
-    let num = |x: f64| format!("{x:?}");
+    let mut rows = Vec::with_capacity(sol.len() * header.len());
     for i in 0..sol.len() {
-        let mut row = vec![sol.step[i].to_string(), num(sol.t[i])];
-        row.extend(sol.q[i * n..(i + 1) * n].iter().map(|&x| num(x)));
-        row.extend(sol.p[i * n..(i + 1) * n].iter().map(|&x| num(x)));
-        row.push(num(sol.energy[i]));
+        rows.extend([sol.step[i] as f64, sol.t[i]]);
+        rows.extend_from_slice(&sol.q[i * n..(i + 1) * n]);
+        rows.extend_from_slice(&sol.p[i * n..(i + 1) * n]);
+        rows.push(sol.energy[i]);
         if let Some(w) = work {
-            row.push(num(w.get(i).copied().unwrap_or(f64::NAN)));
+            rows.push(w.get(i).copied().unwrap_or(f64::NAN));
         }
-        row.extend(run.multipliers[i * m..(i + 1) * m].iter().map(|&x| num(x)));
-        row.push(num(run.residual[i]));
-        w.write_record(&row)?;
+        rows.extend_from_slice(&run.multipliers[i * m..(i + 1) * m]);
+        rows.push(run.residual[i]);
     }
-    w.flush()
+    (header, rows)
 }
 
 /// constraints.json: residuals, the start projection and the enforcement.

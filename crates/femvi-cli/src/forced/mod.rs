@@ -73,9 +73,8 @@ fn run_with<L: Lagrangian + Clone + Sync>(
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     };
     std::fs::create_dir_all(dir)?;
-    if out.csv {
-        write_csv(dir, problem, &sol)?;
-    }
+    let (header, rows) = table(problem, &sol);
+    crate::record::write_trajectory(dir, &header, &rows, &out)?;
     let s = &sol.solution;
     let mut summary = empty_summary(problem, clock, String::new(), command);
     let (n, last) = (s.n, s.t.len().saturating_sub(1));
@@ -100,11 +99,11 @@ fn run_with<L: Lagrangian + Clone + Sync>(
     finish(dir, summary)
 }
 
-/// trajectory.csv: step, t, q, p, energy, work at the kept nodes.
-fn write_csv(dir: &Path, problem: &Problem, sol: &ForcedSolution) -> std::io::Result<()> {
+/// The trajectory's table: step, t, q, p, energy, work (and in energy mode the discrete
+/// energy) at the kept nodes.
+fn table(problem: &Problem, sol: &ForcedSolution) -> (Vec<String>, Vec<f64>) {
     let s = &sol.solution;
     let n = s.n;
-    let mut w = csv::Writer::from_path(dir.join("trajectory.csv"))?;
     let mut header = vec!["step".to_string(), "t".to_string()];
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
@@ -114,20 +113,17 @@ fn write_csv(dir: &Path, problem: &Problem, sol: &ForcedSolution) -> std::io::Re
     if discrete {
         header.push("discrete_energy".into());
     }
-    w.write_record(&header)?;
-    let num = |x: f64| format!("{x:?}");
+    let mut rows = Vec::with_capacity(s.t.len() * header.len());
     for (i, &t) in s.t.iter().enumerate() {
-        let mut row = vec![s.step[i].to_string(), num(t)];
-        row.extend(s.q[i * n..(i + 1) * n].iter().map(|&x| num(x)));
-        row.extend(s.p[i * n..(i + 1) * n].iter().map(|&x| num(x)));
-        row.push(num(s.energy[i]));
-        row.push(num(sol.work[i]));
+        rows.extend([s.step[i] as f64, t]);
+        rows.extend_from_slice(&s.q[i * n..(i + 1) * n]);
+        rows.extend_from_slice(&s.p[i * n..(i + 1) * n]);
+        rows.extend([s.energy[i], sol.work[i]]);
         if discrete {
-            row.push(num(sol.discrete_energy.get(i).copied().unwrap_or(f64::NAN)));
+            rows.push(sol.discrete_energy.get(i).copied().unwrap_or(f64::NAN));
         }
-        w.write_record(&row)?;
     }
-    w.flush()
+    (header, rows)
 }
 
 /// The boundary value problem's solve under `force` if it has one, else the conservative

@@ -172,8 +172,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     (Term::Constraints, Use::Resume, SOLVED_TO_THE_END),
     (Term::ForcesInEnergyMode, Use::Plots, SOLVED_TO_THE_END),
     (Term::Constraints, Use::Plots, SOLVED_TO_THE_END),
-    (Term::ForcesInEnergyMode, Use::Npy, SOLVED_TO_THE_END),
-    (Term::Constraints, Use::Npy, SOLVED_TO_THE_END),
     (Term::Forces, Use::SaveatOrDense, SOLVE_WITH_PLAIN),
     (Term::Constraints, Use::SaveatOrDense, SOLVED_TO_THE_END),
     (

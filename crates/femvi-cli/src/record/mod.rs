@@ -15,6 +15,7 @@ mod pacing;
 mod plot_data;
 mod progress;
 mod recorders;
+mod table;
 
 pub use balance::WorkBalance;
 pub use chunks::drive_in_chunks;
@@ -25,6 +26,7 @@ pub use pacing::Pacer;
 pub use plot_data::PlotData;
 pub use progress::Progress;
 pub use recorders::{Checkpointing, Recorders};
+pub use table::write_trajectory;
 
 use crate::problem::Problem;
 use std::cell::RefCell;

@@ -231,3 +231,51 @@ fn term_combinations_are_refused_at_load() {
         }
     }
 }
+
+/// Runs solved to the end (constraints, forces in energy mode) write trajectory.npy and
+/// columns.txt when asked: the same numbers as trajectory.csv, bit for bit, under the same
+/// column names (they used to write no NPY, once silently).
+#[test]
+fn runs_solved_to_the_end_write_the_csv_table_as_npy() {
+    let tmp = tempfile::tempdir().unwrap();
+    for file in [
+        "constrained/damped-spherical-pendulum.toml",
+        "forces/damped-oscillator-energy.toml",
+    ] {
+        let out = tmp.path().join(file.replace('/', "-"));
+        let run = Command::cargo_bin("femvi")
+            .unwrap()
+            .args([
+                "run",
+                "--quiet",
+                "--set",
+                "time.end=2.0",
+                "--format",
+                "csv,npy",
+                "--out",
+            ])
+            .arg(&out)
+            .arg(example(file))
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{file}: {}", String::from_utf8_lossy(&run.stderr));
+        let text = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let csv: Vec<f64> = lines
+            .flat_map(|l| l.split(',').map(|x| x.parse::<f64>().unwrap()))
+            .collect();
+        let names = std::fs::read_to_string(out.join("columns.txt")).unwrap();
+        assert_eq!(names.lines().collect::<Vec<_>>(), header, "{file}");
+        let bytes = std::fs::read(out.join("trajectory.npy")).unwrap();
+        let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+        assert_eq!(
+            npy.shape(),
+            &[(csv.len() / header.len()) as u64, header.len() as u64],
+            "{file}"
+        );
+        let values: Vec<f64> = npy.into_vec().unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&values), bits(&csv), "{file}");
+    }
+}
