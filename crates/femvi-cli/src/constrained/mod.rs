@@ -91,6 +91,12 @@ fn run_with<L: Lagrangian + Clone>(
     std::fs::create_dir_all(dir)?;
     let (header, rows) = table(problem, &run, work);
     crate::record::write_trajectory(dir, &header, &rows, &out)?;
+    if out.plots {
+        let title = format!("{} ({}, {} constraints)", problem.name, problem.scheme_label, run.m);
+        let n = problem.coordinates.len();
+        crate::record::plot_trajectory(dir, out.plot_format, &title, &header, &rows, n)
+            .map_err(std::io::Error::other)?;
+    }
     write_json(dir, &run)?;
     let sol = &run.solution;
     let mut summary = empty_summary(problem, clock, String::new(), command);

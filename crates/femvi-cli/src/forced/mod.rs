@@ -75,6 +75,12 @@ fn run_with<L: Lagrangian + Clone + Sync>(
     std::fs::create_dir_all(dir)?;
     let (header, rows) = table(problem, &sol);
     crate::record::write_trajectory(dir, &header, &rows, &out)?;
+    if out.plots {
+        let title = format!("{} ({})", problem.name, problem.scheme_label);
+        let n = problem.coordinates.len();
+        crate::record::plot_trajectory(dir, out.plot_format, &title, &header, &rows, n)
+            .map_err(std::io::Error::other)?;
+    }
     let s = &sol.solution;
     let mut summary = empty_summary(problem, clock, String::new(), command);
     let (n, last) = (s.n, s.t.len().saturating_sub(1));

@@ -152,11 +152,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         "the tangent map of the forced energy equation is not derived; use mode = \"fixed\"",
     ),
     (
-        Term::Constraints,
-        Use::ChaosInEnergyMode,
-        "constraints take fixed steps; use mode = \"fixed\"",
-    ),
-    (
         Term::Adaptive,
         Use::Check,
         "the symplecticity check's tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
@@ -170,8 +165,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     ),
     (Term::ForcesInEnergyMode, Use::Resume, SOLVED_TO_THE_END),
     (Term::Constraints, Use::Resume, SOLVED_TO_THE_END),
-    (Term::ForcesInEnergyMode, Use::Plots, SOLVED_TO_THE_END),
-    (Term::Constraints, Use::Plots, SOLVED_TO_THE_END),
     (Term::Forces, Use::SaveatOrDense, SOLVE_WITH_PLAIN),
     (Term::Constraints, Use::SaveatOrDense, SOLVED_TO_THE_END),
     (

@@ -26,7 +26,7 @@ pub use pacing::Pacer;
 pub use plot_data::PlotData;
 pub use progress::Progress;
 pub use recorders::{Checkpointing, Recorders};
-pub use table::write_trajectory;
+pub use table::{plot_trajectory, write_trajectory};
 
 use crate::problem::Problem;
 use std::cell::RefCell;

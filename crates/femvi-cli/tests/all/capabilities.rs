@@ -234,9 +234,9 @@ fn term_combinations_are_refused_at_load() {
 
 /// Runs solved to the end (constraints, forces in energy mode) write trajectory.npy and
 /// columns.txt when asked: the same numbers as trajectory.csv, bit for bit, under the same
-/// column names (they used to write no NPY, once silently).
+/// column names (they used to write no NPY, once silently); and they draw their plots.
 #[test]
-fn runs_solved_to_the_end_write_the_csv_table_as_npy() {
+fn runs_solved_to_the_end_write_the_csv_table_as_npy_and_plots() {
     let tmp = tempfile::tempdir().unwrap();
     for file in [
         "constrained/damped-spherical-pendulum.toml",
@@ -252,6 +252,7 @@ fn runs_solved_to_the_end_write_the_csv_table_as_npy() {
                 "time.end=2.0",
                 "--format",
                 "csv,npy",
+                "--plot",
                 "--out",
             ])
             .arg(&out)
@@ -277,5 +278,13 @@ fn runs_solved_to_the_end_write_the_csv_table_as_npy() {
         let values: Vec<f64> = npy.into_vec().unwrap();
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&values), bits(&csv), "{file}");
+        let mut plots = vec!["coordinates.svg", "energy_error.svg"];
+        if header.contains(&"residual") {
+            plots.push("residual.svg");
+        }
+        for plot in plots {
+            let svg = std::fs::read_to_string(out.join(plot)).unwrap_or_default();
+            assert!(svg.contains("<svg"), "{file}: {plot}");
+        }
     }
 }
