@@ -12,6 +12,7 @@ use crate::problem::Problem;
 use crate::record::Recorders;
 use crate::run_output::RunOutput;
 use crate::summary::{empty_summary, run_summary, RunEnd};
+use femvi::forces::solve_forced_with;
 use femvi::solution::{solve_with, EventRecord};
 use femvi::{Lagrangian, SolveOptions};
 use std::path::Path;
@@ -29,7 +30,7 @@ pub fn solve_options(problem: &Problem) -> SolveOptions {
 }
 
 /// Runs `problem` (which has events) into `dir`.
-pub fn run<L: Lagrangian + Clone>(
+pub fn run<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     dir: &Path,
@@ -41,7 +42,10 @@ pub fn run<L: Lagrangian + Clone>(
     let options = solve_options(problem);
     std::fs::create_dir_all(dir)?;
     let mut recorders = Recorders::attach(problem, dir, out, lag.dim())?;
-    let solved = solve_with(&p, &problem.element, &options, &mut recorders.observers());
+    let solved = match &problem.terms.force {
+        Some(f) => solve_forced_with(&p, f, &problem.element, &options, &mut recorders.observers()),
+        None => solve_with(&p, &problem.element, &options, &mut recorders.observers()),
+    };
     if let Some(e) = recorders.write_failure() {
         return Err(e);
     }

@@ -7,7 +7,7 @@
 //! The reasons say which are mathematical (a step whose equations are not derived for the
 //! pair) and which are the remaining seams of issue 33 (constrained runs and forced runs in
 //! energy mode are solved to the end by the library's own run functions, outside the
-//! streaming run of `femvi run`; events go through the plain integrator's `solve_with`).
+//! streaming run of `femvi run`; Python's forced runs keep no dense output).
 
 use super::terms::Terms;
 use super::Problem;
@@ -99,9 +99,10 @@ const SOLVED_TO_THE_END: &str = "these runs are solved to the end by the library
      (femvi::constraints::solve_constrained_with, the forced energy equation of \
      femvi::forces::solve_forced), not by the streaming run the option is an observer of (issue 33)";
 
-/// Events and Python's saveat and dense output go through femvi::solution::solve_with.
-const SOLVE_WITH_PLAIN: &str = "femvi::solution::solve_with, which locates events and samples the \
-     dense output, drives the integrator of the Lagrangian alone (issue 33)";
+/// Python's `saveat` and dense output with forces.
+const SOLVE_WITH_PLAIN: &str = "Python's forced runs go through femvi::forces::solve_forced, which \
+     keeps no dense output; femvi::forces::solve_forced_with has it and is not wired to Python yet \
+     (issue 33)";
 
 /// What the plain integrator's commands do not take yet.
 const PLAIN_INTEGRATOR_ONLY: &str = "the command drives the integrator of the Lagrangian alone, \
@@ -156,7 +157,7 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         Use::Check,
         "the symplecticity check's tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
     ),
-    (Term::Forces, Use::Events, SOLVE_WITH_PLAIN),
+    (Term::ForcesInEnergyMode, Use::Events, SOLVED_TO_THE_END),
     (Term::Constraints, Use::Events, SOLVED_TO_THE_END),
     (
         Term::Adaptive,

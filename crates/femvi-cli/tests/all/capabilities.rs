@@ -288,3 +288,47 @@ fn runs_solved_to_the_end_write_the_csv_table_as_npy_and_plots() {
         }
     }
 }
+
+/// `[[events]]` with `[forces]`: located on the forced element polynomials (the library's
+/// `solve_forced_with`), against the closed form of the damped oscillator of the example
+/// (x'' + 0.3 x' + x = 0 from x = 1 at rest: x = e^{-0.15 t}(cos ωt + 0.15/ω sin ωt),
+/// ω² = 1 − 0.15²), whose zeros are at ωt = π − atan(ω/0.15) + kπ.
+#[test]
+fn events_of_a_forced_run_land_on_the_closed_form() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(example("forces/damped-oscillator.toml")).unwrap()
+        + "\n[[events]]\nname = \"zero\"\nwhen = \"x\"\nstop = false\n";
+    let path = tmp.path().join("damped.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = tmp.path().join("out");
+    let run = Command::cargo_bin("femvi")
+        .unwrap()
+        .args(["run", "--quiet", "--out"])
+        .arg(&out)
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let events = std::fs::read_to_string(out.join("events.csv")).unwrap();
+    let times: Vec<f64> = events
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect();
+    let w = (1.0f64 - 0.15 * 0.15).sqrt();
+    let first = (std::f64::consts::PI - (w / 0.15).atan()) / w;
+    // t ≤ 20: zeros every π/ω from the first.
+    let expected: Vec<f64> = (0..)
+        .map(|k| first + k as f64 * std::f64::consts::PI / w)
+        .take_while(|&t| t <= 20.0)
+        .collect();
+    assert_eq!(times.len(), expected.len(), "{events}");
+    for (t, e) in times.iter().zip(&expected) {
+        assert!((t - e).abs() < 1e-6, "{t} vs {e}");
+    }
+    let columns = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    assert!(
+        columns.lines().next().unwrap().ends_with("energy,work"),
+        "the work column"
+    );
+}

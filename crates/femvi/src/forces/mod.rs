@@ -70,7 +70,7 @@ pub use element::{element_forces, element_forces_jacobian};
 pub use expr::ExprForces;
 pub use linear::LinearForce;
 pub use rayleigh::Rayleigh;
-pub use solve::{solve_forced, EnergyBalance, ForcedSolution};
+pub use solve::{solve_forced, solve_forced_with, EnergyBalance, ForcedSolution};
 pub use sum::Sum;
 pub(crate) use tangent::ForcedTangentRun;
 

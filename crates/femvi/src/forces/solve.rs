@@ -142,6 +142,49 @@ pub fn solve_forced<L: Lagrangian + Sync, F: Force + Sync>(
     Ok(run.finish(node.k, iterations, stopped, error))
 }
 
+/// [`crate::solution::solve_with`] under the force `force`: the run of
+/// [`Integrator::with_force`] (the nodes of [`solve_forced`], bit for bit) recorded by the
+/// same recorder, so that `saveat`, dense output and events work on the forced element
+/// polynomials, and `observers` see every node (with [`Integrator::work`]). The energies are
+/// H at the nodes; the energy balance is [`solve_forced`]'s.
+///
+/// # Errors
+/// As [`solve_forced`], and time steps as variables (the forced energy equation runs in
+/// [`solve_forced`] only).
+///
+/// # Example
+///
+/// ```
+/// use femvi::forces::{solve_forced_with, LinearForce};
+/// use femvi::solution::{Event, SolveOptions};
+/// use femvi::{models, Element, Problem, Start};
+///
+/// // The damped oscillator crosses x = 0 going down near t = π/2 (ω ≈ 1).
+/// let problem = Problem::new(models::harmonic(1.0, 1.0)?, Start::Velocity { q: vec![1.0], v: vec![0.0] }, 0.0, 3.0);
+/// let options = SolveOptions { events: vec![Event::new("x = 0", |_t, q: &[f64], _v: &[f64]| q[0])], ..SolveOptions::step(0.01) };
+/// let sol = solve_forced_with(&problem, &LinearForce::damping(1, 0.1), &Element::with_order(4)?, &options, &mut [])?;
+/// let t = sol.events[0].t;
+/// // x'' + 0.1 x' + x = 0 from (1, 0): x = e^{-0.05 t}(cos ωt + 0.05/ω sin ωt), ω² = 1 − 0.0025.
+/// let w = (1.0f64 - 0.0025).sqrt();
+/// assert!(((w * t).cos() + 0.05 / w * (w * t).sin()).abs() < 1e-8);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn solve_forced_with<L: Lagrangian + Sync, F: Force + Sync>(
+    problem: &Problem<L>,
+    force: &F,
+    element: &Element,
+    options: &SolveOptions,
+    observers: &mut [&mut dyn crate::step::Observer<L>],
+) -> Result<Solution> {
+    if let Steps::Energy { .. } = options.steps {
+        return Err(super::term::refuse_energy_mode());
+    }
+    let grid = grid(problem, &options.steps)?;
+    let lag = &problem.lagrangian;
+    let mut it = Integrator::with_force(lag, element, grid, problem.start.clone(), options.solver, force)?;
+    crate::solution::solve_on(&mut it, problem, element, options, observers)
+}
+
 /// Whether the run goes by fixed-point iteration: for `Method::Auto` when L has a constant
 /// mass matrix and F does not depend on v, for `Method::FixedPoint` and `Method::Explicit`
 /// (no explicit forced step: the fixed point, which for degree 1 with the trapezoid rule

@@ -27,7 +27,7 @@ mod events;
 mod record;
 mod solve;
 
-pub(crate) use solve::grid;
+pub(crate) use solve::{grid, solve_on};
 
 pub use dense::DenseOutput;
 pub use energy::{EnergyReport, EnergyTracker, NodeEnergy};

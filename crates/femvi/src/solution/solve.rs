@@ -65,6 +65,24 @@ pub fn solve_with<L: Lagrangian>(
         Steps::Energy { options: e, .. } => Integrator::with_energy(lag, element, grid, start, options.solver, *e)?,
         _ => Integrator::new(lag, element, grid, start, options.solver)?,
     };
+    solve_on(&mut it, problem, element, options, observers)
+}
+
+/// Drives `it`, a run of `problem` set up by the caller (plain, energy mode, or with a term
+/// such as [`Integrator::with_force`]), with the recorder of `options` before `observers`,
+/// and returns its [`Solution`]: kept nodes, `saveat`, dense output and events on the
+/// element polynomials of whatever the integrator solved.
+///
+/// # Errors
+/// The recorder's refusal of the options (`saveat` not increasing).
+pub(crate) fn solve_on<L: Lagrangian>(
+    it: &mut Integrator<'_, L>,
+    problem: &Problem<L>,
+    element: &Element,
+    options: &SolveOptions,
+    observers: &mut [&mut dyn Observer<L>],
+) -> Result<Solution> {
+    let lag = &problem.lagrangian;
     let kind = (&problem.start, lag.is_autonomous(), options.energy_nodes.resolve(lag));
     let mut recorder = Recorder::new(options, &element.basis, lag.dim(), kind)?;
     let report = {
@@ -73,7 +91,7 @@ pub fn solve_with<L: Lagrangian>(
         for o in observers.iter_mut() {
             all.push(&mut **o);
         }
-        drive(&mut it, &mut all)
+        drive(it, &mut all)
     };
     Ok(Solution {
         n: lag.dim(),
