@@ -49,7 +49,9 @@ impl Tables {
     pub fn run(&self, problem: &Problem, path: &Path, extras: &Extras) -> Result<(Run, Added), String> {
         let named = |e: String| format!("{}: {e}", path.display());
         if !problem.events.is_empty() || !extras.events.is_empty() {
+            // The command's row (constraints), then Python's (forces: solve_forced has none).
             problem.refuse(Use::Events, "femvi.solve").map_err(named)?;
+            problem.refuse(Use::SaveatOrDense, "femvi.solve").map_err(named)?;
         }
         if !extras.saveat.is_empty() || extras.dense {
             problem.refuse(Use::SaveatOrDense, "femvi.solve").map_err(named)?;

@@ -59,7 +59,8 @@ pub enum Use {
     Plots,
     /// trajectory.npy (`--format npy`).
     Npy,
-    /// Python's `saveat=` and `dense=True`.
+    /// Python's `saveat=`, `dense=True` and `events=` (or `[[events]]` in a file it solves):
+    /// what the Python package samples from a run's element polynomials.
     SaveatOrDense,
     /// `[time] mode = "energy"` (time steps as variables).
     EnergyMode,
@@ -80,7 +81,7 @@ impl Use {
             Use::Resume => "--resume is",
             Use::Plots => "plots are",
             Use::Npy => "trajectory.npy (--format npy) is",
-            Use::SaveatOrDense => "saveat and dense output are",
+            Use::SaveatOrDense => "saveat, dense output and events in Python are",
             Use::EnergyMode => "[time] mode = \"energy\" is",
             Use::PythonPotential => "a Python potential is",
             Use::With(t) => match t {
@@ -99,10 +100,10 @@ const SOLVED_TO_THE_END: &str = "these runs are solved to the end by the library
      (femvi::constraints::solve_constrained_with, the forced energy equation of \
      femvi::forces::solve_forced), not by the streaming run the option is an observer of (issue 33)";
 
-/// Python's `saveat` and dense output with forces.
+/// Python's `saveat`, dense output and events with forces.
 const SOLVE_WITH_PLAIN: &str = "Python's forced runs go through femvi::forces::solve_forced, which \
-     keeps no dense output; femvi::forces::solve_forced_with has it and is not wired to Python yet \
-     (issue 33)";
+     keeps no dense output and locates no events; femvi::forces::solve_forced_with does both and is \
+     not wired to Python yet (issue 33)";
 
 /// What the plain integrator's commands do not take yet.
 const PLAIN_INTEGRATOR_ONLY: &str = "the command drives the integrator of the Lagrangian alone, \

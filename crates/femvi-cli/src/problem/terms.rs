@@ -31,10 +31,3 @@ pub struct Terms {
     /// `[time] mode = "energy"`: time steps as variables (the energy equation sets each step).
     pub energy_mode: bool,
 }
-
-impl Terms {
-    /// Whether the problem has none of the terms: a plain Lagrangian run.
-    pub fn is_empty(&self) -> bool {
-        self.force.is_none() && self.constraints.is_none() && self.adaptive.is_none()
-    }
-}
