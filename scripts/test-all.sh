@@ -18,19 +18,21 @@ fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 "$VENV/bin/python" -m pip install --quiet "maturin>=1.5,<2" numpy pytest "dask[distributed]" matplotlib
 
-# Build the package (release wheel, abi3) in the workspace's target directory and install it
-# into the venv. maturin turns on the extension crate's `extension-module` feature.
-WHEELS=$(mktemp -d)
-REPORT=$(mktemp)
-trap 'rm -rf "$WHEELS" "$REPORT"' EXIT
-"$VENV/bin/maturin" build --quiet --release -m crates/femvi-py/Cargo.toml -i "$VENV/bin/python" --out "$WHEELS"
+# Build the package (abi3 wheel) and install it into the venv. The wheel is built in the
+# `dev` profile (opt-level 2, Cargo.toml), which `cargo test` below also uses, with the same
+# features (`femvi-py/extension-module` there too): the two share every compiled crate but the
+# extension itself, so the dependency tree is compiled once. `pip install ./crates/femvi-py`
+# builds the release profile.
+"$VENV/bin/maturin" build --quiet --profile dev -m crates/femvi-py/Cargo.toml -i "$VENV/bin/python" --out "$WHEELS"
 "$VENV/bin/python" -m pip install --quiet --force-reinstall --no-deps "$WHEELS"/*.whl
 
-# The Rust tests: unit, integration and doc tests. The extension crate has none (its tests
-# are pytest's, below); excluding it keeps libpython out of this build. The examples are not
-# built here (`cargo clippy --all-targets` in .ci/run checks them).
-cargo test --workspace --exclude femvi-py --lib --bins --tests
-cargo test --workspace --exclude femvi-py --doc
+# The Rust tests: unit, integration and doc tests. The extension crate is in the build (it
+# has no Rust tests: its tests are pytest's, below) so that features resolve as for the wheel
+# above; with `extension-module` it does not link libpython. The benchmarks crate is not
+# built here (`cargo clippy --all-targets` in .ci/run checks it, and the examples).
+FLAGS=(--workspace --exclude femvi-bench --features femvi-py/extension-module)
+cargo test "${FLAGS[@]}" --lib --bins --tests
+cargo test "${FLAGS[@]}" --doc
 # The command the Python results are compared with: the `femvi` binary the tests above built
 # for the command-line tests (test profile, in target/debug). `cargo build -p femvi-cli`
 # would compile femvi and femvi-cli once more, in the dev profile.
