@@ -23,6 +23,9 @@ fi
 # features (`femvi-py/extension-module` there too): the two share every compiled crate but the
 # extension itself, so the dependency tree is compiled once. `pip install ./crates/femvi-py`
 # builds the release profile.
+WHEELS=$(mktemp -d)
+REPORT=$(mktemp)
+trap 'rm -rf "$WHEELS" "$REPORT"' EXIT
 "$VENV/bin/maturin" build --quiet --profile dev -m crates/femvi-py/Cargo.toml -i "$VENV/bin/python" --out "$WHEELS"
 "$VENV/bin/python" -m pip install --quiet --force-reinstall --no-deps "$WHEELS"/*.whl
 
@@ -34,8 +37,7 @@ FLAGS=(--workspace --exclude femvi-bench --features femvi-py/extension-module)
 cargo test "${FLAGS[@]}" --lib --bins --tests
 cargo test "${FLAGS[@]}" --doc
 # The command the Python results are compared with: the `femvi` binary the tests above built
-# for the command-line tests (test profile, in target/debug). `cargo build -p femvi-cli`
-# would compile femvi and femvi-cli once more, in the dev profile.
+# for the command-line tests (in target/debug).
 export FEMVI_BIN="$TARGET/debug/femvi"
 
 # Run from outside the source tree so that the installed package is the one imported.
