@@ -1,7 +1,9 @@
 //! `femvi convergence`: runs a problem's scheme at several step sizes over the same time span,
 //! measures the final nodal error in phase space, ‖(q, p) − (q, p)_ref‖₂, and fits observed
-//! orders. The reference is a closed form where the model has one (harmonic, kepler), or a
-//! run with a finer step and an element of degree s + 2. With --l2 it also measures the L²
+//! orders. The reference is a closed form where the model has one (harmonic, kepler, without
+//! forces), or a run with a finer step and an element of degree s + 2. With `[forces]` every
+//! run, the reference's too, is the forced integrator (`Integrator::with_force`); with
+//! `[constraints]` each run is the constrained run (`femvi::constraints`), to its final node. With --l2 it also measures the L²
 //! error of the piecewise-polynomial trajectory over the whole span ((2.33), (2.56)); with
 //! --plot it draws the errors against the step with the fitted slopes ([`plot`]).
 //!
@@ -94,6 +96,14 @@ pub fn study(problem: &Problem, steps: &[f64], reference: Option<Reference>, l2:
             2,
         ));
     }
+    if l2 {
+        problem
+            .refuse(
+                crate::problem::capabilities::Use::ConvergenceL2,
+                "femvi convergence --l2",
+            )
+            .map_err(|e| (e, crate::BAD_INPUT))?;
+    }
     if steps.len() < 2 {
         return Err(("--steps needs at least two step sizes".into(), 2));
     }
@@ -109,14 +119,18 @@ fn fail(e: femvi::Error) -> (String, u8) {
 }
 
 /// The integrator of a run with step h and element `el`.
-fn integrator<'a, L: Lagrangian>(
+fn integrator<'a, L: Lagrangian + Sync>(
     lag: &'a L,
     el: &'a Element,
-    problem: &Problem,
+    problem: &'a Problem,
     h: f64,
 ) -> Result<Integrator<'a, L>, (String, u8)> {
     let grid = TimeGrid::uniform(problem.grid.t0(), h, problem.grid.end()).map_err(fail)?;
-    Integrator::new(lag, el, grid, problem.start.clone(), problem.options).map_err(fail)
+    let start = problem.start.clone();
+    match &problem.terms.force {
+        Some(force) => Integrator::with_force(lag, el, grid, start, problem.options, force).map_err(fail),
+        None => Integrator::new(lag, el, grid, start, problem.options).map_err(fail),
+    }
 }
 
 /// The state (q, p) of a run's current node.
@@ -131,6 +145,44 @@ fn run_to_end<L: Lagrangian>(mut it: Integrator<'_, L>) -> Result<Vec<f64>, (Str
     Ok(state(&it))
 }
 
+/// The final state (q, p) of the run of `problem` with step `h` and element `el`, its terms
+/// included: the integrator (with its force) to the end, or for `[constraints]` the
+/// constrained run (with the force, if any), keeping its first and last nodes only.
+fn final_state<L: Lagrangian + Clone + Sync>(
+    lag: &L,
+    el: &Element,
+    problem: &Problem,
+    h: f64,
+) -> Result<Vec<f64>, (String, u8)> {
+    let Some((con, enforcement)) = &problem.terms.constraints else {
+        return run_to_end(integrator(lag, el, problem, h)?);
+    };
+    let (t0, end) = (problem.grid.t0(), problem.grid.end());
+    let p = femvi::Problem::new(lag.clone(), problem.start.clone(), t0, end);
+    let options = femvi::SolveOptions {
+        solver: problem.options,
+        every: 0,
+        ..femvi::SolveOptions::step(h)
+    };
+    let sol = match &problem.terms.force {
+        None => femvi::constraints::solve_constrained_with(&p, con, el, &options, *enforcement),
+        Some(f) => {
+            femvi::constraints::solve_constrained_forced(&p, f, con, el, &options, *enforcement).map(|r| r.constrained)
+        }
+    }
+    .map_err(fail)?
+    .solution;
+    if let Some(e) = sol.error {
+        return Err(fail(e));
+    }
+    let last = sol.len().saturating_sub(1);
+    let (q, pk) = (sol.q_row(last), sol.p_row(last));
+    match (q, pk) {
+        (Some(q), Some(pk)) => Ok(q.iter().chain(pk).cloned().collect()),
+        _ => Err(("the run kept no node".into(), 1)),
+    }
+}
+
 /// A run of the study with its L² sum (if measured).
 struct Coarse<'a, L: Lagrangian> {
     it: Integrator<'a, L>,
@@ -142,6 +194,9 @@ struct Coarse<'a, L: Lagrangian> {
 /// elements (those the coarse runs can still ask for).
 enum Path<'a, L: Lagrangian> {
     Exact(ExactState),
+    /// The final state of a reference run whose elements are not kept (a constrained run,
+    /// without --l2).
+    Final(Vec<f64>),
     Run {
         it: Box<Integrator<'a, L>>,
         window: PiecewiseTrajectory,
@@ -175,6 +230,7 @@ impl<L: Lagrangian> Path<'_, L> {
                 out.copy_from_slice(&s[..out.len()]);
             }
             Path::Run { window, .. } => window.eval(t, out),
+            Path::Final(_) => out.fill(f64::NAN),
         }
     }
 }
@@ -182,7 +238,7 @@ impl<L: Lagrangian> Path<'_, L> {
 /// Runs `steps` in lockstep (always the one furthest behind), summing each element's L² error
 /// against `path` as it is solved; the reference run's window forgets what no run can need.
 /// Returns each run's final state and L² error.
-fn lockstep<'a, L: Lagrangian>(
+fn lockstep<'a, L: Lagrangian + Sync>(
     lag: &'a L,
     problem: &'a Problem,
     steps: &[f64],
@@ -230,6 +286,10 @@ fn lockstep<'a, L: Lagrangian>(
 /// The closed-form state (q, p) as a function of t, if the model has one and the start gives
 /// (q0, p0).
 fn exact_state<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<ExactState> {
+    if problem.terms.force.is_some() || problem.terms.constraints.is_some() {
+        // The closed forms are those of the free conservative models.
+        return None;
+    }
     let (model, params) = problem.model.as_ref()?;
     let (q0, p0) = match &problem.start {
         Start::Momentum { q, p } => (q.clone(), p.clone()),
@@ -259,7 +319,7 @@ fn exact_state<L: Lagrangian>(lag: &L, problem: &Problem) -> Option<ExactState> 
     }
 }
 
-fn study_with<L: Lagrangian>(
+fn study_with<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     steps: &[f64],
@@ -283,7 +343,7 @@ fn study_with<L: Lagrangian>(
             Some(f) => (Path::Exact(f), "exact (closed form)".to_string()),
             None => {
                 return Err((
-                    "no closed form for this problem (only the harmonic and kepler models, started from v or p, have one); use --reference finest or a step".into(),
+                    "no closed form for this problem (only the harmonic and kepler models without [forces], started from v or p, have one); use --reference finest or a step".into(),
                     2,
                 ))
             }
@@ -294,9 +354,13 @@ fn study_with<L: Lagrangian>(
                 _ => finest / 4.0,
             };
             let label = format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}");
-            let it = Box::new(integrator(lag, &reference_element, problem, h)?);
-            let window = PiecewiseTrajectory::new(&reference_element.basis, lag.dim());
-            (Path::Run { it, window, done: false }, label)
+            if problem.terms.constraints.is_some() {
+                (Path::Final(final_state(lag, &reference_element, problem, h)?), label)
+            } else {
+                let it = Box::new(integrator(lag, &reference_element, problem, h)?);
+                let window = PiecewiseTrajectory::new(&reference_element.basis, lag.dim());
+                (Path::Run { it, window, done: false }, label)
+            }
         }
     };
     // Each run's final state and L² error (with --l2 in lockstep with the reference, which
@@ -310,10 +374,11 @@ fn study_with<L: Lagrangian>(
     let reference_state = match path {
         Path::Exact(f) => f(t_end).ok_or_else(|| ("the closed form failed at the end time".to_string(), 1))?,
         Path::Run { it, .. } => run_to_end(*it)?,
+        Path::Final(state) => state,
     };
     if !l2 {
         for &h in steps {
-            finals.push((run_to_end(integrator(lag, &problem.element, problem, h)?)?, None));
+            finals.push((final_state(lag, &problem.element, problem, h)?, None));
         }
     }
     let mut runs: Vec<Run> = vec![];

@@ -6,8 +6,8 @@
 //! [`Member`] holds.
 
 use crate::problem::Problem;
-use crate::record::{write_table, EnergyError};
-use femvi::step::drive;
+use crate::record::{write_table, EnergyError, WorkBalance};
+use femvi::step::{drive, Observer};
 use femvi::{Integrator, Lagrangian, Start};
 use rayon::prelude::*;
 use std::path::Path;
@@ -22,7 +22,8 @@ pub struct Member {
     pub q: Vec<f64>,
     /// Momenta there.
     pub p: Vec<f64>,
-    /// Largest relative energy error over its nodes.
+    /// Largest relative energy error over its nodes; with `[forces]` that of the energy
+    /// balance, max |H − H0 − W| / |H0|.
     pub energy_error: f64,
     /// Steps taken.
     pub steps: usize,
@@ -56,13 +57,27 @@ pub fn run_member(problem: &Problem, start: Start) -> Member {
     crate::with_system!(&problem.system, l => drive_member(l, problem, start))
 }
 
-fn drive_member<L: Lagrangian>(lag: &L, problem: &Problem, start: Start) -> Member {
+fn drive_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start: Start) -> Member {
     let n = lag.dim();
-    let mut energy = EnergyError::new(n, &start, lag.is_autonomous());
+    if let Some(constraints) = &problem.terms.constraints {
+        return constrained_member(lag, problem, start, constraints);
+    }
+    if let Some(settings) = &problem.terms.adaptive {
+        return adaptive_member(lag, problem, start, settings, &[]);
+    }
+    let mut energy = Balanced::new(problem, EnergyError::new(n, &start, lag.is_autonomous()));
     let grid = problem.grid.clone();
-    let made = match problem.energy {
-        None => Integrator::new(lag, &problem.element, grid, start, problem.options),
-        Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
+    let (el, opts) = (&problem.element, problem.options);
+    let made = match (problem.energy, &problem.terms.force) {
+        (None, None) => Integrator::new(lag, el, grid, start, opts),
+        (None, Some(force)) => Integrator::with_force(lag, el, grid, start, opts, force),
+        (Some(e), None) => Integrator::with_energy(lag, el, grid, start, opts, e),
+        (Some(_), Some(_)) => {
+            // Refused by the capability table before any member runs; never run without the force.
+            let why = crate::problem::capabilities::Use::Ensemble;
+            let e = problem.refuse(why, "femvi ensemble").err().unwrap_or_default();
+            return Member::failed(n, problem.grid.t0(), e);
+        }
     };
     let mut it = match made {
         Ok(it) => it,
@@ -83,6 +98,86 @@ fn drive_member<L: Lagrangian>(lag: &L, problem: &Problem, start: Start) -> Memb
     }
 }
 
+/// A member of a problem with `[constraints]`: the constrained run `femvi run` makes
+/// (`crate::constrained::solve`, with the force if any) from `start`, its final node; the
+/// energy error over the kept nodes as `femvi run`'s summary has it, or with forces the
+/// energy balance's over every node.
+fn constrained_member<L: Lagrangian + Clone>(
+    lag: &L,
+    problem: &Problem,
+    start: Start,
+    constraints: &(femvi::constraints::ExprConstraints, femvi::constraints::Enforcement),
+) -> Member {
+    let (n, t0) = (lag.dim(), problem.grid.t0());
+    let solved = match &problem.terms.force {
+        None => crate::constrained::solve(lag, problem, start, constraints).map(|r| (r.solution, None)),
+        Some(f) => crate::constrained::solve_forced(lag, problem, start, constraints, f)
+            .map(|r| (r.constrained.solution, Some(r.balance.max_rel))),
+    };
+    let (sol, balance) = match solved {
+        Ok(s) => s,
+        Err(e) => return Member::failed(n, t0, e),
+    };
+    let last = sol.len().saturating_sub(1);
+    let e0 = sol.energy.first().copied().unwrap_or(f64::NAN);
+    let scale = if e0 == 0.0 { 1.0 } else { e0.abs() };
+    let energy = sol.energy.iter().fold(0.0f64, |m, h| m.max((h - e0).abs() / scale));
+    Member {
+        final_t: sol.t.get(last).copied().unwrap_or(t0),
+        q: sol.q_row(last).map_or_else(|| vec![f64::NAN; n], <[f64]>::to_vec),
+        p: sol.p_row(last).map_or_else(|| vec![f64::NAN; n], <[f64]>::to_vec),
+        energy_error: balance.unwrap_or(energy),
+        steps: sol.steps,
+        error: sol.error.map(|e| e.to_string()),
+        saved_q: vec![],
+        saved_p: vec![],
+    }
+}
+
+/// A member of a problem in `[time] mode = "adaptive"`: the adaptive run `femvi run` makes
+/// (`crate::adaptive::solve_problem`, the file's monitor and `every`) from `start`, its final
+/// node, the energy error over the kept nodes as summary.json has it, and the states at
+/// `saveat`.
+fn adaptive_member<L: Lagrangian + Clone>(
+    lag: &L,
+    problem: &Problem,
+    start: Start,
+    settings: &crate::adaptive::AdaptiveTime,
+    saveat: &[f64],
+) -> Member {
+    let (n, t0) = (lag.dim(), problem.grid.t0());
+    let p = femvi::Problem::new(lag.clone(), start, t0, problem.grid.end());
+    let sol = match crate::adaptive::solve_problem(&p, problem, settings, problem.every, saveat.to_vec(), vec![]) {
+        Ok(sol) => sol,
+        Err(e) => return Member::failed(n, t0, e),
+    };
+    let last = sol.t.len().saturating_sub(1);
+    let row = |v: &[f64]| {
+        v.get(last * n..(last + 1) * n)
+            .map_or_else(|| vec![f64::NAN; n], <[f64]>::to_vec)
+    };
+    let (saved_q, saved_p) = saved(&sol.saved, n, saveat.len());
+    Member {
+        final_t: sol.t.get(last).copied().unwrap_or(t0),
+        q: row(&sol.q),
+        p: row(&sol.p),
+        energy_error: crate::adaptive::max_rel_energy_error(&sol),
+        steps: sol.steps,
+        error: sol.error.map(|e| e.to_string()),
+        saved_q,
+        saved_p,
+    }
+}
+
+/// q and p at the first `times` times of `saved` (the prefix a run reached), NaN after.
+fn saved(saved: &femvi::solution::Saved, n: usize, times: usize) -> (Vec<f64>, Vec<f64>) {
+    let (mut q, mut p) = (vec![f64::NAN; times * n], vec![f64::NAN; times * n]);
+    let reached = saved.t.len().min(times) * n;
+    q[..reached].copy_from_slice(&saved.q[..reached]);
+    p[..reached].copy_from_slice(&saved.p[..reached]);
+    (q, p)
+}
+
 /// [`run_member`] that also reports q and p at the times `saveat` (increasing, inside the
 /// span), through the library's `solve` (the same integrator and energy tracker, so the
 /// final state and energy error are [`run_member`]'s bit for bit).
@@ -90,9 +185,19 @@ pub fn run_member_saving(problem: &Problem, start: Start, saveat: &[f64]) -> Mem
     crate::with_system!(&problem.system, l => solve_member(l, problem, start, saveat))
 }
 
-fn solve_member<L: Lagrangian + Clone>(lag: &L, problem: &Problem, start: Start, saveat: &[f64]) -> Member {
+fn solve_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start: Start, saveat: &[f64]) -> Member {
     let n = lag.dim();
     let (t0, end) = (problem.grid.t0(), problem.grid.end());
+    if let Some(settings) = &problem.terms.adaptive {
+        return adaptive_member(lag, problem, start, settings, saveat);
+    }
+    if problem.terms.constraints.is_some() {
+        // Refused by the capability table (saveat with constraints); never run without them.
+        let why = crate::problem::capabilities::Use::SaveatOrDense;
+        let e = problem.refuse(why, "femvi.ensemble").err().unwrap_or_default();
+        return Member::failed(n, t0, e);
+    }
+    let mut balance = Balanced::new(problem, EnergyError::new(n, &start, lag.is_autonomous()));
     let p = femvi::Problem::new(lag.clone(), start, t0, end);
     let options = femvi::SolveOptions {
         steps: problem.steps.clone(),
@@ -105,26 +210,61 @@ fn solve_member<L: Lagrangian + Clone>(lag: &L, problem: &Problem, start: Start,
         energy_nodes: femvi::solution::EnergyNodes::Every,
         ..femvi::SolveOptions::step(1.0)
     };
-    let sol = match femvi::solve(&p, &problem.element, &options) {
+    let solved = match &problem.terms.force {
+        // Time steps as variables with forces are refused by the capability table (and by
+        // `solve_forced_with`), never run without the force.
+        Some(force) => femvi::forces::solve_forced_with(&p, force, &problem.element, &options, &mut [&mut balance]),
+        None => femvi::solve(&p, &problem.element, &options),
+    };
+    let sol = match solved {
         Ok(sol) => sol,
         Err(femvi::Error::Step(e)) => return Member::failed(n, t0, format!("first element: {e}")),
         Err(e) => return Member::failed(n, t0, e.to_string()),
     };
+    let energy_error = match balance.balance {
+        Some(b) => b.max_rel(),
+        None => sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error),
+    };
     let last = sol.len().saturating_sub(1);
-    let (mut saved_q, mut saved_p) = (vec![f64::NAN; saveat.len() * n], vec![f64::NAN; saveat.len() * n]);
-    // The saved times are a prefix of `saveat` (those the run reached).
-    let reached = sol.saved.t.len().min(saveat.len()) * n;
-    saved_q[..reached].copy_from_slice(&sol.saved.q[..reached]);
-    saved_p[..reached].copy_from_slice(&sol.saved.p[..reached]);
+    let (saved_q, saved_p) = saved(&sol.saved, n, saveat.len());
     Member {
         final_t: sol.t.get(last).copied().unwrap_or(t0),
         q: sol.q_row(last).map_or_else(|| vec![f64::NAN; n], <[f64]>::to_vec),
         p: sol.p_row(last).map_or_else(|| vec![f64::NAN; n], <[f64]>::to_vec),
-        energy_error: sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error),
+        energy_error,
         steps: sol.steps,
         error: sol.error.map(|e| e.to_string()),
         saved_q,
         saved_p,
+    }
+}
+
+/// The energy observer of a member, and with `[forces]` the energy balance H − H0 = W over
+/// every node (as `femvi run`'s summary has it), which is then the member's energy error.
+struct Balanced {
+    energy: EnergyError,
+    balance: Option<WorkBalance>,
+}
+
+impl Balanced {
+    fn new(problem: &Problem, energy: EnergyError) -> Self {
+        let balance = problem.terms.force.is_some().then(WorkBalance::default);
+        Balanced { energy, balance }
+    }
+
+    /// The balance's largest relative error with forces, else the energy's.
+    fn max_rel(&self) -> f64 {
+        self.balance.map_or_else(|| self.energy.max_rel(), |b| b.max_rel())
+    }
+}
+
+impl<L: Lagrangian> Observer<L> for Balanced {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
+        self.energy.node(it, last)?;
+        if let Some(b) = self.balance.as_mut() {
+            b.at(self.energy.current().get().h, it.work());
+        }
+        Ok(())
     }
 }
 

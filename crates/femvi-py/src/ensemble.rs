@@ -38,6 +38,14 @@ pub fn ensemble_file<'py>(
         return Err(input_error("saveat: times must be finite and strictly increasing"));
     }
     let problem = load(&path).map_err(input_error)?;
+    if !saveat.is_empty() {
+        let named = |e: String| format!("{}: {e}", path.display());
+        let why = femvi_cli::problem::capabilities::Use::SaveatOrDense;
+        problem
+            .refuse(why, "femvi.ensemble")
+            .map_err(named)
+            .map_err(input_error)?;
+    }
     let n = problem.coordinates.len();
     let states: Option<Vec<f64>> = match &states {
         None => None,

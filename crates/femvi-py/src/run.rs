@@ -36,7 +36,7 @@ pub struct Run {
 }
 
 /// Loads `path` as `femvi run` does (the message of a bad file is the command's), for
-/// ensembles: adaptive mode, `[forces]` and `[constraints]` are refused.
+/// ensembles: what the capability table refuses for them (forces in energy mode) is refused.
 pub fn load(path: &Path) -> Result<Problem, String> {
     let problem = load_any(path)?;
     let named = |e: String| format!("{}: {e}", path.display());

@@ -3,9 +3,11 @@
 //! and `constraints::solve_constrained_forced` with the file's element, grid and solver), and
 //! what they add to the solution — the discrete work W at the kept nodes and the energy
 //! balance max |H − H0 − W| for forces; the multipliers (constraint force −Gᵀλ) and the
-//! residual max |g(q)| at the kept nodes for constraints. What these runs do not do yet
-//! (events, `saveat`, dense output, adaptive steps, a Python potential) is refused with a
-//! message rather than dropped, by the table of `femvi_cli::problem::capabilities`.
+//! residual max |g(q)| at the kept nodes for constraints. A forced run at fixed steps with
+//! `saveat`, dense output or events goes through the recorder of every run (`forced.rs`).
+//! What these runs do not do yet (events, `saveat` and dense output with constraints or with
+//! forces in energy mode, a Python potential) is refused with a message rather than dropped,
+//! by the table of `femvi_cli::problem::capabilities`.
 
 use crate::run::{Extras, Run};
 use femvi::constraints::{solve_constrained_forced, solve_constrained_with, ConstrainedSolution};
@@ -48,13 +50,23 @@ impl Tables {
     #[allow(clippy::clone_on_copy)]
     pub fn run(&self, problem: &Problem, path: &Path, extras: &Extras) -> Result<(Run, Added), String> {
         let named = |e: String| format!("{}: {e}", path.display());
-        if !problem.events.is_empty() || !extras.events.is_empty() {
-            // The command's row (constraints), then Python's (forces: solve_forced has none).
+        let samples = !extras.saveat.is_empty() || extras.dense;
+        let events = !problem.events.is_empty() || !extras.events.is_empty();
+        if events {
+            // The command's row (constraints, forces in energy mode), then Python's.
             problem.refuse(Use::Events, "femvi.solve").map_err(named)?;
-            problem.refuse(Use::SaveatOrDense, "femvi.solve").map_err(named)?;
         }
-        if !extras.saveat.is_empty() || extras.dense {
+        if samples || events {
             problem.refuse(Use::SaveatOrDense, "femvi.solve").map_err(named)?;
+            if let (Some(force), None) = (&self.force, &self.constraints) {
+                // Forces at fixed steps: the run of the forced integrator with the recorder.
+                let (r, work) = femvi_cli::with_system!(&problem.system, l => crate::forced::run(l.clone(), force, problem, path, extras))?;
+                let added = Added {
+                    work: Some(work),
+                    constraints: None,
+                };
+                return Ok((r, added));
+            }
         }
         let mut options = problem.solve_options(extras.every.unwrap_or(problem.every));
         options.max_steps = extras.max_steps;

@@ -70,14 +70,66 @@ def test_what_the_tables_add_holds():
     assert np.abs(lam - expected).max() <= 1e-12 * np.abs(expected).max()
 
 
+def damped(t, c=0.3, k=1.0):
+    """x'' + c x' + k x = 0 from (1, 0): x = e^{-ct/2} (cos wt + c/(2w) sin wt)."""
+    w = np.sqrt(k - c * c / 4)
+    return np.exp(-c * t / 2) * (np.cos(w * t) + c / (2 * w) * np.sin(w * t))
+
+
+def test_forced_saveat_dense_and_events():
+    # The damped oscillator of the example (k = 1, c = 0.3, degree 2 Gauss, h = 0.05) sampled
+    # from the forced element polynomials, against the closed form; the nodes, the work and
+    # the balance are those of the run without samples, bit for bit.
+    path = EXAMPLES / "forces" / "damped-oscillator.toml"
+    plain = femvi.solve(path)
+    times = [0.33, 1.0, 7.77, 19.99]
+    sol = femvi.solve(path, saveat=times, dense=True, events=[femvi.Event(lambda t, q, v: q[0], direction="falling")])
+    assert sol.error is None
+    assert same(sol.t, plain.t) and same(sol.q, plain.q) and same(sol.p, plain.p)
+    assert same(sol.work, plain.work)
+    assert sol.max_rel_energy_balance_error == plain.max_rel_energy_balance_error
+    assert np.allclose(sol.saved.t, times)
+    assert np.abs(sol.saved.q[:, 0] - damped(np.array(times))).max() <= 1e-6
+    grid = np.linspace(0.0, 20.0, 401)
+    assert np.abs(sol(grid)[:, 0] - damped(grid)).max() <= 1e-6
+    # x falls through 0 where wt = pi/2 + atan(c/(2w)) + 2 j pi.
+    w = np.sqrt(1 - 0.3 ** 2 / 4)
+    ts = np.array([e["t"] for e in sol.events])
+    exact = (np.pi / 2 + np.arctan(0.15 / w) + 2 * np.pi * np.arange(len(ts))) / w
+    assert len(ts) == int((20.0 * w - np.pi / 2 - np.arctan(0.15 / w)) // (2 * np.pi)) + 1
+    assert np.abs(ts - exact).max() <= 1e-6
+
+
 def test_options_these_runs_do_not_take_are_refused():
     path = EXAMPLES / "forces" / "damped-oscillator.toml"
     with pytest.raises(femvi.InputError, match="saveat"):
-        femvi.solve(path, saveat=[1.0])
+        femvi.solve(EXAMPLES / "constrained" / "spherical-pendulum.toml", saveat=[1.0])
     with pytest.raises(femvi.InputError, match="events"):
-        femvi.solve(path, events=[lambda t, q, v: q[0]])
+        femvi.solve(EXAMPLES / "forces" / "damped-oscillator-energy.toml", events=[lambda t, q, v: q[0]])
+    with pytest.raises(femvi.InputError, match="saveat"):
+        femvi.solve(EXAMPLES / "forces" / "damped-oscillator-energy.toml", dense=True)
     with pytest.raises(femvi.InputError, match="forces"):
-        femvi.ensemble(path, {"q": [[0.1], [0.2]], "v": [[0.0], [0.0]]})
+        femvi.ensemble(EXAMPLES / "forces" / "damped-oscillator-energy.toml", {"q": [[0.1], [0.2]], "v": [[0.0], [0.0]]})
     # max_steps and every are taken.
     sol = femvi.solve(path, max_steps=10, every=2)
     assert sol.steps == 10 and len(sol.t) == 6
+    # ... with saveat too: the work at the last node kept (the step limit's).
+    cut = femvi.solve(path, max_steps=10, every=3, saveat=[0.2])
+    full = femvi.solve(path, every=1)
+    assert list(cut.t) == [full.t[k] for k in (0, 3, 6, 9, 10)]
+    assert same(cut.work, full.work[[0, 3, 6, 9, 10]])
+
+
+def test_forced_ensemble_members_meet_the_closed_form():
+    # Two members of the damped oscillator, (1, 0) and (0.5, 0), with saveat: the samples and
+    # the final states against the closed form, member 0 the single solve bit for bit, and
+    # the energy error is the balance's.
+    path = EXAMPLES / "forces" / "damped-oscillator.toml"
+    ens = femvi.ensemble(path, {"q": [[1.0], [0.5]], "v": [[0.0], [0.0]]}, saveat=[2.5, 7.5])
+    assert all(e is None for e in ens.errors)
+    for i, x0 in enumerate([1.0, 0.5]):
+        assert np.abs(ens.saved_q[i, :, 0] - x0 * damped(np.array([2.5, 7.5]))).max() <= 1e-6 * x0
+        assert abs(ens.final_q[i, 0] - x0 * damped(20.0)) <= 1e-6 * x0
+    single = femvi.solve(path)
+    assert ens.final_q[0, 0] == single.q[-1, 0] and ens.final_p[0, 0] == single.p[-1, 0]
+    assert ens.energy_error[0] == single.max_rel_energy_balance_error

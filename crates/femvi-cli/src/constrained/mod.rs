@@ -39,32 +39,35 @@ pub fn run(
     crate::with_system!(&problem.system, l => run_with(l, problem, (constraints, problem.terms.force.as_ref()), (dir, out), command))
 }
 
-/// The library's constrained solve of a loaded problem: what `femvi run` writes.
+/// The library's constrained solve of a loaded problem from `start` (the file's, or an
+/// ensemble member's): what `femvi run` writes.
 ///
 /// # Errors
 /// The library's refusal (bad start, unsupported options) as a message.
 pub fn solve<L: Lagrangian + Clone>(
     lag: &L,
     problem: &Problem,
+    start: femvi::Start,
     constraints: &(ExprConstraints, Enforcement),
 ) -> Result<ConstrainedSolution, String> {
-    let p = problem.library(lag.clone());
+    let p = femvi::Problem::new(lag.clone(), start, problem.grid.t0(), problem.grid.end());
     let options = problem.solve_options(problem.every);
     solve_constrained_with(&p, &constraints.0, &problem.element, &options, constraints.1).map_err(|e| e.to_string())
 }
 
-/// The library's constrained solve under the force of a loaded problem with both tables: what
-/// `femvi run` writes.
+/// The library's constrained solve under the force of a loaded problem with both tables, from
+/// `start`: what `femvi run` writes.
 ///
 /// # Errors
 /// The library's refusal (bad start, unsupported options) as a message.
 pub fn solve_forced<L: Lagrangian + Clone>(
     lag: &L,
     problem: &Problem,
+    start: femvi::Start,
     constraints: &(ExprConstraints, Enforcement),
     force: &ProblemForce,
 ) -> Result<ForcedConstrainedSolution, String> {
-    let p = problem.library(lag.clone());
+    let p = femvi::Problem::new(lag.clone(), start, problem.grid.t0(), problem.grid.end());
     let options = problem.solve_options(problem.every);
     solve_constrained_forced(&p, force, &constraints.0, &problem.element, &options, constraints.1)
         .map_err(|e| e.to_string())
@@ -80,8 +83,9 @@ fn run_with<L: Lagrangian + Clone>(
 ) -> std::io::Result<Outcome> {
     let clock = Instant::now();
     let solved = match force {
-        Some(f) => solve_forced(lag, problem, constraints, f).map(|r| (r.constrained, Some((r.work, r.balance)))),
-        None => solve(lag, problem, constraints).map(|r| (r, None)),
+        Some(f) => solve_forced(lag, problem, problem.start.clone(), constraints, f)
+            .map(|r| (r.constrained, Some((r.work, r.balance)))),
+        None => solve(lag, problem, problem.start.clone(), constraints).map(|r| (r, None)),
     };
     let (run, forced) = match solved {
         Ok(run) => run,

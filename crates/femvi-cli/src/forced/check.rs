@@ -87,7 +87,8 @@ fn check_constrained<L: Lagrangian + Clone>(
             crate::BAD_INPUT,
         ));
     }
-    let run = crate::constrained::solve_forced(lag, problem, constraints, force).map_err(|e| (e, crate::BAD_INPUT))?;
+    let run = crate::constrained::solve_forced(lag, problem, problem.start.clone(), constraints, force)
+        .map_err(|e| (e, crate::BAD_INPUT))?;
     let s = &run.constrained.solution;
     Ok(ForcedCheck {
         name: problem.name.clone(),

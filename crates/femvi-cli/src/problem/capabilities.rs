@@ -7,7 +7,7 @@
 //! The reasons say which are mathematical (a step whose equations are not derived for the
 //! pair) and which are the remaining seams of issue 33 (constrained runs and forced runs in
 //! energy mode are solved to the end by the library's own run functions, outside the
-//! streaming run of `femvi run`; Python's forced runs keep no dense output).
+//! streaming run of `femvi run`).
 
 use super::terms::Terms;
 use super::Problem;
@@ -43,6 +43,8 @@ impl Term {
 pub enum Use {
     /// `femvi convergence`.
     Convergence,
+    /// `femvi convergence --l2`: the L² error of each run's element polynomials.
+    ConvergenceL2,
     /// `femvi ensemble` and Python's `femvi.ensemble`.
     Ensemble,
     /// `femvi chaos`.
@@ -76,6 +78,7 @@ impl Use {
     fn subject(self) -> Option<&'static str> {
         Some(match self {
             Use::Convergence | Use::Ensemble | Use::Chaos | Use::Check => return None,
+            Use::ConvergenceL2 => "`femvi convergence --l2` is",
             Use::ChaosInEnergyMode => "`femvi chaos` in [time] mode = \"energy\" is",
             Use::Events => "[[events]] are",
             Use::Resume => "--resume is",
@@ -99,15 +102,6 @@ impl Use {
 const SOLVED_TO_THE_END: &str = "these runs are solved to the end by the library's run of the term \
      (femvi::constraints::solve_constrained_with, the forced energy equation of \
      femvi::forces::solve_forced), not by the streaming run the option is an observer of (issue 33)";
-
-/// Python's `saveat`, dense output and events with forces.
-const SOLVE_WITH_PLAIN: &str = "Python's forced runs go through femvi::forces::solve_forced, which \
-     keeps no dense output and locates no events; femvi::forces::solve_forced_with does both and is \
-     not wired to Python yet (issue 33)";
-
-/// What the plain integrator's commands do not take yet.
-const PLAIN_INTEGRATOR_ONLY: &str = "the command drives the integrator of the Lagrangian alone, \
-     which has no step with this term yet (issue 33)";
 
 /// The pairs (term present, use) that are refused, with the reason.
 pub const REFUSED: &[(Term, Use, &str)] = &[
@@ -134,15 +128,23 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         Use::Convergence,
         "the study refines fixed steps h, and adaptive steps follow the monitor; use mode = \"fixed\"",
     ),
-    (Term::Forces, Use::Convergence, PLAIN_INTEGRATOR_ONLY),
-    (Term::Constraints, Use::Convergence, PLAIN_INTEGRATOR_ONLY),
     (
-        Term::Adaptive,
-        Use::Ensemble,
-        "the ensemble runs fixed steps; use mode = \"fixed\"",
+        Term::Constraints,
+        Use::ConvergenceL2,
+        "the L² error sums each run's element polynomials as they are solved, and the constrained \
+         run is solved to the end by femvi::constraints::solve_constrained_with, which keeps its \
+         nodes only (issue 33); the final-state errors are measured",
     ),
-    (Term::Forces, Use::Ensemble, PLAIN_INTEGRATOR_ONLY),
-    (Term::Constraints, Use::Ensemble, PLAIN_INTEGRATOR_ONLY),
+    (
+        Term::ForcesInEnergyMode,
+        Use::Convergence,
+        "the study refines fixed steps h, and in energy mode the energy equation sets each step; use mode = \"fixed\"",
+    ),
+    (
+        Term::ForcesInEnergyMode,
+        Use::Ensemble,
+        "a member runs the one integrator, and the forced energy equation has its own run (issue 33)",
+    ),
     (
         Term::Adaptive,
         Use::Chaos,
@@ -167,7 +169,7 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     ),
     (Term::ForcesInEnergyMode, Use::Resume, SOLVED_TO_THE_END),
     (Term::Constraints, Use::Resume, SOLVED_TO_THE_END),
-    (Term::Forces, Use::SaveatOrDense, SOLVE_WITH_PLAIN),
+    (Term::ForcesInEnergyMode, Use::SaveatOrDense, SOLVED_TO_THE_END),
     (Term::Constraints, Use::SaveatOrDense, SOLVED_TO_THE_END),
     (
         Term::Forces,
@@ -211,9 +213,9 @@ fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
 /// let text = "[system]\nmodel = \"pendulum\"\n[initial]\nq = [1.0]\np = [0.0]\n\
 ///             [time]\nstep = 0.1\nend = 1.0\n[forces]\ngeneralized = [\"-0.1*theta_dot\"]\n";
 /// let problem = femvi_cli::problem::load_text(std::path::Path::new("damped.toml"), text, &[])?;
-/// assert!(check(&problem.terms, Use::Check, "femvi check").is_ok());
-/// let refused = check(&problem.terms, Use::Ensemble, "femvi ensemble").unwrap_err();
-/// assert!(refused.starts_with("femvi ensemble does not support [forces]"));
+/// assert!(check(&problem.terms, Use::Ensemble, "femvi ensemble").is_ok());
+/// let refused = check(&problem.terms, Use::ChaosInEnergyMode, "femvi chaos").unwrap_err();
+/// assert!(refused.starts_with("`femvi chaos` in [time] mode = \"energy\" is not available with [forces]"));
 /// # Ok::<(), femvi_cli::problem::InputError>(())
 /// ```
 pub fn check(terms: &Terms, what: Use, name: &str) -> Result<(), String> {

@@ -82,9 +82,9 @@ fn bad_constrained_input_is_refused() {
     );
     refused(
         femvi()
-            .args(["convergence", "--steps", "0.1,0.05"])
+            .args(["convergence", "--steps", "0.1,0.05", "--l2"])
             .arg(model("spherical-pendulum")),
-        "does not support [constraints]",
+        "`femvi convergence --l2` is not available with [constraints]",
     );
     femvi()
         .args(["run", "--quiet", "--set", "time.mode=\"energy\""])

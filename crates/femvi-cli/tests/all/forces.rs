@@ -203,13 +203,18 @@ fn input_errors_and_failures() {
     let (code, err, _d) = run_text(&["run"], &DAMPED.replace("FORCES", "generalized = [\"sqrt(x - 10)\"]"));
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("step 0 at t = 0"), "{err}");
-    // Commands that cannot handle forces refuse them.
+    // Commands refuse what the table refuses with forces in energy mode.
     let (code, err, _d) = run_text(
-        &["convergence", "--steps", "0.1"],
-        &DAMPED.replace("FORCES", "generalized = [\"-c*x_dot\"]"),
+        &["convergence", "--steps", "0.1,0.05"],
+        &DAMPED
+            .replace("FORCES", "generalized = [\"-c*x_dot\"]")
+            .replace("end = 5.0", "end = 5.0\nmode = \"energy\""),
     );
     assert_eq!(code, 2);
-    assert!(err.contains("does not support [forces]"), "{err}");
+    assert!(
+        err.contains("does not support [forces] in [time] mode = \"energy\""),
+        "{err}"
+    );
     // Energy mode: a force the energy equation cannot follow is exit 1 naming step and time;
     // the fixed-point method is an input error there.
     let energy = DAMPED

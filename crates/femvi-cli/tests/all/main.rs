@@ -18,6 +18,7 @@ mod defects;
 mod diagnostics;
 mod ensemble;
 mod events_plots;
+mod forced_commands;
 mod forces;
 mod fuzz_problems;
 mod fuzz_terms;
