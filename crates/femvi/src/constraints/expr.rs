@@ -1,10 +1,12 @@
 //! Holonomic constraints from math expressions, for problem files: one expression g_l(q) per
 //! constraint in the coordinates and parameters (the syntax of [`crate::expr`]; no `t` and no
 //! velocities: the constraints are holonomic and scleronomic), compiled once and evaluated
-//! over any scalar type, so the Jacobian G(q) comes by automatic differentiation.
+//! over any scalar type, so the Jacobian G(q) comes by automatic differentiation; g and G in
+//! f64 also come from one compiled tape of the symbolic gradients (`expr/jacobian.rs`), which
+//! the RATTLE step and the other first-order jets take.
 
 use super::Constraints;
-use crate::expr::{ExprError, Program};
+use crate::expr::{ExprError, JacobianTape, Program};
 use crate::lagrangian::Scalar;
 
 /// Constraints g(q) = 0 given by expressions.
@@ -13,6 +15,8 @@ pub struct ExprConstraints {
     n: usize,
     programs: Vec<Program>,
     sources: Vec<String>,
+    /// g and G compiled (None beyond the expression graph's budget).
+    jacobian: Option<JacobianTape>,
 }
 
 impl ExprConstraints {
@@ -39,8 +43,10 @@ impl ExprConstraints {
             .iter()
             .map(|s| Program::compile(s, coordinates, parameters))
             .collect::<Result<Vec<_>, _>>()?;
+        let n = coordinates.len();
         Ok(Self {
-            n: coordinates.len(),
+            n,
+            jacobian: JacobianTape::new(&programs, n),
             programs,
             sources: sources.to_vec(),
         })
@@ -65,6 +71,10 @@ impl Constraints for ExprConstraints {
         for (o, p) in out.iter_mut().zip(&self.programs) {
             *o = p.eval(|i| q.get(i).copied().unwrap_or(D::from(f64::NAN)));
         }
+    }
+
+    fn value_and_jacobian(&self, q: &[f64], g: &mut [f64], jac: &mut [f64]) -> bool {
+        self.jacobian.as_ref().is_some_and(|t| t.eval(q, g, jac))
     }
 
     fn name(&self, l: usize) -> String {

@@ -73,6 +73,10 @@ impl ConstraintJet {
             }
             return;
         }
+        if c.value_and_jacobian(q, &mut self.g, &mut self.jac) {
+            // Compiled g and G (expression constraints).
+            return;
+        }
         for (d, &x) in self.d1.iter_mut().zip(q) {
             *d = Dual64::from(x);
         }

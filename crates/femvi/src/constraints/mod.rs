@@ -130,6 +130,27 @@ pub trait Constraints {
     /// lengths [`Constraints::dim`] and [`Constraints::count`] only.
     fn value<D: Scalar>(&self, q: &[D], out: &mut [D]);
 
+    /// g(q) into `g` (m entries) and the Jacobian G(q) = ∂g/∂q row by row into `jac` (m n
+    /// entries) in f64, for constraints that have a faster way than automatic
+    /// differentiation of [`Constraints::value`] (expression constraints compile it); false,
+    /// with nothing written, lets the library differentiate `value`. Default: false.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::constraints::{Constraints, ExprConstraints};
+    /// let xyz: Vec<String> = ["x", "y", "z"].iter().map(|s| s.to_string()).collect();
+    /// let sphere = ExprConstraints::new(&["x^2 + y^2 + z^2 - 1".to_string()], &xyz, &[])?;
+    /// let (mut g, mut jac) = ([0.0], [0.0; 3]);
+    /// assert!(sphere.value_and_jacobian(&[0.6, 0.0, -0.8], &mut g, &mut jac));
+    /// assert!(g[0].abs() < 1e-15 && jac == [1.2, 0.0, -1.6]);
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
+    fn value_and_jacobian(&self, q: &[f64], g: &mut [f64], jac: &mut [f64]) -> bool {
+        let _ = (q, g, jac);
+        false
+    }
+
     /// How errors name constraint `l` (0-based). Default: "constraint {l + 1}".
     fn name(&self, l: usize) -> String {
         format!("constraint {}", l + 1)

@@ -24,6 +24,7 @@ mod compile;
 mod dag;
 mod diff;
 mod fast;
+mod jacobian;
 #[cfg(feature = "jit")]
 mod native;
 mod parse;
@@ -31,6 +32,7 @@ mod program;
 mod structure;
 mod tape;
 
+pub(crate) use jacobian::JacobianTape;
 pub use parse::{ExprError, MAX_NESTING};
 pub use program::Program;
 

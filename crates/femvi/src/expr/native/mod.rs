@@ -219,15 +219,33 @@ impl Used {
 fn compile_with(
     n: usize,
     outputs: usize,
-    point: impl FnOnce(&mut FunctionBuilder, &emit::Calls, [Value; 4]) -> Option<Used>,
+    point: impl FnOnce(&mut FunctionBuilder, &emit::Calls, [Value; 4]) -> Option<Used> + Send,
 ) -> Option<Native> {
     if n == 0 {
         return None;
     }
-    // A failure inside the code generator (it should have none on this input) costs the
-    // speed, not the run: the interpreter stays.
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| generate(n, outputs, point))).ok()?
+    // The code generator runs on a thread of its own with GENERATOR_STACK, so that compiling
+    // does not depend on the caller's stack. A thread that cannot start, or a failure inside
+    // the code generator (it should have none on this input), costs the speed, not the run:
+    // the interpreter stays.
+    std::thread::scope(|scope| {
+        let worker = std::thread::Builder::new()
+            .name("femvi-jit".into())
+            .stack_size(GENERATOR_STACK)
+            .spawn_scoped(scope, || {
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| generate(n, outputs, point)))
+                    .ok()
+                    .flatten()
+            });
+        worker.ok()?.join().ok().flatten()
+    })
 }
+
+/// The stack of the code generator's thread. Cranelift's stack use grows with the nesting of
+/// the expression, and much more where it is built without optimization (the `dev` profile
+/// builds it at opt-level 0): the deepest expression the parser accepts overflowed a 256 KiB
+/// caller's stack there (`tests/all/hostile.rs`). Reserved, not touched, beyond what is used.
+const GENERATOR_STACK: usize = 16 << 20;
 
 /// [`compile_with`]'s work.
 fn generate(
