@@ -15,6 +15,27 @@ fn femvi() -> Command {
     Command::cargo_bin("femvi").unwrap()
 }
 
+/// summary.json of `femvi run FILE --quiet --set S…` into `out`.
+fn single_run(file: &Path, set: &[String], out: &Path) -> serde_json::Value {
+    let mut cmd = femvi();
+    cmd.arg("run").arg(file).arg("--quiet").arg("--out").arg(out);
+    for s in set {
+        cmd.arg("--set").arg(s);
+    }
+    cmd.assert().success();
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
+/// The `--set` overrides of a start: the end time, q and the second half (`v` or `p`).
+fn start_set(end: &str, start: &[f64], second: &str) -> Vec<String> {
+    let n = start.len() / 2;
+    vec![
+        format!("time.end={end}"),
+        format!("initial.q=[{}]", row_of(&start[..n])),
+        format!("initial.{second}=[{}]", row_of(&start[n..])),
+    ]
+}
+
 /// The closed form (x, ẋ) from (x0, 0) at t.
 fn exact(x0: f64, t: f64) -> (f64, f64) {
     let (k, c) = (1.0f64, 0.3f64);
@@ -103,16 +124,7 @@ fn ensemble_members_of_a_forced_problem_are_single_runs_and_meet_the_closed_form
         assert!(num(row, 4) < 1e-6, "{row:?}");
     }
     // Member 0 is the file's own start: `femvi run`'s final node and balance, bit for bit.
-    let single = dir.path().join("single");
-    femvi()
-        .args(["run", "--set", "time.end=10", "--quiet"])
-        .arg(damped())
-        .arg("--out")
-        .arg(&single)
-        .assert()
-        .success();
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(single.join("summary.json")).unwrap()).unwrap();
+    let s = single_run(&damped(), &["time.end=10".into()], &dir.path().join("single"));
     assert_eq!(num(&rows[0], 2).to_bits(), s["final_q"][0].as_f64().unwrap().to_bits());
     assert_eq!(num(&rows[0], 3).to_bits(), s["final_p"][0].as_f64().unwrap().to_bits());
     let balance = s["max_rel_energy_balance_error"].as_f64().unwrap();
@@ -197,18 +209,11 @@ fn ensemble_members_of_a_constrained_problem_are_single_runs_on_the_sphere() {
             "{row:?}"
         );
         // The single run from the same start: its final node and energy error, bit for bit.
-        let single = dir.path().join(format!("single{i}"));
-        let set = |k: &str, v: &[f64]| format!("initial.{k}=[{}]", row_of(v));
-        femvi()
-            .args(["run", "--set", "time.end=2", "--quiet", "--set", &set("q", &start[..3])])
-            .args(["--set", &set("v", &start[3..])])
-            .arg(sphere())
-            .arg("--out")
-            .arg(&single)
-            .assert()
-            .success();
-        let s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(single.join("summary.json")).unwrap()).unwrap();
+        let s = single_run(
+            &sphere(),
+            &start_set("2", &start, "v"),
+            &dir.path().join(format!("single{i}")),
+        );
         for c in 0..3 {
             assert_eq!(row[2 + c].to_bits(), s["final_q"][c].as_f64().unwrap().to_bits());
             assert_eq!(row[5 + c].to_bits(), s["final_p"][c].as_f64().unwrap().to_bits());
@@ -258,18 +263,11 @@ fn ensemble_members_of_an_adaptive_problem_are_single_runs_on_the_kepler_orbit()
         // Adaptive runs end on the first node at or past the end time.
         assert!(row[1] >= end && row[1] < end + 0.1, "{row:?}");
         // The single run from the same start: its final node and energy error, bit for bit.
-        let single = dir.path().join(format!("single{i}"));
-        let set = |k: &str, v: &[f64]| format!("initial.{k}=[{}]", row_of(v));
-        femvi()
-            .args(["run", "--set", &set_end, "--quiet", "--set", &set("q", &start[..2])])
-            .args(["--set", &set("p", &start[2..])])
-            .arg(&file)
-            .arg("--out")
-            .arg(&single)
-            .assert()
-            .success();
-        let s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(single.join("summary.json")).unwrap()).unwrap();
+        let s = single_run(
+            &file,
+            &start_set(&format!("{end:?}"), &start, "p"),
+            &dir.path().join(format!("single{i}")),
+        );
         for c in 0..2 {
             assert_eq!(
                 row[2 + c].to_bits(),
