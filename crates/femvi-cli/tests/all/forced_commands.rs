@@ -15,6 +15,11 @@ fn femvi() -> Command {
     Command::cargo_bin("femvi").unwrap()
 }
 
+/// `femvi ARGS… FILE --out OUT`, finished.
+fn femvi_on(args: &[&str], file: &Path, out: &Path) -> std::process::Output {
+    femvi().args(args).arg(file).arg("--out").arg(out).output().unwrap()
+}
+
 /// summary.json of `femvi run FILE --quiet --set S…` into `out`.
 fn single_run(file: &Path, set: &[String], out: &Path) -> serde_json::Value {
     let mut cmd = femvi();
@@ -50,28 +55,26 @@ fn exact(x0: f64, t: f64) -> (f64, f64) {
 #[test]
 fn convergence_of_a_forced_run_has_the_order_of_the_element() {
     let dir = tempfile::tempdir().unwrap();
-    let out = femvi()
-        .args([
+    let out = femvi_on(
+        &[
             "convergence",
             "--set",
             "time.end=10",
             "--steps",
             "0.4,0.2,0.1,0.05",
             "--json",
-        ])
-        .arg(damped())
-        .arg("--out")
-        .arg(dir.path())
-        .output()
-        .unwrap();
+        ],
+        &damped(),
+        dir.path(),
+    );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let order = study["order"].as_f64().unwrap();
     assert!((3.8..=4.3).contains(&order), "order {order}");
     // The reference is a forced run too: the unforced closed form is not offered.
     assert!(study["reference"].as_str().unwrap().starts_with("galerkin degree 4"));
-    let refused = femvi()
-        .args([
+    let refused = femvi_on(
+        &[
             "convergence",
             "--set",
             "time.end=10",
@@ -79,12 +82,10 @@ fn convergence_of_a_forced_run_has_the_order_of_the_element() {
             "0.2,0.1",
             "--reference",
             "exact",
-        ])
-        .arg(damped())
-        .arg("--out")
-        .arg(dir.path())
-        .output()
-        .unwrap();
+        ],
+        &damped(),
+        dir.path(),
+    );
     assert_eq!(refused.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&refused.stderr).contains("no closed form"));
 }
@@ -95,14 +96,21 @@ fn ensemble_members_of_a_forced_problem_are_single_runs_and_meet_the_closed_form
     let states = dir.path().join("states.csv");
     std::fs::write(&states, "x,v_x\n1.0,0.0\n0.5,0.0\n").unwrap();
     let out = dir.path().join("ensemble");
-    femvi()
-        .args(["ensemble", "--set", "time.end=10", "--quiet", "--velocity", "--states"])
-        .arg(&states)
-        .arg(damped())
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    let states = states.to_string_lossy();
+    let ran = femvi_on(
+        &[
+            "ensemble",
+            "--set",
+            "time.end=10",
+            "--quiet",
+            "--velocity",
+            "--states",
+            &states,
+        ],
+        &damped(),
+        &out,
+    );
+    assert!(ran.status.success(), "{}", String::from_utf8_lossy(&ran.stderr));
     let mut r = csv::Reader::from_path(out.join("ensemble.csv")).unwrap();
     let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
     assert_eq!(
@@ -140,32 +148,28 @@ fn convergence_of_a_constrained_run_has_the_order_of_the_element() {
     // The spherical pendulum at degree 2 (order 4 on the manifold, docs/src/constraints.md);
     // the reference is the constrained run at degree 4 and a quarter of the finest step.
     let dir = tempfile::tempdir().unwrap();
-    let out = femvi()
-        .args([
+    let out = femvi_on(
+        &[
             "convergence",
             "--set",
             "time.end=2",
             "--steps",
             "0.08,0.04,0.02,0.01",
             "--json",
-        ])
-        .arg(sphere())
-        .arg("--out")
-        .arg(dir.path())
-        .output()
-        .unwrap();
+        ],
+        &sphere(),
+        dir.path(),
+    );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let order = study["order"].as_f64().unwrap();
     assert!((3.8..=4.3).contains(&order), "order {order}");
     // --l2 needs the runs' element polynomials: refused by the table, not run unconstrained.
-    let l2 = femvi()
-        .args(["convergence", "--set", "time.end=2", "--steps", "0.04,0.02", "--l2"])
-        .arg(sphere())
-        .arg("--out")
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let l2 = femvi_on(
+        &["convergence", "--set", "time.end=2", "--steps", "0.04,0.02", "--l2"],
+        &sphere(),
+        dir.path(),
+    );
     assert_eq!(l2.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&l2.stderr).contains("--l2"));
 }
@@ -188,14 +192,21 @@ fn ensemble_members_of_a_constrained_problem_are_single_runs_on_the_sphere() {
     ];
     std::fs::write(&states, format!("{}\n{}\n", row(&first), row(&second))).unwrap();
     let out = dir.path().join("ensemble");
-    femvi()
-        .args(["ensemble", "--set", "time.end=2", "--quiet", "--velocity", "--states"])
-        .arg(&states)
-        .arg(sphere())
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    let states = states.to_string_lossy();
+    let ran = femvi_on(
+        &[
+            "ensemble",
+            "--set",
+            "time.end=2",
+            "--quiet",
+            "--velocity",
+            "--states",
+            &states,
+        ],
+        &sphere(),
+        &out,
+    );
+    assert!(ran.status.success(), "{}", String::from_utf8_lossy(&ran.stderr));
     let mut r = csv::Reader::from_path(out.join("ensemble.csv")).unwrap();
     let rows: Vec<Vec<f64>> = r
         .records()
@@ -238,14 +249,13 @@ fn ensemble_members_of_an_adaptive_problem_are_single_runs_on_the_kepler_orbit()
     std::fs::write(&states, format!("{}\n{}\n", row_of(&starts[0]), row_of(&starts[1]))).unwrap();
     let out = dir.path().join("ensemble");
     let set_end = format!("time.end={end:?}");
-    femvi()
-        .args(["ensemble", "--set", &set_end, "--quiet", "--states"])
-        .arg(&states)
-        .arg(&file)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    let states = states.to_string_lossy();
+    let ran = femvi_on(
+        &["ensemble", "--set", &set_end, "--quiet", "--states", &states],
+        &file,
+        &out,
+    );
+    assert!(ran.status.success(), "{}", String::from_utf8_lossy(&ran.stderr));
     let mut r = csv::Reader::from_path(out.join("ensemble.csv")).unwrap();
     let rows: Vec<Vec<f64>> = r
         .records()
