@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite: the Rust workspace's tests, then the Python package's.
 # On a fresh machine it creates the venv (.venv, or $FEMVI_VENV), installs maturin, numpy,
-# pytest, dask[distributed] and matplotlib into it, builds and installs the package
-# (crates/femvi-py) and runs pytest against the femvi command built here.
+# pytest, dask[distributed], matplotlib, sympy, pandas and the notebook runner (nbclient,
+# nbformat, ipykernel) into it, builds and installs the package (crates/femvi-py), runs its
+# doctests, the notebooks in examples/notebooks and pytest against the femvi command built here.
 # Exit code non-zero on any failure, and also when pytest ran no test at all.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,7 +17,8 @@ if [ ! -x "$VENV/bin/python" ]; then
     echo '*' > "$VENV/.gitignore"
 fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
-"$VENV/bin/python" -m pip install --quiet "maturin>=1.5,<2" numpy pytest "dask[distributed]" matplotlib
+"$VENV/bin/python" -m pip install --quiet "maturin>=1.5,<2" numpy pytest "dask[distributed]" \
+    "matplotlib>=3.6" "sympy>=1.10" "pandas>=1.3" nbclient nbformat ipykernel
 
 # Build the package (abi3 wheel) and install it into the venv. The wheel is built in the
 # `dev` profile (opt-level 2, Cargo.toml), which `cargo test` below also uses, with the same
@@ -40,7 +42,11 @@ cargo test "${FLAGS[@]}" --doc
 # for the command-line tests (in target/debug).
 export FEMVI_BIN="$TARGET/debug/femvi"
 
-# Run from outside the source tree so that the installed package is the one imported.
+# Run from outside the source tree so that the installed package is the one imported: the
+# examples in the package's docstrings (doctests), then the tests (with the notebooks).
+PACKAGE=$("$VENV/bin/python" -c "import femvi, os; print(os.path.dirname(femvi.__file__))")
+(cd "$ROOT/crates/femvi-py/tests" && MPLBACKEND=Agg "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
+    --doctest-modules "$PACKAGE")
 (cd "$ROOT/crates/femvi-py/tests" && "$VENV/bin/python" -m pytest -q -p no:cacheprovider --junitxml="$REPORT" .)
 tests=$("$VENV/bin/python" -c "import sys, xml.etree.ElementTree as E; r = E.parse(sys.argv[1]).getroot(); s = r if r.tag == 'testsuite' else r[0]; print(int(s.get('tests')) - int(s.get('skipped')))" "$REPORT")
 if [ "$tests" -eq 0 ]; then

@@ -1,14 +1,20 @@
 """femvi: variational integrators from finite elements, from Python.
 
-Problems are femvi problem files (the ``femvi run`` format): a path, a TOML string or a dict
-of the same structure, with overrides of any value by dotted path::
+A problem is a :class:`System` (a Lagrangian as a string or a SymPy expression, with
+parameters, forces and constraints) or a femvi problem file (the ``femvi run`` format: a
+path, a TOML string or a dict of the same structure), with the run set by keywords (``q0``,
+``v0``, ``t_span``, ``dt``, ``order``, ...) or by dotted paths::
 
-    import femvi
+    import sympy as sp, femvi
+    x, x_dot = sp.symbols("x x_dot")
+    osc = femvi.System([x], x_dot**2 / 2 - x**2 / 2)
+    sol = femvi.solve(osc, q0=[1.0], v0=[0.0], t_span=(0, 10), dt=0.01, order=4)
+    sol.t, sol.q, sol.p, sol.energy          # NumPy arrays; sol.to_pandas(), sol.plot()
     sol = femvi.solve("examples/kepler.toml", **{"time.step": 0.01})
-    sol.t, sol.q, sol.p, sol.energy          # NumPy arrays
     ens = femvi.ensemble("examples/kepler.toml", initial_states=states)   # all cores
 
-Results equal the command's (``femvi run``) bit for bit.
+Results equal the command's (``femvi run``) bit for bit: a System is run through the problem
+file :meth:`System.to_toml` prints.
 """
 
 from __future__ import annotations
@@ -23,13 +29,15 @@ import numpy as np
 
 from . import _core
 from ._core import InputError
-from ._problem import apply_overrides, dumps, problem_file, problem_text, to_dict
+from ._problem import apply_overrides, apply_run, dumps, problem_file, problem_text, split_run, to_dict
 from ._solution import EnsembleResult, Event, NumericalError, Solution
+from ._sympy import to_expression as expression
+from ._system import System, _name_of
 
 __version__ = _core.__version__
 __all__ = [
-    "solve", "ensemble", "models", "model_problem", "check", "convergence", "bvp", "Solution",
-    "EnsembleResult", "Event", "InputError", "NumericalError", "problem_text", "dumps",
+    "System", "solve", "ensemble", "models", "model_problem", "check", "convergence", "bvp", "Solution",
+    "EnsembleResult", "Event", "InputError", "NumericalError", "problem_text", "dumps", "expression",
 ]
 
 
@@ -63,10 +71,19 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
           events: Optional[Sequence[Any]] = None, raise_on_error: bool = True,
           potential: Optional[Callable[[np.ndarray], float]] = None,
           force: Optional[Callable[[np.ndarray], np.ndarray]] = None,
-          masses: Optional[Sequence[float]] = None, **kw: Any) -> Solution:
+          masses: Optional[Sequence[float]] = None, q0: Any = None, v0: Any = None, p0: Any = None,
+          t_span: Optional[Sequence[float]] = None, dt: Optional[float] = None, degree: Optional[int] = None,
+          order: Optional[int] = None, quadrature: Optional[str] = None, points: Optional[int] = None,
+          nodes: Optional[str] = None, method: Optional[str] = None, mode: Optional[str] = None,
+          **kw: Any) -> Solution:
     """Integrates a problem as ``femvi run`` does and returns a :class:`Solution`.
 
-    ``problem``: a problem file's path, TOML text, or a dict of the same structure.
+    ``problem``: a :class:`System`, a problem file's path, TOML text, or a dict of the same
+    structure. The run: ``q0`` and ``v0`` (or ``p0``) the start, ``t_span = (t0, t1)``, ``dt``
+    the step (``ds`` in adaptive mode), ``degree`` (with ``quadrature``, ``points``, ``nodes``)
+    or ``order`` (2s: degree s, s-point Gauss), ``method`` (``"auto"``, ``"newton"``,
+    ``"fixed-point"``, ``"explicit"``), ``mode`` (``"fixed"``, ``"energy"``, ``"adaptive"``);
+    each replaces what the file says (``femvi.problem_text`` shows the result).
     ``overrides`` / keyword arguments: values by dotted path, e.g. ``**{"time.step": 0.01}``.
     ``every``: keep every k-th node (default: the file's ``[output] every``); ``saveat``: times
     at which to report the state (``sol.saved``); ``dense``: keep the dense output
@@ -85,8 +102,17 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
     :class:`NumericalError` when a step fails or a node's energy is not finite (unless
     ``raise_on_error=False``, which returns
     the partial solution with ``sol.error`` set). The GIL is released during the run.
+
+    >>> import femvi
+    >>> sol = femvi.solve(femvi.model_problem("kepler"), dt=0.01, t_span=(0.0, 6.283185307179586))
+    >>> sol.steps                   # ceil(2 pi / 0.01): the last step is shorter
+    629
+    >>> bool(abs(sol.q[-1, 0] - sol.q[0, 0]) < 1e-6)
+    True
     """
     evs = [e if isinstance(e, Event) else Event(e) for e in (events or [])]
+    run = split_run(dict(q0=q0, v0=v0, p0=p0, t_span=t_span, dt=dt, degree=degree, order=order,
+                         quadrature=quadrature, points=points, nodes=nodes, method=method, mode=mode))
     merged = _merge(overrides, kw)
     system = None
     if potential is not None or force is not None:
@@ -94,7 +120,7 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
             raise TypeError("potential= and force= go together (V(q) and -grad V(q))")
         problem, merged = _python_system(problem, merged), {}
         system = (potential, force, None if masses is None else [float(m) for m in masses])
-    with problem_file(problem, merged) as (path, shown):
+    with problem_file(problem, merged, run) as (path, shown):
         try:
             raw = _core.solve_file(str(path), every=every, saveat=None if saveat is None else
                                    [float(x) for x in saveat], dense=dense, max_steps=max_steps,
@@ -136,21 +162,37 @@ def ensemble(problem: Any, initial_states: Any = None, parameters: Optional[Mapp
     (N, len(saveat), n), NaN where a member did not get there (``saved_t`` the times).
     ``progress``: show a progress bar (tqdm's, in notebooks and terminals, if tqdm is
     installed; else a line on stderr); default: when stderr is a terminal or in a notebook.
+    :func:`solve`'s run keywords (``t_span``, ``dt``, ``order``, ...) set every member's run;
+    a :class:`System` without ``q0`` takes the first member's state as the problem's start
+    (each member then starts from its own).
+
+    >>> import numpy as np, femvi
+    >>> osc = femvi.System(["x"], "0.5*x_dot^2 - 0.5*k*x^2", {"k": 1.0})
+    >>> ens = femvi.ensemble(osc, initial_states={"q": [[1.0], [2.0]], "v": [[0.0], [0.0]]},
+    ...                      parameters={"k": [1.0, 4.0]}, t_span=(0.0, 1.0), dt=0.01, order=4,
+    ...                      progress=False)
+    >>> np.round(ens.final_q[:, 0], 6)              # cos(1), 2 cos(2)
+    array([ 0.540302, -0.832294])
     """
     bar = _progress_bar(progress)
     times = None if saveat is None else [float(t) for t in saveat]
     states, velocity = _states(initial_states)
+    run = split_run(kw)
+    if isinstance(problem, System) and states is not None and "q0" not in run and len(states):
+        n = states.shape[1] // 2
+        run.update({"q0": states[0, :n], ("v0" if velocity else "p0"): states[0, n:]})
     merged = _merge(overrides, kw)
-    params = {k: np.asarray(v, dtype=np.float64).reshape(-1) for k, v in (parameters or {}).items()}
+    params = {_name_of(k): np.asarray(v, dtype=np.float64).reshape(-1) for k, v in (parameters or {}).items()}
     sizes = {len(v) for v in params.values()} | ({len(states)} if states is not None else set())
     if len(sizes) > 1:
         raise InputError(f"initial_states and parameters give different numbers of members: {sorted(sizes)}")
-    with problem_file(problem, merged) as (path, shown):
+    with problem_file(problem, merged, run) as (path, shown):
         try:
             if not params:
                 raw = _core.ensemble_file(str(path), None, states, velocity, count or 1, workers, bar, times)
             else:
-                raw = _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar, times)
+                raw = _parameter_ensemble(problem, merged, run, params, states, velocity, workers, path, bar,
+                                          times)
         except InputError as e:
             raise _input_error(e, path, shown) from None
         finally:
@@ -203,9 +245,10 @@ def _progress_bar(progress: Optional[bool]) -> Optional[_Progress]:
     return _Progress() if progress else None
 
 
-def _parameter_ensemble(problem, merged, params, states, velocity, workers, path, bar, times):
-    d, _ = to_dict(problem)
+def _parameter_ensemble(problem, merged, run, params, states, velocity, workers, path, bar, times):
+    d, _ = to_dict(problem, run)
     apply_overrides(d, merged)
+    apply_run(d, **run)
     size = len(next(iter(params.values())))
     with tempfile.TemporaryDirectory(prefix="femvi-ens-") as tmp:
         files = []
@@ -222,18 +265,35 @@ def _parameter_ensemble(problem, merged, params, states, velocity, workers, path
 
 def models() -> List[Dict[str, Any]]:
     """The built-in systems: name, description, parameters (with defaults), coordinates,
-    symmetries."""
+    symmetries.
+
+    >>> import femvi
+    >>> [m["name"] for m in femvi.models()][:3]
+    ['harmonic', 'pendulum', 'kepler']
+    """
     return _core.models()
 
 
 def model_problem(name: str) -> str:
-    """The complete problem file of a built-in model (what ``femvi models NAME`` prints)."""
+    """The complete problem file of a built-in model (what ``femvi models NAME`` prints).
+
+    >>> import femvi
+    >>> print(femvi.model_problem("harmonic").splitlines()[1])
+    name = "harmonic"
+    """
     return _core.model_problem(name)
 
 
 def check(problem: Any, overrides: Optional[Mapping[str, Any]] = None, **kw: Any) -> Dict[str, Any]:
-    """``femvi check``'s report (symplecticity, energy and momentum drift, ...) as a dict."""
-    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+    """``femvi check``'s report (symplecticity, energy and momentum drift, ...) as a dict.
+
+    >>> import femvi
+    >>> report = femvi.check(femvi.model_problem("kepler"), t_span=(0.0, 10.0), dt=0.05)
+    >>> bool(report["symplecticity_defect_relative"] < 1e-10), report["energy_conserved"]
+    (True, True)
+    """
+    run = split_run(kw)
+    with problem_file(problem, _merge(overrides, kw), run) as (path, shown):
         try:
             return json.loads(_core.check_file(str(path)))
         except InputError as e:
@@ -244,8 +304,16 @@ def convergence(problem: Any, steps: Sequence[float], reference: Optional[str] =
                 overrides: Optional[Mapping[str, Any]] = None, **kw: Any) -> Dict[str, Any]:
     """``femvi convergence``'s report as a dict: final errors at each step in ``steps``, the
     fitted orders; ``reference`` as ``--reference`` ("exact", "finest" or a step), ``l2`` as
-    ``--l2``."""
-    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+    ``--l2``.
+
+    >>> import femvi
+    >>> study = femvi.convergence(femvi.model_problem("harmonic"), [0.2, 0.1, 0.05], reference="exact",
+    ...                           t_span=(0.0, 10.0))
+    >>> round(study["order"], 1)          # degree 2, Gauss-Legendre 2 points: order 4
+    4.0
+    """
+    run = split_run(kw)
+    with problem_file(problem, _merge(overrides, kw), run) as (path, shown):
         try:
             return json.loads(_core.convergence_file(str(path), [float(h) for h in steps],
                                                      None if reference is None else str(reference), l2))
@@ -256,8 +324,17 @@ def convergence(problem: Any, steps: Sequence[float], reference: Optional[str] =
 def bvp(problem: Any, directory: Optional[str] = None, overrides: Optional[Mapping[str, Any]] = None,
         **kw: Any) -> Dict[str, Any]:
     """``femvi bvp``'s summary as a dict; its files go to ``directory`` (default: a temporary
-    directory that is removed)."""
-    with problem_file(problem, _merge(overrides, kw)) as (path, shown):
+    directory that is removed).
+
+    >>> import femvi
+    >>> pendulum = femvi.System(["x"], "0.5*x_dot^2 + cos(x)", name="pendulum-bvp")
+    >>> summary = femvi.bvp(pendulum, **{"boundary": {"t0": 0.0, "q0": [0.0], "t1": 1.0, "q1": [0.5],
+    ...                                               "elements": 50}})
+    >>> summary["error"] is None and summary["scaled_residual"] < 1e-12
+    True
+    """
+    run = split_run(kw)
+    with problem_file(problem, _merge(overrides, kw), run) as (path, shown):
         with tempfile.TemporaryDirectory(prefix="femvi-bvp-") as tmp:
             try:
                 return json.loads(_core.bvp_file(str(path), str(directory or tmp)))

@@ -58,7 +58,17 @@ def _value(v: Any) -> str:
 
 
 def dumps(d: Mapping[str, Any]) -> str:
-    """TOML text of a dict of tables, arrays, strings, numbers and bools."""
+    """TOML text of a dict of tables, arrays, strings, numbers and bools (floats written with
+    ``repr``, so they read back exactly).
+
+    >>> print(dumps({"name": "x", "time": {"step": 0.1, "end": 1e3}}))
+    name = "x"
+    <BLANKLINE>
+    [time]
+    step = 0.1
+    end = 1000.0
+    <BLANKLINE>
+    """
     lines: list = []
     _table(d, [], lines)
     return "\n".join(lines).lstrip("\n") + "\n"
@@ -114,10 +124,14 @@ def _read_bounded(path: Path) -> str:
         raise ValueError(f"not UTF-8 text (byte {e.start})") from None
 
 
-def to_dict(problem: Any) -> Tuple[Dict[str, Any], Optional[Path]]:
-    """The problem as a dict and the file it came from (None for text or a dict)."""
+def to_dict(problem: Any, run: Optional[Mapping[str, Any]] = None) -> Tuple[Dict[str, Any], Optional[Path]]:
+    """The problem as a dict and the file it came from (None for text, a dict or a System);
+    ``run``: :func:`femvi.solve`'s run keywords (a System's monitor is written in adaptive mode)."""
     from ._core import InputError
+    from ._system import System
 
+    if isinstance(problem, System):
+        return problem.to_dict(adaptive=(run or {}).get("mode") == "adaptive"), None
     if isinstance(problem, Mapping):
         return copy.deepcopy(dict(problem)), None
     if isinstance(problem, os.PathLike) or (isinstance(problem, str) and not _looks_like_toml(problem)):
@@ -135,7 +149,7 @@ def to_dict(problem: Any) -> Tuple[Dict[str, Any], Optional[Path]]:
             return tomllib.loads(problem), None
         except tomllib.TOMLDecodeError as e:
             raise InputError(f"<problem>: {e}") from None
-    raise TypeError("problem must be a path, TOML text or a dict")
+    raise TypeError("problem must be a femvi.System, a path, TOML text or a dict")
 
 
 def apply_overrides(d: Dict[str, Any], overrides: Mapping[str, Any]) -> None:
@@ -152,22 +166,113 @@ def apply_overrides(d: Dict[str, Any], overrides: Mapping[str, Any]) -> None:
         node[keys[-1]] = value
 
 
+#: The keywords of :func:`femvi.solve` (and the other entry points) that set the run.
+RUN_KEYWORDS = ("q0", "v0", "p0", "t_span", "dt", "degree", "order", "quadrature", "points", "nodes",
+                "method", "mode")
+
+
+def _floats(v: Any, what: str) -> list:
+    from ._core import InputError
+
+    try:
+        xs = [float(x) for x in (v.tolist() if hasattr(v, "tolist") else v)]
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a list of numbers, not {v!r}") from None
+    return xs
+
+
+def apply_run(d: Dict[str, Any], q0: Any = None, v0: Any = None, p0: Any = None, t_span: Any = None,
+              dt: Optional[float] = None, degree: Optional[int] = None, order: Optional[int] = None,
+              quadrature: Optional[str] = None, points: Optional[int] = None, nodes: Optional[str] = None,
+              method: Optional[str] = None, mode: Optional[str] = None) -> None:
+    """Sets a problem's start, time span, step and scheme from :func:`femvi.solve`'s keywords,
+    removing what they replace: ``q0`` -> ``[initial] q``; ``v0`` or ``p0`` -> ``[initial] v`` or
+    ``p`` (the other one, and a start from ``q1``, removed); ``t_span = (t0, t1)`` ->
+    ``[initial] t`` and ``[time] end``; ``dt`` -> ``[time] step`` (``ds`` in adaptive mode;
+    ``steps`` and ``accuracy`` removed); ``degree`` or ``order`` -> ``[scheme]`` (``order``
+    removes ``degree``, ``points`` and ``quadrature``, ``degree`` removes ``order``);
+    ``quadrature``, ``points``, ``nodes`` -> ``[scheme]``; ``method`` -> ``[solver] method``;
+    ``mode`` -> ``[time] mode``.
+
+    >>> d = {"scheme": {"degree": 2}}
+    >>> apply_run(d, q0=[1.0], v0=[0.0], t_span=(0.0, 5.0), dt=0.1, order=4)
+    >>> d["scheme"], d["initial"], d["time"]
+    ({'order': 4}, {'t': 0.0, 'q': [1.0], 'v': [0.0]}, {'end': 5.0, 'step': 0.1})
+    """
+    from ._core import InputError
+
+    def table(name: str) -> Dict[str, Any]:
+        t = d.get(name)
+        if not isinstance(t, dict):
+            t = {}
+            d[name] = t
+        return t
+
+    if v0 is not None and p0 is not None:
+        raise InputError("give v0 or p0, not both")
+    if degree is not None and order is not None:
+        raise InputError("give degree or order, not both")
+    if t_span is not None:
+        span = _floats(t_span, "t_span")
+        if len(span) != 2:
+            raise InputError(f"t_span must be (t0, t1), not {t_span!r}")
+        table("initial")["t"] = span[0]
+        table("time")["end"] = span[1]
+    if q0 is not None:
+        table("initial")["q"] = _floats(q0, "q0")
+    for key, value in (("v", v0), ("p", p0)):
+        if value is not None:
+            init = table("initial")
+            for other in ("v", "p", "q1"):
+                init.pop(other, None)
+            init[key] = _floats(value, f"{key}0")
+    if mode is not None:
+        table("time")["mode"] = str(mode)
+    if dt is not None:
+        time = table("time")
+        for other in ("steps", "accuracy"):
+            time.pop(other, None)
+        time["ds" if time.get("mode") == "adaptive" else "step"] = float(dt)
+    if order is not None:
+        scheme = table("scheme")
+        for other in ("degree", "points", "quadrature"):
+            scheme.pop(other, None)
+        scheme["order"] = int(order)
+    if degree is not None:
+        scheme = table("scheme")
+        scheme.pop("order", None)
+        scheme["degree"] = int(degree)
+    for key, value in (("quadrature", quadrature), ("points", points), ("nodes", nodes)):
+        if value is not None:
+            table("scheme")[key] = value
+    if method is not None:
+        table("solver")["method"] = str(method)
+
+
+def split_run(kw: Dict[str, Any]) -> Dict[str, Any]:
+    """Takes :data:`RUN_KEYWORDS` out of ``kw`` (the rest are dotted overrides)."""
+    taken = {k: kw.pop(k) for k in RUN_KEYWORDS if k in kw}
+    return {k: v for k, v in taken.items() if v is not None}
+
+
 @contextlib.contextmanager
-def problem_file(problem: Any, overrides: Optional[Mapping[str, Any]] = None) -> Iterator[Tuple[Path, str]]:
+def problem_file(problem: Any, overrides: Optional[Mapping[str, Any]] = None,
+                 run: Optional[Mapping[str, Any]] = None) -> Iterator[Tuple[Path, str]]:
     """A problem file for the Rust side and the name its messages should show.
 
     A path without overrides is used as it is (messages are exactly the command's); anything
     else is written to a temporary file named after the original's stem.
     """
     overrides = dict(overrides or {})
-    if not overrides and (
+    if not overrides and not run and (
         isinstance(problem, os.PathLike) or (isinstance(problem, str) and not _looks_like_toml(problem))
     ):
         path = Path(problem)
         yield path, str(path)
         return
-    d, path = to_dict(problem)
+    d, path = to_dict(problem, run)
     apply_overrides(d, overrides)
+    apply_run(d, **dict(run or {}))
     stem = path.stem if path is not None else "problem"
     shown = str(path) if path is not None else "<problem>"
     with tempfile.TemporaryDirectory(prefix="femvi-") as tmp:
@@ -176,10 +281,18 @@ def problem_file(problem: Any, overrides: Optional[Mapping[str, Any]] = None) ->
         yield f, shown
 
 
-def problem_text(problem: Any, overrides: Optional[Mapping[str, Any]] = None) -> str:
-    """The problem (with overrides) as TOML text."""
-    d, path = to_dict(problem)
+def problem_text(problem: Any, overrides: Optional[Mapping[str, Any]] = None, **run: Any) -> str:
+    """The problem (a System, a path, TOML text or a dict, with dotted ``overrides`` and
+    :func:`femvi.solve`'s run keywords) as the TOML text of its problem file.
+
+    >>> import femvi
+    >>> text = femvi.problem_text(femvi.model_problem("harmonic"), {"time.end": 2.0}, dt=0.5)
+    >>> "end = 2.0" in text and "step = 0.5" in text
+    True
+    """
+    d, path = to_dict(problem, run)
     apply_overrides(d, dict(overrides or {}))
+    apply_run(d, **run)
     if path is not None and "name" not in d:
         d = {"name": path.stem, **d}
     return dumps(d)

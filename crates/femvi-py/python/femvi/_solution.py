@@ -24,6 +24,11 @@ class Solution:
     − W| over every node; one with ``[constraints]`` adds ``multipliers`` (N, m), the
     multipliers λ of the constraint force −Gᵀλ, ``constraint_residual`` (N,), max |g(q)| at each
     kept node, and ``max_constraint_residual`` over every node. Absent tables give None.
+
+    >>> import femvi
+    >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 1.0), dt=0.5)
+    >>> sol.t, sol.q.shape, sol.coordinates
+    (array([0. , 0.5, 1. ]), (3, 1), ['x'])
     """
 
     def __init__(self, raw: Dict[str, Any]):
@@ -82,19 +87,128 @@ class Solution:
         return q.reshape(ts.shape + (q.shape[1],)), v.reshape(ts.shape + (v.shape[1],))
 
     def q_at(self, t: Any) -> np.ndarray:
-        """q of the finite element solution at time(s) t: (n,) for a scalar, (len(t), n) else."""
+        """q of the finite element solution at time(s) t: (n,) for a scalar, (len(t), n) else.
+
+        >>> import math, femvi
+        >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 2.0), dt=0.01, dense=True)
+        >>> bool(abs(sol.q_at(1.234)[0] - math.cos(1.234)) < 1e-6), sol.q_at([0.5, 1.5]).shape
+        (True, (2, 1))
+        """
         return self._state(t)[0]
 
     def v_at(self, t: Any) -> np.ndarray:
-        """q̇ of the finite element solution at time(s) t."""
+        """q̇ of the finite element solution at time(s) t.
+
+        >>> import math, femvi
+        >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 2.0), dt=0.01, dense=True)
+        >>> bool(abs(sol.v_at(1.234)[0] + math.sin(1.234)) < 1e-5)
+        True
+        """
         return self._state(t)[1]
 
     def __call__(self, t: Any) -> np.ndarray:
         return self.q_at(t)
 
+    def to_pandas(self, which: str = "nodes") -> Any:
+        """The solution as a pandas DataFrame (pandas is imported here: ``pip install pandas``).
+
+        ``which``: ``"nodes"`` (the kept nodes, indexed by t: a column per coordinate,
+        ``NAME_dot`` its velocity, ``p_NAME`` its momentum, ``energy``, ``node``, and ``work``,
+        ``lambda_i``, ``constraint_residual``, ``s`` where the run has them), ``"saved"`` (the
+        ``saveat`` states, indexed by t) or ``"events"`` (one row per located event: ``name``,
+        ``event``, ``step``, ``t`` and the state).
+
+        >>> import femvi
+        >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 1.0), dt=0.25)
+        >>> df = sol.to_pandas()
+        >>> list(df.columns), df.index.name, len(df)
+        (['x', 'x_dot', 'p_x', 'energy', 'node'], 't', 5)
+        """
+        import pandas as pd
+
+        names = self.coordinates
+        if which == "nodes":
+            cols = self._state_columns(self.q, self.v, self.p)
+            cols["energy"] = self.energy
+            cols["node"] = self.node
+            if self.work is not None:
+                cols["work"] = self.work
+            if self.multipliers is not None:
+                for i in range(self.multipliers.shape[1]):
+                    cols[f"lambda_{i}"] = self.multipliers[:, i]
+            if self.constraint_residual is not None:
+                cols["constraint_residual"] = self.constraint_residual
+            if self.s is not None:
+                cols["s"] = self.s
+            return pd.DataFrame(cols, index=pd.Index(self.t, name="t"))
+        if which == "saved":
+            return pd.DataFrame(self._state_columns(self.saved.q, self.saved.v, self.saved.p),
+                                index=pd.Index(self.saved.t, name="t"))
+        if which == "events":
+            rows = []
+            for e in self.events:
+                row = {k: e[k] for k in ("name", "event", "step", "t") if k in e}
+                for key, fmt in (("q", "{}"), ("v", "{}_dot"), ("p", "p_{}")):
+                    for name, x in zip(names, e.get(key, [])):
+                        row[fmt.format(name)] = float(x)
+                rows.append(row)
+            return pd.DataFrame(rows, columns=["name", "event", "step", "t"] + [
+                fmt.format(c) for fmt in ("{}", "{}_dot", "p_{}") for c in names])
+        raise ValueError(f'which must be "nodes", "saved" or "events", not {which!r}')
+
+    def _state_columns(self, q: np.ndarray, v: np.ndarray, p: np.ndarray) -> Dict[str, np.ndarray]:
+        cols: Dict[str, np.ndarray] = {}
+        for fmt, a in (("{}", q), ("{}_dot", v), ("p_{}", p)):
+            for i, c in enumerate(self.coordinates):
+                cols[fmt.format(c)] = a[:, i]
+        return cols
+
+    def plot(self, coordinates: Optional[List[str]] = None) -> Any:
+        """A matplotlib figure of the run (matplotlib is imported here): the coordinates
+        against t, the phase portraits (q_i, p_i), and the relative energy error
+        (H − H0)/|H0| against t (with forces, the balance error (H − H0 − W)/|H0|).
+        ``coordinates``: the names to draw (default: all, up to four). Returns the figure.
+
+        >>> import femvi, matplotlib
+        >>> matplotlib.use("Agg")
+        >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 10.0), dt=0.1)
+        >>> fig = sol.plot()
+        >>> [ax.get_title() for ax in fig.axes]
+        ['coordinates', 'phase portrait', 'relative energy error']
+        """
+        import matplotlib.pyplot as plt
+
+        names = list(coordinates) if coordinates is not None else self.coordinates[:4]
+        index = []
+        for n in names:
+            if n not in self.coordinates:
+                raise ValueError(f"no coordinate {n!r}: the coordinates are {self.coordinates}")
+            index.append(self.coordinates.index(n))
+        fig, (a, b, c) = plt.subplots(1, 3, figsize=(13, 3.8), layout="constrained")
+        for i, n in zip(index, names):
+            a.plot(self.t, self.q[:, i], label=n)
+            b.plot(self.q[:, i], self.p[:, i], lw=0.8, label=n)
+        a.set(title="coordinates", xlabel="t", ylabel="q")
+        b.set(title="phase portrait", xlabel="q", ylabel="p")
+        for ax in (a, b):
+            ax.legend(fontsize="small")
+        h0 = self.energy[0]
+        scale = abs(h0) if h0 != 0 else 1.0
+        err = self.energy - h0 - (self.work if self.work is not None else 0.0)
+        c.plot(self.t, err / scale, lw=0.8)
+        title = "relative energy error" if self.work is None else "relative energy balance error"
+        c.set(title=title, xlabel="t", ylabel="(H - H0 - W)/|H0|" if self.work is not None else "(H - H0)/|H0|")
+        fig.suptitle(f"{self.name}: {self.scheme}")
+        return fig
+
     @property
     def span(self):
-        """(t_start, t_end) of the dense output."""
+        """(t_start, t_end) of the dense output.
+
+        >>> import femvi
+        >>> femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 2.0), dt=0.5, dense=True).span
+        (0.0, 2.0)
+        """
         if self._dense is None:
             raise ValueError("no dense output: solve with dense=True")
         return self._dense.span()
@@ -104,7 +218,14 @@ class Event:
     """An event for :func:`femvi.solve`: the zeros of ``g(t, q, v) -> float`` (q and v NumPy
     arrays), located on the finite element solution. ``direction``: "rising", "falling" or
     "both"; ``stop``: end the run at the first one. Located events are ``sol.events`` (dicts
-    with name, event index, step, t, q, v, p)."""
+    with name, event index, step, t, q, v, p; ``sol.to_pandas("events")`` as a table).
+
+    >>> import math, femvi
+    >>> down = femvi.Event(lambda t, q, v: q[0], direction="falling", stop=True, name="down")
+    >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 5.0), dt=0.01, events=[down])
+    >>> bool(abs(sol.events[0]["t"] - math.pi / 2) < 1e-8), bool(sol.t[-1] < 5.0)
+    (True, True)
+    """
 
     def __init__(self, g: Any, direction: str = "both", stop: bool = False, name: Optional[str] = None):
         if not callable(g):
@@ -124,7 +245,17 @@ class Event:
 class NumericalError(RuntimeError):
     """A run that failed on a step, or reached a node whose energy is not finite: ``.step``
     and ``.t`` say where (the node the failed step started from, or the node whose energy is
-    not finite), ``.solution`` holds the nodes computed before the failure, all finite."""
+    not finite), ``.solution`` holds the nodes computed before the failure, all finite.
+
+    >>> import femvi
+    >>> problem = {"system": {"model": "harmonic"}, "initial": {"q": [1.0], "p": [0.0]},
+    ...            "scheme": {"degree": 1, "quadrature": "trapezoid"}, "time": {"step": 2.5, "end": 5000.0}}
+    >>> try:
+    ...     femvi.solve(problem)          # h = 2.5 > 2: Störmer-Verlet is unstable
+    ... except femvi.NumericalError as e:
+    ...     print(e.solution.error is not None, len(e.solution) > 1)
+    True True
+    """
 
     def __init__(self, message: str, step: Optional[int] = None, t: Optional[float] = None,
                  solution: Optional[Solution] = None):
@@ -138,7 +269,14 @@ class EnsembleResult(dict):
     """The stacked results of an ensemble, as a dict with attribute access: ``final_t`` (N,),
     ``final_q``, ``final_p`` (N, n), ``energy_error`` (N,), ``steps`` (N,) and ``errors``
     (a list of None or the member's error message); with ``saveat``, ``saved_t`` and
-    ``saved_q``, ``saved_p`` (N, len(saveat), n)."""
+    ``saved_q``, ``saved_p`` (N, len(saveat), n).
+
+    >>> import femvi
+    >>> ens = femvi.ensemble(femvi.model_problem("harmonic"), count=3, t_span=(0.0, 1.0), dt=0.1,
+    ...                      progress=False)
+    >>> ens.final_q.shape, ens.ok.tolist()
+    ((3, 1), [True, True, True])
+    """
 
     def __getattr__(self, name: str) -> Any:
         try:
@@ -148,5 +286,5 @@ class EnsembleResult(dict):
 
     @property
     def ok(self) -> np.ndarray:
-        """Which members finished without an error."""
+        """Which members finished without an error (a boolean array)."""
         return np.array([e is None for e in self["errors"]], dtype=bool)

@@ -10,7 +10,7 @@ from typing import Sequence, Any, Mapping, Optional
 
 import numpy as np
 
-from ._problem import problem_text
+from ._problem import problem_text, split_run
 from ._solution import EnsembleResult
 
 
@@ -31,12 +31,25 @@ def ensemble(client: Any, problem: Any, initial_states: Any = None,
              workers: Optional[int] = None, overrides: Optional[Mapping[str, Any]] = None,
              saveat: Optional[Sequence[float]] = None, **kw: Any) -> EnsembleResult:
     """:func:`femvi.ensemble` mapped over a ``dask.distributed`` client in chunks of ``chunks``
-    members (``workers``: Rust threads per task, default all cores of the worker)."""
+    members (``workers``: Rust threads per task, default all cores of the worker).
+
+    >>> import numpy as np, femvi, femvi.dask
+    >>> from dask.distributed import Client
+    >>> client = Client(processes=False, n_workers=1, dashboard_address=None)
+    >>> states = np.tile([1.0, 0.0], (10, 1))
+    >>> ens = femvi.dask.ensemble(client, femvi.model_problem("harmonic"), initial_states=states, chunks=4,
+    ...                           t_span=(0.0, 1.0), dt=0.01)
+    >>> ens.final_q.shape, bool(np.all(ens.final_q == femvi.solve(femvi.model_problem("harmonic"),
+    ...                                 t_span=(0.0, 1.0), dt=0.01).q[-1]))
+    ((10, 1), True)
+    >>> client.close()
+    """
     from femvi import _states
 
     merged = dict(overrides or {})
     merged.update(kw)
-    text = problem_text(problem, merged)
+    run = split_run(merged)
+    text = problem_text(problem, merged, **run)
     states, velocity = _states(initial_states)
     params = {k: np.asarray(v, dtype=np.float64).reshape(-1) for k, v in (parameters or {}).items()}
     sizes = {len(v) for v in params.values()} | ({len(states)} if states is not None else set())
