@@ -2,7 +2,7 @@
 # The whole test suite: the Rust workspace's tests, then the Python package's.
 # On a fresh machine it creates the venv (.venv, or $FEMVI_VENV), installs maturin, numpy,
 # pytest, dask[distributed], matplotlib, sympy, pandas and the notebook runner (nbclient,
-# nbformat, ipykernel) into it, builds and installs the package (crates/femvi-py), runs its
+# nbformat, ipykernel) and mypy into it, builds and installs the package (crates/femvi-py), runs its
 # doctests, the notebooks in examples/notebooks and pytest against the femvi command built here.
 # Exit code non-zero on any failure, and also when pytest ran no test at all.
 set -euo pipefail
@@ -18,7 +18,7 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 "$VENV/bin/python" -m pip install --quiet "maturin>=1.5,<2" numpy pytest "dask[distributed]" \
-    "matplotlib>=3.6" "sympy>=1.10" "pandas>=1.3" nbclient nbformat ipykernel
+    "matplotlib>=3.6" "sympy>=1.10" "pandas>=1.3" nbclient nbformat ipykernel mypy
 
 # Build the package (abi3 wheel) and install it into the venv. The wheel is built in the
 # `dev` profile (opt-level 2, Cargo.toml), which `cargo test` below also uses, with the same
@@ -45,6 +45,8 @@ export FEMVI_BIN="$TARGET/debug/femvi"
 # Run from outside the source tree so that the installed package is the one imported: the
 # examples in the package's docstrings (doctests), then the tests (with the notebooks).
 PACKAGE=$("$VENV/bin/python" -c "import femvi, os; print(os.path.dirname(femvi.__file__))")
+# The package's type hints (py.typed) are checked as written.
+"$VENV/bin/python" -m mypy --ignore-missing-imports --no-error-summary "$ROOT/crates/femvi-py/python/femvi"
 (cd "$ROOT/crates/femvi-py/tests" && MPLBACKEND=Agg "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
     --doctest-modules "$PACKAGE")
 (cd "$ROOT/crates/femvi-py/tests" && "$VENV/bin/python" -m pytest -q -p no:cacheprovider --junitxml="$REPORT" .)

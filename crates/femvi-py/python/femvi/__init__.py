@@ -60,7 +60,8 @@ def _python_system(problem: Any, merged: Dict[str, Any]) -> Dict[str, Any]:
     if isinstance(system, dict) and ("lagrangian" in system or "model" in system):
         raise InputError("<problem>: give either potential= or [system] `lagrangian`/`model`, not both")
     coords = system.get("coordinates") if isinstance(system, dict) else None
-    if not isinstance(coords, list) or not coords or not all(isinstance(c, str) for c in coords):
+    if not isinstance(system, dict) or not isinstance(coords, list) or not coords or not all(
+            isinstance(c, str) for c in coords):
         raise InputError("<problem>: with potential=, [system] needs `coordinates` (a list of names)")
     system["lagrangian"] = " + ".join(f"0.5*{c}_dot^2" for c in coords)
     return d
@@ -124,7 +125,7 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
         try:
             raw = _core.solve_file(str(path), every=every, saveat=None if saveat is None else
                                    [float(x) for x in saveat], dense=dense, max_steps=max_steps,
-                                   events=[e.spec() for e in evs] or None, potential=system)
+                                   events=[e._spec() for e in evs] or None, potential=system)
         except InputError as e:
             raise _input_error(e, path, shown) from None
     sol = Solution(raw)

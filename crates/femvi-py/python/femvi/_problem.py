@@ -270,11 +270,11 @@ def problem_file(problem: Any, overrides: Optional[Mapping[str, Any]] = None,
         path = Path(problem)
         yield path, str(path)
         return
-    d, path = to_dict(problem, run)
+    d, source = to_dict(problem, run)
     apply_overrides(d, overrides)
     apply_run(d, **dict(run or {}))
-    stem = path.stem if path is not None else "problem"
-    shown = str(path) if path is not None else "<problem>"
+    stem = source.stem if source is not None else "problem"
+    shown = str(source) if source is not None else "<problem>"
     with tempfile.TemporaryDirectory(prefix="femvi-") as tmp:
         f = Path(tmp) / f"{stem}.toml"
         f.write_text(dumps(d), encoding="utf-8")

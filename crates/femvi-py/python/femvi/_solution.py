@@ -69,12 +69,23 @@ class Solution:
 
     @property
     def final_q(self) -> np.ndarray:
-        """q at the last node."""
+        """q at the last node.
+
+        >>> import femvi
+        >>> femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 1.0), dt=0.5).final_q.shape
+        (1,)
+        """
         return self.q[-1]
 
     @property
     def final_p(self) -> np.ndarray:
-        """p at the last node."""
+        """p at the last node.
+
+        >>> import femvi
+        >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 1.0), dt=0.5)
+        >>> bool((sol.final_p == sol.p[-1]).all())
+        True
+        """
         return self.p[-1]
 
     def _state(self, t: Any):
@@ -147,7 +158,7 @@ class Solution:
         if which == "events":
             rows = []
             for e in self.events:
-                row = {k: e[k] for k in ("name", "event", "step", "t") if k in e}
+                row: Dict[str, Any] = {k: e[k] for k in ("name", "event", "step", "t") if k in e}
                 for key, fmt in (("q", "{}"), ("v", "{}_dot"), ("p", "p_{}")):
                     for name, x in zip(names, e.get(key, [])):
                         row[fmt.format(name)] = float(x)
@@ -235,7 +246,7 @@ class Event:
         self.stop = bool(stop)
         self.name = name if name is not None else getattr(g, "__name__", "event")
 
-    def spec(self):
+    def _spec(self):
         return (self.name, self.g, self.direction, self.stop)
 
     def __repr__(self) -> str:
@@ -286,5 +297,11 @@ class EnsembleResult(dict):
 
     @property
     def ok(self) -> np.ndarray:
-        """Which members finished without an error (a boolean array)."""
+        """Which members finished without an error (a boolean array).
+
+        >>> import femvi
+        >>> femvi.ensemble(femvi.model_problem("harmonic"), count=2, t_span=(0.0, 1.0), dt=0.1,
+        ...                progress=False).ok
+        array([ True,  True])
+        """
         return np.array([e is None for e in self["errors"]], dtype=bool)

@@ -6,7 +6,7 @@ dask is imported only when a task graph is built.
 
 from __future__ import annotations
 
-from typing import Sequence, Any, Mapping, Optional
+from typing import Any, Dict, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -64,7 +64,7 @@ def ensemble(client: Any, problem: Any, initial_states: Any = None,
         times = None if saveat is None else [float(t) for t in saveat]
         futures.append(client.submit(_chunk, text, s, velocity, p, workers, times, pure=False))
     parts = client.gather(futures)
-    out = {
+    out: Dict[str, Any] = {
         key: np.concatenate([part[key] for part in parts])
         for key in ("final_t", "final_q", "final_p", "energy_error", "steps")
     }
