@@ -52,7 +52,7 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
         let lag = &problem.lagrangian;
         let (n, m) = (lag.dim(), con.count());
         let start = begin(problem, con, element, options, enforcement)?;
-        let chart = chart(lag, con, problem.t0, &start.q, &start.p).ok_or_else(|| singular(0, problem.t0))?;
+        let chart = chart(lag, con, problem.t0, &start.on.q, &start.on.p).ok_or_else(|| singular(0, problem.t0))?;
         Ok(Self {
             lag,
             con,
@@ -60,9 +60,9 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
             grid: start.grid,
             max_steps: options.max_steps,
             stepper: Stepper::new(element, start.layout, (n, m), options.solver, lag, false)?,
-            q: start.q,
-            p: start.p,
-            v: start.v,
+            q: start.on.q,
+            p: start.on.p,
+            v: start.on.v,
             t: problem.t0,
             k: 0,
             last: None,

@@ -84,6 +84,7 @@ mod start;
 mod step;
 mod stepper;
 mod tangent;
+mod term;
 
 pub use bvp::{solve_constrained_bvp, solve_constrained_bvp_with, ConstrainedBvpSolution};
 pub use bvp_forced::solve_constrained_forced_bvp;
@@ -93,6 +94,7 @@ pub use forced::{solve_constrained_forced, ForcedConstrainedSolution};
 pub use layout::Enforcement;
 pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};
 pub use tangent::{manifold_symplecticity, ManifoldSymplecticity};
+pub use term::NodeConstraints;
 
 use crate::lagrangian::Scalar;
 

@@ -125,6 +125,25 @@ impl RattleStep {
         }
     }
 
+    /// What the next step reads of the last ones, into a checkpoint: the compensation of the
+    /// momentum's running sum and the extrapolation's last u.
+    pub fn save(&self, w: &mut crate::step::checkpoint::Words) {
+        w.fs(&self.pcomp);
+        w.fs(&self.u_last);
+        w.b(self.have_last);
+    }
+
+    /// Reads what [`RattleStep::save`] wrote.
+    ///
+    /// # Errors
+    /// A damaged checkpoint.
+    pub fn load(&mut self, r: &mut crate::step::checkpoint::Reader<'_>) -> crate::error::Result<()> {
+        r.fs(&mut self.pcomp)?;
+        r.fs(&mut self.u_last)?;
+        self.have_last = r.b()?;
+        Ok(())
+    }
+
     /// Solves the position equations of the step from (t, q_k, p_k), whose constraint jet
     /// (g, G) is `start` (with `reuse_force`, the end force of the last step is the force at
     /// q_k: an autonomous L and the same node), for Δq (into `dq`) and u = hλ̂ (into `u`, which holds the guess);

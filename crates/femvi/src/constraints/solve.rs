@@ -142,8 +142,8 @@ pub(super) fn run_forced<L: Lagrangian, C: Constraints>(
     let mut run = Run::new(stepper, n, m, enforcement, options);
     run.defect = tangent.then_some(0.0);
     run.forcing = forcing;
-    run.out.start_projection = start.projection;
-    let (q0, p, v) = (start.q, start.p, start.v);
+    run.out.start_projection = start.on.projection;
+    let (q0, p, v) = (start.on.q, start.on.p, start.on.v);
     if let Err(e) = run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v) {
         // Node 0's energy is not finite: a failed run with nothing kept, as `solve`'s.
         run.out.solution.error = Some(e);

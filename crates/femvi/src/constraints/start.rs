@@ -19,6 +19,11 @@ use crate::step::Start;
 pub(super) struct Begun {
     pub layout: Layout,
     pub grid: crate::step::TimeGrid,
+    pub on: OnManifold,
+}
+
+/// A start on the manifold: q0, the momentum on T*N and its velocity.
+pub(super) struct OnManifold {
     pub q: Vec<f64>,
     /// The start momentum projected onto T*N.
     pub p: Vec<f64>,
@@ -36,7 +41,29 @@ pub(super) fn begin<L: Lagrangian, C: Constraints>(
     options: &SolveOptions,
     enforcement: Enforcement,
 ) -> Result<Begun> {
-    let lag = &problem.lagrangian;
+    check_options(options)?;
+    element.check_nondegenerate()?;
+    let layout = Layout::new(element, enforcement)?;
+    let grid = crate::solution::grid(problem, &options.steps)?;
+    let on = start_on_manifold(
+        &problem.lagrangian,
+        constraints,
+        &problem.start,
+        problem.t0,
+        options.solver,
+    )?;
+    Ok(Begun { layout, grid, on })
+}
+
+/// Checks a start against the constraints (sizes, finite g and G, on the manifold within
+/// [`START_TOLERANCE`], G(q0) regular) and projects its momentum onto T*N.
+pub(super) fn start_on_manifold<L: Lagrangian, C: Constraints>(
+    lag: &L,
+    constraints: &C,
+    start: &Start,
+    t0: f64,
+    solver: crate::step::SolverOptions,
+) -> Result<OnManifold> {
     let (n, m) = (lag.dim(), constraints.count());
     check_len("constraints' coordinates", n, constraints.dim())?;
     if n > MAX_COORDINATES || m >= n.max(1) {
@@ -45,11 +72,7 @@ pub(super) fn begin<L: Lagrangian, C: Constraints>(
             format!("need fewer constraints than coordinates and at most {MAX_COORDINATES} coordinates, got {m} constraints on {n}"),
         ));
     }
-    check_options(options)?;
-    element.check_nondegenerate()?;
-    let layout = Layout::new(element, enforcement)?;
-    let grid = crate::solution::grid(problem, &options.steps)?;
-    let (q0, p_tilde, mut v) = start_state(lag, &problem.start, problem.t0, n)?;
+    let (q0, p_tilde, mut v) = start_state(lag, start, t0, n)?;
     let mut jet = ConstraintJet::new(m, n);
     jet.eval(constraints, &q0, true);
     if let Some(l) = jet.first_not_finite() {
@@ -75,26 +98,24 @@ pub(super) fn begin<L: Lagrangian, C: Constraints>(
         ));
     }
     if jet.conditioning() <= RANK_TOLERANCE {
-        return Err(singular(0, problem.t0, &jet));
+        return Err(singular(0, t0, &jet));
     }
     let mut p = vec![0.0; n];
     Projector::new(n, m)
         .project(
             lag,
             &jet,
-            problem.t0,
+            t0,
             &q0,
             &p_tilde,
             &mut v,
             &mut p,
-            options.solver.tolerance,
-            options.solver.max_iterations,
+            solver.tolerance,
+            solver.max_iterations,
         )
-        .map_err(|f| step_error(0, problem.t0, f))?;
+        .map_err(|f| step_error(0, t0, f))?;
     let projection = p.iter().zip(&p_tilde).fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
-    Ok(Begun {
-        layout,
-        grid,
+    Ok(OnManifold {
         q: q0,
         p,
         v,

@@ -273,6 +273,39 @@ impl Stepper {
         self.sys.time_work(element, lag, t, h, &self.q_prev)
     }
 
+    /// The Newton unknowns of the last step: the node increments Q^j − q_k, j = 1 … s, row
+    /// by row (n each), then the multipliers (for a RATTLE step, Δq and h·λ̂).
+    pub fn unknowns(&self) -> &[f64] {
+        &self.x
+    }
+
+    /// What the next step reads of this one, into a checkpoint: the unknowns (the next
+    /// multiplier guess), the compensation of q and μ̂.
+    pub fn save(&self, w: &mut crate::step::checkpoint::Words) {
+        w.fs(&self.x);
+        w.fs(&self.comp);
+        w.fs(&self.mu);
+        if let Some(rattle) = &self.rattle {
+            rattle.save(w);
+        }
+    }
+
+    /// Reads what [`Stepper::save`] wrote; the next step evaluates its start jet again (the
+    /// same bits as reusing the last end jet).
+    ///
+    /// # Errors
+    /// A damaged checkpoint.
+    pub fn load(&mut self, r: &mut crate::step::checkpoint::Reader<'_>) -> crate::error::Result<()> {
+        r.fs(&mut self.x)?;
+        r.fs(&mut self.comp)?;
+        r.fs(&mut self.mu)?;
+        if let Some(rattle) = self.rattle.as_mut() {
+            rattle.load(r)?;
+        }
+        self.end_at_node = false;
+        Ok(())
+    }
+
     /// The node before the last step, (q_k, p_k).
     pub fn previous(&self) -> (&[f64], &[f64]) {
         (&self.q_prev, &self.p_prev)

@@ -108,7 +108,13 @@ struct NewtonTerm<'a, L, F> {
 }
 
 impl<L: Lagrangian, F: Force> StepTerm for NewtonTerm<'_, L, F> {
-    fn solve(&mut self, state: &RunState, _last: &mut LastElement, h: f64, out: &mut Increments) -> Result<usize> {
+    fn solve(
+        &mut self,
+        state: &RunState,
+        _last: &mut LastElement,
+        (h, _): (f64, f64),
+        out: &mut Increments,
+    ) -> Result<usize> {
         self.step
             .step(state.k, state.t, h, &state.q, &state.p, &self.v0, &mut self.taken)?;
         out.dq.copy_from_slice(&self.taken.dq);
@@ -132,6 +138,10 @@ impl<L: Lagrangian, F: Force> StepTerm for NewtonTerm<'_, L, F> {
         }
         Ok(())
     }
+
+    fn name(&self) -> &'static str {
+        "forces"
+    }
 }
 
 /// The forced step by the mechanical fixed point on −∇V + F (`fixed_point.rs`).
@@ -147,7 +157,13 @@ struct FixedPointTerm<'a, L, F> {
 }
 
 impl<L: Lagrangian, F: Force> StepTerm for FixedPointTerm<'_, L, F> {
-    fn solve(&mut self, state: &RunState, last: &mut LastElement, h: f64, out: &mut Increments) -> Result<usize> {
+    fn solve(
+        &mut self,
+        state: &RunState,
+        last: &mut LastElement,
+        (h, _): (f64, f64),
+        out: &mut Increments,
+    ) -> Result<usize> {
         let cx = StepContext {
             lag: &self.wrapped,
             element: self.element,
@@ -179,6 +195,10 @@ impl<L: Lagrangian, F: Force> StepTerm for FixedPointTerm<'_, L, F> {
 
     fn load(&mut self, r: &mut Reader<'_>, _last: &LastElement) -> Result<()> {
         self.fp.load(r)
+    }
+
+    fn name(&self) -> &'static str {
+        "forces"
     }
 }
 

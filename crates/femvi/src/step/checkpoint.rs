@@ -109,7 +109,9 @@ impl<L: Lagrangian> Integrator<'_, L> {
             self.grid,
             self.opts,
             self.energy.as_ref().map(|e| e.options()),
-            if self.term.is_some() { " term=forces" } else { "" },
+            self.term
+                .as_ref()
+                .map_or(String::new(), |t| format!(" term={}", t.name())),
         )
     }
 

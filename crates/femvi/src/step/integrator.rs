@@ -154,7 +154,15 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.work
     }
 
-    /// Whether a term (forces) solves the steps.
+    /// The multipliers and residuals of a constrained run
+    /// ([`Integrator::with_constraints`]) at the current node; None for a run without
+    /// constraints.
+    pub fn node_constraints(&mut self) -> Option<crate::constraints::NodeConstraints> {
+        let (t, q) = (self.state.t, &self.state.q);
+        self.term.as_mut().and_then(|term| term.constraints(t, q))
+    }
+
+    /// Whether a term (forces or constraints) solves the steps.
     pub fn has_term(&self) -> bool {
         self.term.is_some()
     }
@@ -185,6 +193,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// ```
     pub fn energy(&self) -> Result<f64> {
         let n = self.state.n;
+        if let Some(v) = self.term.as_ref().and_then(|t| t.velocity()) {
+            // A constrained run's node velocity (the projection's): H = p·v − L.
+            let (t, q, p) = (self.state.t, &self.state.q, &self.state.p);
+            let pv: f64 = p.iter().zip(v).map(|(a, b)| a * b).sum();
+            return Ok(pv - self.lag.value(t, q, v));
+        }
         let mut v = self.state.v0.clone();
         let mut work = crate::lagrangian::PointDerivatives::new(n);
         crate::lagrangian::hamiltonian(
@@ -271,10 +285,15 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let Some(term) = self.term.as_mut() else {
             return Ok(false);
         };
-        self.state.iterations += term.solve(&self.state, &mut self.last, h, &mut self.inc)?;
+        self.state.iterations += term.solve(&self.state, &mut self.last, (h, t_next), &mut self.inc)?;
         term.accepted(self.state.n);
         let work = self.work + term.element_work();
         self.state.commit(&mut self.last, &mut self.inc, true, h, t_next)?;
+        if let Some(p) = term.momentum() {
+            // Set, not summed: the projection onto T*N of a constrained step.
+            self.state.p.copy_from_slice(p);
+            self.state.comp_p.fill(0.0);
+        }
         self.work = work;
         Ok(true)
     }

@@ -8,7 +8,10 @@
 //! The first term is the discrete Lagrange–d'Alembert force of [`crate::forces`]
 //! (`forces/term.rs`): its step equations add F_d^j = h Σ_i b_i F(t_i, q_h(c_i), q̇_h(c_i)) ℓ_j(c_i)
 //! to R_j, and each element adds its discrete work W to the run's total
-//! ([`Integrator::work`](super::Integrator::work)).
+//! ([`Integrator::work`](super::Integrator::work)). The second is the holonomic constraints
+//! of [`crate::constraints`] (`constraints/term.rs`): the constrained step with its
+//! multipliers, whose new momentum is the projection onto T*N (set, not summed:
+//! [`StepTerm::momentum`]) and whose node velocity is the projection's ([`StepTerm::velocity`]).
 
 use super::checkpoint::{Reader, Words};
 use super::state::{Increments, LastElement, RunState};
@@ -16,13 +19,19 @@ use crate::error::Result;
 
 /// The solve of a step under a term, and what the term adds to the node.
 pub(crate) trait StepTerm {
-    /// Solves the step of size `h` from the node in `state` into `out` (the node increments
+    /// Solves the step `(h, t_next)` from the node in `state` into `out` (the node increments
     /// Q^j − q_k in `out.incr`, q_{k+1} − q_k in `out.dq`, p_{k+1} − p_k in `out.dp`), with
     /// `last` the previous element (its starting values); returns the iterations.
     ///
     /// # Errors
     /// A failed solve, naming the step and its time.
-    fn solve(&mut self, state: &RunState, last: &mut LastElement, h: f64, out: &mut Increments) -> Result<usize>;
+    fn solve(
+        &mut self,
+        state: &RunState,
+        last: &mut LastElement,
+        step: (f64, f64),
+        out: &mut Increments,
+    ) -> Result<usize>;
 
     /// The solved step was accepted: the term's carried state moves on.
     fn accepted(&mut self, n: usize);
@@ -38,4 +47,24 @@ pub(crate) trait StepTerm {
     /// # Errors
     /// A damaged checkpoint.
     fn load(&mut self, r: &mut Reader<'_>, last: &LastElement) -> Result<()>;
+
+    /// The term's name in a checkpoint's fingerprint.
+    fn name(&self) -> &'static str;
+
+    /// The momentum of the new node if the term sets it rather than summing an increment
+    /// (the projection onto T*N of a constrained step); read right after the commit.
+    fn momentum(&self) -> Option<&[f64]> {
+        None
+    }
+
+    /// The velocity at the current node if the term knows it (a constrained run's, from the
+    /// projection), for the node's energy; None: the inverse Legendre transform of p.
+    fn velocity(&self) -> Option<&[f64]> {
+        None
+    }
+
+    /// The constraint quantities of a constrained run at the current node; None otherwise.
+    fn constraints(&mut self, _t: f64, _q: &[f64]) -> Option<crate::constraints::NodeConstraints> {
+        None
+    }
 }

@@ -21,6 +21,7 @@ mod chaos_forced_constrained;
 mod chaos_forced_on_manifold;
 mod conservation;
 mod constrained_bvp;
+mod constrained_term;
 mod constraint_jacobian;
 mod constraints;
 mod constraints_forced;
