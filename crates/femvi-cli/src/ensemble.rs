@@ -102,7 +102,7 @@ fn drive_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
 /// (`crate::constrained::solve`, with the force if any) from `start`, its final node; the
 /// energy error over the kept nodes as `femvi run`'s summary has it, or with forces the
 /// energy balance's over every node.
-fn constrained_member<L: Lagrangian + Clone>(
+fn constrained_member<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     start: Start,

@@ -14,7 +14,7 @@ pub fn check(problem: &Problem, constraints: &(ExprConstraints, Enforcement)) ->
     crate::with_system!(&problem.system, l => check_with(l, problem, constraints))
 }
 
-fn check_with<L: Lagrangian + Clone>(
+fn check_with<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     constraints: &(ExprConstraints, Enforcement),

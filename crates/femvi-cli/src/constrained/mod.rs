@@ -44,7 +44,7 @@ pub fn run(
 ///
 /// # Errors
 /// The library's refusal (bad start, unsupported options) as a message.
-pub fn solve<L: Lagrangian + Clone>(
+pub fn solve<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     start: femvi::Start,
@@ -60,7 +60,7 @@ pub fn solve<L: Lagrangian + Clone>(
 ///
 /// # Errors
 /// The library's refusal (bad start, unsupported options) as a message.
-pub fn solve_forced<L: Lagrangian + Clone>(
+pub fn solve_forced<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     start: femvi::Start,
@@ -74,7 +74,7 @@ pub fn solve_forced<L: Lagrangian + Clone>(
 }
 
 // One arm of `with_system!` is a Copy type; `solve` clones.
-fn run_with<L: Lagrangian + Clone>(
+fn run_with<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     (constraints, force): (&(ExprConstraints, Enforcement), Option<&ProblemForce>),

@@ -75,7 +75,7 @@ fn check_with<L: Lagrangian + Clone + Sync>(
 }
 
 /// [`check_with`] for a problem with `[constraints]` too.
-fn check_constrained<L: Lagrangian + Clone>(
+fn check_constrained<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     force: &ProblemForce,

@@ -20,12 +20,13 @@
 //! Energy balance: along the exact flow dH/dt = F·q̇ − ∂L/∂t (the constraint force does no
 //! work, Gq̇ = 0). The run accumulates the discrete work of each element as in
 //! [`crate::forces`], ΔW_k = h Σ_i b_i F(c_i)·q̇_h(c_i) − h Σ_i b_i ∂L/∂t(c_i), and reports
-//! max_k |H_k − H_0 − W_k| over every node (H_k = p_k·v_k − L at the node, v_k from the
-//! projection). The multipliers reported per node are those of the exact forced flow at the
+//! max_k |H_k − H_0 − W_k| over every node (H_k = H(q_k, p_k), as every run's energy). The
+//! steps are those of the constraints' term of the one integrator with the force
+//! ([`crate::Integrator::with_constraints_and_force`]). The multipliers reported per node are those of the exact forced flow at the
 //! node state (`project.rs`, with F in the right-hand side).
 
 use super::layout::Enforcement;
-use super::solve::{run_forced, ConstrainedSolution};
+use super::solve::{run_terms, ConstrainedSolution};
 use super::Constraints;
 use crate::bvp::ElementTerm;
 use crate::discrete::Element;
@@ -84,7 +85,7 @@ pub struct ForcedConstrainedSolution {
 /// assert!(run.balance.max_abs < 1e-8);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub fn solve_constrained_forced<L: Lagrangian, F: Force, C: Constraints>(
+pub fn solve_constrained_forced<L: Lagrangian + Sync, F: Force + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     force: &F,
     constraints: &C,
@@ -94,26 +95,24 @@ pub fn solve_constrained_forced<L: Lagrangian, F: Force, C: Constraints>(
 ) -> Result<ForcedConstrainedSolution> {
     let n = problem.lagrangian.dim();
     check_len("force", n, force.dim())?;
-    let forcing = Forcing::new(force, element, n);
-    let mut balance = Balance::new(&forcing, n);
-    let (mut constrained, _) = run_forced(
+    let forcing = Box::new(Forcing::new(force, element, n));
+    let mut run = run_terms(
         problem,
         constraints,
         element,
         options,
-        enforcement,
-        false,
-        Some(&mut balance),
+        (enforcement, false),
+        Some(forcing),
     )?;
-    constrained.solution.energy_report = Some(EnergyReport {
-        max_rel_error: balance.max_rel_change,
-        max_rel_balance: Some(balance.balance.max_rel),
+    run.constrained.solution.energy_report = Some(EnergyReport {
+        max_rel_error: run.max_rel_change,
+        max_rel_balance: Some(run.balance.max_rel),
         nodes: crate::solution::EnergyNodes::Every,
     });
     Ok(ForcedConstrainedSolution {
-        constrained,
-        work: balance.kept_work,
-        balance: balance.balance,
+        constrained: run.constrained,
+        work: run.work,
+        balance: run.balance,
     })
 }
 
@@ -156,64 +155,5 @@ impl<F: Force> NodeForce for Forcing<'_, F> {
     }
     fn at(&self, t: f64, q: &[f64], v: &[f64], out: &mut [f64]) {
         self.force.force(t, q, v, out);
-    }
-}
-
-/// The force of a run and its energy balance, node by node.
-pub(super) struct Balance<'a> {
-    pub force: &'a dyn NodeForce,
-    /// W at the current node.
-    work: f64,
-    /// H at node 0 (NaN before it).
-    h0: f64,
-    balance: EnergyBalance,
-    /// max |H_k − H_0| / |H_0|.
-    max_rel_change: f64,
-    /// W at the kept nodes.
-    kept_work: Vec<f64>,
-    /// F at the last kept node.
-    f: Vec<f64>,
-}
-
-impl<'a> Balance<'a> {
-    fn new(force: &'a dyn NodeForce, n: usize) -> Self {
-        Self {
-            force,
-            work: 0.0,
-            h0: f64::NAN,
-            balance: EnergyBalance::default(),
-            max_rel_change: 0.0,
-            kept_work: vec![],
-            f: vec![0.0; n],
-        }
-    }
-
-    /// Adds the work of the step just taken from (t, qk) with step h and increments `incr`,
-    /// and its explicit-time part `time_work`.
-    pub fn step(&mut self, element: &Element, (t, h): (f64, f64), qk: &[f64], incr: &[f64], time_work: f64) {
-        self.work += self.force.work(element, t, h, qk, incr) + time_work;
-    }
-
-    /// The balance at a new node of energy H.
-    pub fn node(&mut self, energy: f64) {
-        let scale = if self.h0 != 0.0 { self.h0.abs() } else { 1.0 };
-        let gap = (energy - self.h0 - self.work).abs();
-        self.balance.max_abs = self.balance.max_abs.max(gap);
-        self.balance.max_rel = self.balance.max_rel.max(gap / scale);
-        self.max_rel_change = self.max_rel_change.max((energy - self.h0).abs() / scale);
-    }
-
-    /// A kept node of energy H (the first one fixes H_0).
-    pub fn keep(&mut self, energy: f64) {
-        if self.h0.is_nan() {
-            self.h0 = energy;
-        }
-        self.kept_work.push(self.work);
-    }
-
-    /// F(t, q, v), for the multipliers of a kept node.
-    pub fn force_at(&mut self, t: f64, q: &[f64], v: &[f64]) -> &[f64] {
-        self.force.at(t, q, v, &mut self.f);
-        &self.f
     }
 }

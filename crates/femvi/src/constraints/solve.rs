@@ -1,20 +1,21 @@
-//! The constrained run: [`solve_constrained`] checks the start against the constraints,
-//! projects the start momentum onto T*N (`start.rs`), then takes the steps of `step.rs` with the projection
-//! of `project.rs` on a grid of fixed steps, keeping nodes as [`crate::solve()`] does, with the
-//! multipliers and the constraint residuals per kept node.
+//! The constrained run: [`solve_constrained`] checks the problem and its start against the
+//! constraints (`start.rs`), then drives the one integrator with the constraints as its term
+//! ([`crate::Integrator::with_constraints`], `term.rs`) on a grid of fixed steps, keeping nodes
+//! as [`crate::solve()`] does, with the multipliers, the projection's velocity and the
+//! constraint residuals per kept node, and with a force the discrete work and the energy
+//! balance (`forced.rs`).
 
-use super::forced::Balance;
-use super::jet::ConstraintJet;
+use super::forced::NodeForce;
 use super::layout::Enforcement;
-use super::project::state_multiplier;
-use super::start::begin;
-use super::stepper::Stepper;
-use super::tangent::step_defect;
+use super::start::check_options;
+use super::term::Constrained;
 use super::Constraints;
 use crate::discrete::Element;
 use crate::error::{finite_energy, Result};
+use crate::forces::EnergyBalance;
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, Solution, SolveOptions};
+use crate::step::Integrator;
 
 /// A start is accepted if ‖g(q0)‖∞ ≤ `START_TOLERANCE` · max(1, ‖q0‖∞²).
 pub const START_TOLERANCE: f64 = 1e-10;
@@ -77,7 +78,7 @@ pub struct ConstrainedSolution {
 /// assert!(run.max_residual < 1e-13);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub fn solve_constrained<L: Lagrangian, C: Constraints>(
+pub fn solve_constrained<L: Lagrangian + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     constraints: &C,
     element: &Element,
@@ -100,7 +101,7 @@ pub fn solve_constrained<L: Lagrangian, C: Constraints>(
 /// start from (q0, q1), time steps as variables, `saveat`, `events` or `dense` (not
 /// available with constraints), or invalid solver options; [`Error::SingularConstraints`](crate::Error::SingularConstraints) if
 /// G(q0) is singular.
-pub fn solve_constrained_with<L: Lagrangian, C: Constraints>(
+pub fn solve_constrained_with<L: Lagrangian + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     constraints: &C,
     element: &Element,
@@ -112,7 +113,7 @@ pub fn solve_constrained_with<L: Lagrangian, C: Constraints>(
 
 /// The run behind [`solve_constrained_with`], and with `tangent` also the largest
 /// symplecticity defect of the steps on the manifold (`tangent.rs`).
-pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
+pub(crate) fn run_constrained<L: Lagrangian + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     constraints: &C,
     element: &Element,
@@ -120,65 +121,111 @@ pub(crate) fn run_constrained<L: Lagrangian, C: Constraints>(
     enforcement: Enforcement,
     tangent: bool,
 ) -> Result<(ConstrainedSolution, Option<f64>)> {
-    run_forced(problem, constraints, element, options, enforcement, tangent, None)
+    let run = run_terms(problem, constraints, element, options, (enforcement, tangent), None)?;
+    Ok((run.constrained, run.defect))
 }
 
-/// [`run_constrained`] with the discrete forces and the energy balance of `forcing`
-/// (`forced.rs`), which holds the work and the balance at the end.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn run_forced<L: Lagrangian, C: Constraints>(
-    problem: &Problem<L>,
-    constraints: &C,
-    element: &Element,
+/// A constrained run with what a force adds.
+pub(super) struct Ran {
+    pub constrained: ConstrainedSolution,
+    pub defect: Option<f64>,
+    /// W at the kept nodes (empty without a force).
+    pub work: Vec<f64>,
+    /// max |H_k − H_0 − W_k| over every node (with a force).
+    pub balance: EnergyBalance,
+    /// max |H_k − H_0| / |H_0| over every node (with a force).
+    pub max_rel_change: f64,
+}
+
+/// The constrained run on the one integrator with the force of `forcing`, if any: the
+/// nodes kept by `every` (and the last), with their multipliers, projection velocities and
+/// residuals; with a force, the work at the kept nodes and the energy balance over every node.
+pub(super) fn run_terms<'a, L: Lagrangian + Sync, C: Constraints + Sync>(
+    problem: &'a Problem<L>,
+    constraints: &'a C,
+    element: &'a Element,
     options: &SolveOptions,
-    enforcement: Enforcement,
-    tangent: bool,
-    forcing: Option<&mut Balance<'_>>,
-) -> Result<(ConstrainedSolution, Option<f64>)> {
+    (enforcement, tangent): (Enforcement, bool),
+    forcing: Option<Box<dyn NodeForce + Send + 'a>>,
+) -> Result<Ran> {
+    check_options(options)?;
+    let grid = crate::solution::grid(problem, &options.steps)?;
+    let forced = forcing.is_some();
+    let parts = Constrained {
+        constraints,
+        enforcement,
+        forcing,
+        tangent,
+    };
     let lag = &problem.lagrangian;
-    let (n, m) = (lag.dim(), constraints.count());
-    let start = begin(problem, constraints, element, options, enforcement)?;
-    let stepper = Stepper::new(element, start.layout, (n, m), options.solver, lag, forcing.is_some())?;
-    let mut run = Run::new(stepper, n, m, enforcement, options);
-    run.defect = tangent.then_some(0.0);
-    run.forcing = forcing;
-    run.out.start_projection = start.on.projection;
-    let (q0, p, v) = (start.on.q, start.on.p, start.on.v);
-    if let Err(e) = run.keep(lag, constraints, 0, problem.t0, &q0, &p, &v) {
+    let mut it = Integrator::constrained(lag, element, grid, problem.start.clone(), options.solver, parts)?;
+    let mut kept = Kept::new(lag.dim(), constraints.count(), enforcement, forced);
+    if let Err(e) = kept.keep(&it) {
         // Node 0's energy is not finite: a failed run with nothing kept, as `solve`'s.
-        run.out.solution.error = Some(e);
-        return Ok((run.out, run.defect));
+        kept.out.solution.error = Some(e);
+        return Ok(kept.done(&it));
     }
-    run.march(problem, constraints, element, &start.grid, q0, p, v)?;
-    Ok((run.out, run.defect))
+    let (mut k, mut last_kept) = (0usize, 0usize);
+    loop {
+        if options.max_steps.is_some_and(|cap| k >= cap) {
+            kept.out.solution.stopped = !it.finished();
+            break;
+        }
+        match it.step() {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => {
+                kept.out.solution.error = Some(e);
+                break;
+            }
+        }
+        k += 1;
+        kept.out.solution.steps = k;
+        if forced {
+            match it.energy().and_then(|h| finite_energy(h, k, it.node().t)) {
+                Ok(energy) => kept.balance_at(energy, it.work()),
+                Err(e) => {
+                    // The new node's energy is not finite: nothing of it is kept.
+                    kept.out.solution.error = Some(e);
+                    last_kept = k;
+                    break;
+                }
+            }
+        }
+        let last = it.finished() || options.max_steps.is_some_and(|cap| k >= cap);
+        if last || (options.every > 0 && k % options.every == 0) {
+            last_kept = k;
+            if let Err(e) = kept.keep(&it) {
+                // Node k's energy is not finite: nothing of it is kept, the run ends.
+                kept.out.solution.error = Some(e);
+                break;
+            }
+        }
+    }
+    if last_kept != k {
+        // The node the run ended on (a failed step starts from it, or the step limit).
+        if let Err(e) = kept.keep(&it) {
+            kept.out.solution.error.get_or_insert(e);
+        }
+    }
+    Ok(kept.done(&it))
 }
 
-/// The state of a run: scratch and the solution being filled.
-struct Run<'r, 'f> {
-    stepper: Stepper,
-    kept_jet: ConstraintJet,
-    every: usize,
-    max_steps: Option<usize>,
-    iterations: usize,
-    defect: Option<f64>,
-    /// The forces and the energy balance of a forced run.
-    forcing: Option<&'r mut Balance<'f>>,
+/// The kept nodes of a constrained run and its energy balance.
+struct Kept {
     out: ConstrainedSolution,
+    work: Vec<f64>,
+    h0: f64,
+    balance: EnergyBalance,
+    max_rel_change: f64,
+    forced: bool,
 }
 
-impl Run<'_, '_> {
-    fn new(stepper: Stepper, n: usize, m: usize, enforcement: Enforcement, options: &SolveOptions) -> Self {
-        let solution = Solution::empty(n);
+impl Kept {
+    fn new(n: usize, m: usize, enforcement: Enforcement, forced: bool) -> Self {
         Self {
-            stepper,
-            kept_jet: ConstraintJet::new(m, n),
-            every: options.every,
-            max_steps: options.max_steps,
-            iterations: 0,
-            defect: None,
-            forcing: None,
             out: ConstrainedSolution {
-                solution,
+                solution: Solution::empty(n),
                 m,
                 multipliers: vec![],
                 residual: vec![],
@@ -187,126 +234,62 @@ impl Run<'_, '_> {
                 start_projection: 0.0,
                 enforcement,
             },
+            work: vec![],
+            h0: f64::NAN,
+            balance: EnergyBalance::default(),
+            max_rel_change: 0.0,
+            forced,
         }
     }
 
-    /// Appends node `k` to the kept arrays.
-    #[allow(clippy::too_many_arguments)]
-    fn keep<L: Lagrangian, C: Constraints>(
-        &mut self,
-        lag: &L,
-        con: &C,
-        k: usize,
-        t: f64,
-        q: &[f64],
-        p: &[f64],
-        v: &[f64],
-    ) -> Result<()> {
-        let n = q.len();
+    /// Appends the integrator's current node.
+    fn keep<L: Lagrangian + Sync>(&mut self, it: &Integrator<'_, L>) -> Result<()> {
+        let node = it.node();
         // The energy first: a node whose energy is not finite is not recorded at all.
-        let pv: f64 = p.iter().zip(v).map(|(a, b)| a * b).sum();
-        let energy = finite_energy(pv - lag.value(t, q, v), k, t)?;
-        self.kept_jet.eval(con, q, true);
-        let sol = &mut self.out.solution;
-        sol.step.push(k);
-        sol.t.push(t);
-        sol.q.extend_from_slice(q);
-        sol.p.extend_from_slice(p);
-        sol.v.extend_from_slice(v);
-        sol.energy.push(energy);
-        let jet = &self.kept_jet;
-        let hidden = (0..jet.m)
-            .map(|l| (0..n).map(|a| jet.jac[l * n + a] * v[a]).sum::<f64>().abs())
-            .fold(0.0f64, f64::max);
-        self.out.residual.push(jet.residual());
-        self.out.hidden_residual.push(hidden);
-        self.out.max_residual = self.out.max_residual.max(jet.residual());
-        let force = match &mut self.forcing {
-            Some(b) => {
-                b.keep(energy);
-                Some(b.force_at(t, q, v))
-            }
-            None => None,
+        let energy = finite_energy(it.energy()?, node.k, node.t)?;
+        let Some(at) = it.node_constraints() else {
+            return Ok(());
         };
-        self.out
-            .multipliers
-            .extend(state_multiplier(lag, jet, (t, q, v), force));
+        let sol = &mut self.out.solution;
+        sol.step.push(node.k);
+        sol.t.push(node.t);
+        sol.q.extend_from_slice(node.q);
+        sol.p.extend_from_slice(node.p);
+        sol.v.extend_from_slice(&at.velocity);
+        sol.energy.push(energy);
+        self.out.residual.push(at.residual);
+        self.out.hidden_residual.push(at.hidden_residual);
+        self.out.multipliers.extend_from_slice(&at.multipliers);
+        if self.forced {
+            if self.h0.is_nan() {
+                self.h0 = energy;
+            }
+            self.work.push(it.work());
+        }
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn march<L: Lagrangian, C: Constraints>(
-        &mut self,
-        problem: &Problem<L>,
-        con: &C,
-        element: &Element,
-        grid: &crate::step::TimeGrid,
-        mut q: Vec<f64>,
-        mut p: Vec<f64>,
-        mut v: Vec<f64>,
-    ) -> Result<()> {
-        let lag = &problem.lagrangian;
-        let (mut t, mut k) = (problem.t0, 0usize);
-        let mut last_kept = 0usize;
-        while let Some((h, t1)) = grid.next(k, t) {
-            if self.max_steps.is_some_and(|cap| k >= cap) {
-                self.out.solution.stopped = true;
-                break;
-            }
-            let term = self.forcing.as_ref().map(|b| b.force.term());
-            if let Err(e) = self
-                .stepper
-                .step(lag, con, element, (k, t, h, t1), &mut q, &mut p, &mut v, term)
-            {
-                self.out.solution.error = Some(e);
-                break;
-            }
-            self.iterations += self.stepper.iterations;
-            if let Some(b) = &mut self.forcing {
-                let time_work = self.stepper.time_work(lag, element, t, h);
-                let (qk, _) = self.stepper.previous();
-                b.step(element, (t, h), qk, self.stepper.sys.increments(), time_work);
-                let pv: f64 = p.iter().zip(&v).map(|(a, b)| a * b).sum();
-                match finite_energy(pv - lag.value(t1, &q, &v), k + 1, t1) {
-                    Ok(energy) => b.node(energy),
-                    Err(e) => {
-                        // The new node's energy is not finite: nothing of it is kept (nor
-                        // the node before unless it was due: q, p, v have moved on).
-                        self.out.solution.error = Some(e);
-                        k += 1;
-                        self.out.solution.steps = k;
-                        last_kept = k;
-                        break;
-                    }
-                }
-            }
-            if let Some(worst) = self.defect {
-                let phi = self.stepper.tangent_map(lag, con, element, (t, h, t1), &q, &v, term);
-                let (q0, p0) = self.stepper.previous();
-                self.defect = Some(worst.max(step_defect(lag, con, phi, (t, q0, p0))));
-            }
-            self.out.max_residual = self.out.max_residual.max(self.stepper.sys.end.residual());
-            k += 1;
-            t = t1;
-            self.out.solution.steps = k;
-            let last = grid.next(k, t).is_none() || self.max_steps.is_some_and(|cap| k >= cap);
-            if last || (self.every > 0 && k % self.every == 0) {
-                last_kept = k;
-                if let Err(e) = self.keep(lag, con, k, t, &q, &p, &v) {
-                    // Node k's energy is not finite: nothing of it is kept, the run ends.
-                    self.out.solution.error = Some(e);
-                    break;
-                }
-            }
+    /// The energy balance at a node of energy H after the work W.
+    fn balance_at(&mut self, energy: f64, work: f64) {
+        let scale = if self.h0 != 0.0 { self.h0.abs() } else { 1.0 };
+        let gap = (energy - self.h0 - work).abs();
+        self.balance.max_abs = self.balance.max_abs.max(gap);
+        self.balance.max_rel = self.balance.max_rel.max(gap / scale);
+        self.max_rel_change = self.max_rel_change.max((energy - self.h0).abs() / scale);
+    }
+
+    fn done<L: Lagrangian + Sync>(mut self, it: &Integrator<'_, L>) -> Ran {
+        if let Some(at) = it.node_constraints() {
+            self.out.max_residual = at.max_residual;
+            self.out.start_projection = at.start_projection;
         }
-        if last_kept != k {
-            // The node the run ended on (a failed step starts from it, or the step limit).
-            if let Err(e) = self.keep(lag, con, k, t, &q, &p, &v) {
-                self.out.solution.error.get_or_insert(e);
-            }
+        self.out.solution.mean_iterations = it.mean_iterations();
+        Ran {
+            constrained: self.out,
+            defect: it.term_defect(),
+            work: self.work,
+            balance: self.balance,
+            max_rel_change: self.max_rel_change,
         }
-        let sol = &mut self.out.solution;
-        sol.mean_iterations = if k > 0 { self.iterations as f64 / k as f64 } else { 0.0 };
-        Ok(())
     }
 }

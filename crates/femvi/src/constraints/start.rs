@@ -123,7 +123,7 @@ pub(super) fn start_on_manifold<L: Lagrangian, C: Constraints>(
     })
 }
 
-fn check_options(options: &SolveOptions) -> Result<()> {
+pub(super) fn check_options(options: &SolveOptions) -> Result<()> {
     options.solver.validate()?;
     if matches!(options.steps, Steps::Energy { .. }) {
         return Err(invalid(

@@ -56,7 +56,7 @@ pub struct ManifoldSymplecticity {
 /// assert!(check.max_defect < 1e-12 && check.steps == 10);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub fn manifold_symplecticity<L: Lagrangian, C: Constraints>(
+pub fn manifold_symplecticity<L: Lagrangian + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     constraints: &C,
     element: &Element,

@@ -6,25 +6,31 @@
 //! [`crate::step::drive()`] with its observers and the chunked [`Integrator::advance`].
 //!
 //! The positions are committed by the integrator's compensated sum of the step's increment
-//! ΔQ^s, the formula the stepper uses, so the nodes are [`super::solve_constrained_with`]'s bit
-//! for bit; the momentum is the projection onto T*N, set rather than summed
-//! ([`StepTerm::momentum`]); the node velocity is the projection's, so the energy
-//! H = p·v − L is the constrained run's too. The multipliers of the exact flow and the
-//! residuals at the current node are [`Integrator::node_constraints`].
+//! ΔQ^s, the formula the stepper uses, so the nodes are those the stepper computes on its own,
+//! bit for bit; the momentum is the projection onto T*N, set rather than summed
+//! ([`StepTerm::momentum`]). The multipliers of the exact flow, the projection's velocity and
+//! the residuals at the current node are [`Integrator::node_constraints`]. With a force
+//! ([`Integrator::with_constraints_and_force`]) the steps are those of the discrete
+//! Lagrange–d'Alembert principle on the augmented action (`forced.rs`), and each element
+//! adds its discrete work to [`Integrator::work`].
 
+use super::forced::{Forcing, NodeForce};
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
 use super::project::state_multiplier;
 use super::start::start_on_manifold;
 use super::stepper::Stepper;
+use super::tangent::step_defect;
 use super::Constraints;
 use crate::discrete::Element;
-use crate::error::{invalid, Result};
+use crate::error::{check_len, invalid, Result};
+use crate::forces::Force;
 use crate::lagrangian::Lagrangian;
 use crate::step::checkpoint::{Reader, Words};
 use crate::step::state::{Increments, LastElement, RunState};
 use crate::step::term::StepTerm;
 use crate::step::{Integrator, Method, SolverOptions, Start, TimeGrid};
+use std::cell::{Cell, RefCell};
 
 /// The constraint quantities at a node of a constrained run ([`Integrator::node_constraints`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -36,6 +42,9 @@ pub struct NodeConstraints {
     pub residual: f64,
     /// ‖G(q) v‖∞ (the hidden constraint) at the node.
     pub hidden_residual: f64,
+    /// The node velocity v from the projection onto T*N (∂L/∂v(t, q, v) + G(q)ᵀμ̂ = p̃,
+    /// G(q) v = 0).
+    pub velocity: Vec<f64>,
     /// The largest ‖g(q)‖∞ so far over the end of every step and the nodes asked about (as
     /// the constrained run's covers every step and its kept nodes).
     pub max_residual: f64,
@@ -49,8 +58,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
     /// says: as [`Integrator::new`] for fixed or variable steps, with the start checked on the
     /// manifold and its momentum projected onto T*N. The steps are solved by RATTLE on the
     /// multipliers where it fits (degree 1, trapezoid rule, a mechanical L) under
-    /// `Method::Auto`, `Explicit` and `FixedPoint`, by dense Newton otherwise. The nodes are
-    /// [`super::solve_constrained_with`]'s bit for bit.
+    /// `Method::Auto`, `Explicit` and `FixedPoint`, by dense Newton otherwise.
     ///
     /// # Errors
     /// As [`super::solve_constrained_with`]: sizes, a start off the manifold (naming the
@@ -85,25 +93,99 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         constraints: &'a C,
         enforcement: Enforcement,
     ) -> Result<Self> {
+        let parts = Constrained {
+            constraints,
+            enforcement,
+            forcing: None,
+            tangent: false,
+        };
+        Self::constrained(lag, element, grid, start_at, opts, parts)
+    }
+
+    /// [`Integrator::with_constraints`] under the non-conservative force `force`: the
+    /// discrete Lagrange–d'Alembert principle on the augmented action (module docs of
+    /// `forced.rs`), solved by dense Newton, with each element's discrete work added to
+    /// [`Integrator::work`] (so that H − H_0 − W is the balance error).
+    ///
+    /// # Errors
+    /// As [`Integrator::with_constraints`]; a force of another dimension; a method that asked
+    /// for explicit steps.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::constraints::{Enforcement, ExprConstraints};
+    /// use femvi::expr::ExprLagrangian;
+    /// use femvi::forces::LinearForce;
+    /// use femvi::{Element, Integrator, SolverOptions, Start, TimeGrid};
+    ///
+    /// let xyz: Vec<String> = ["x", "y", "z"].iter().map(|s| s.to_string()).collect();
+    /// let lag = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z", &xyz, &[])?;
+    /// let sphere = ExprConstraints::new(&["x^2 + y^2 + z^2 - 1".to_string()], &xyz, &[])?;
+    /// let start = Start::Velocity { q: vec![0.6, 0.0, -0.8], v: vec![0.0, 1.0, 0.0] };
+    /// let (element, grid) = (Element::with_order(4)?, TimeGrid::uniform(0.0, 0.01, 5.0)?);
+    /// let friction = LinearForce::damping(3, 0.5);
+    /// let opts = SolverOptions::default();
+    /// let mut it = Integrator::with_constraints_and_force(&lag, &element, grid, start, opts, &sphere, Enforcement::Weak, &friction)?;
+    /// let h0 = it.energy()?;
+    /// while it.step()? {}
+    /// assert!(it.energy()? < h0 && (it.energy()? - h0 - it.work()).abs() < 1e-8);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_constraints_and_force<C: Constraints + Sync, F: Force + Sync>(
+        lag: &'a L,
+        element: &'a Element,
+        grid: TimeGrid,
+        start_at: Start,
+        opts: SolverOptions,
+        constraints: &'a C,
+        enforcement: Enforcement,
+        force: &'a F,
+    ) -> Result<Self> {
+        check_len("force", lag.dim(), force.dim())?;
+        let parts = Constrained {
+            constraints,
+            enforcement,
+            forcing: Some(Box::new(Forcing::new(force, element, lag.dim()))),
+            tangent: false,
+        };
+        Self::constrained(lag, element, grid, start_at, opts, parts)
+    }
+
+    /// The constrained run of `parts` (the constructors above; with `tangent`, the steps'
+    /// symplecticity defect is measured too, [`Integrator::term_defect`]).
+    pub(super) fn constrained<C: Constraints + Sync>(
+        lag: &'a L,
+        element: &'a Element,
+        grid: TimeGrid,
+        start_at: Start,
+        opts: SolverOptions,
+        parts: Constrained<'a, C>,
+    ) -> Result<Self> {
         opts.validate()?;
         element.check_nondegenerate()?;
-        let layout = Layout::new(element, enforcement)?;
-        let on = start_on_manifold(lag, constraints, &start_at, grid.t0(), opts)?;
-        let (n, m) = (lag.dim(), constraints.count());
-        let stepper = Stepper::new(element, layout, (n, m), opts, lag, false)?;
+        let layout = Layout::new(element, parts.enforcement)?;
+        let on = start_on_manifold(lag, parts.constraints, &start_at, grid.t0(), opts)?;
+        let (n, m) = (lag.dim(), parts.constraints.count());
+        let stepper = Stepper::new(element, layout, (n, m), opts, lag, parts.forcing.is_some())?;
         let mut jet = ConstraintJet::new(m, n);
-        jet.eval(constraints, &on.q, false);
+        jet.eval(parts.constraints, &on.q, false);
         let term = Box::new(ConstrainedTerm {
             lag,
-            con: constraints,
+            con: parts.constraints,
             element,
             stepper,
+            forcing: parts.forcing,
             q: on.q.clone(),
             p: on.p.clone(),
             v: on.v,
-            max_residual: jet.residual(),
+            max_residual: Cell::new(jet.residual()),
             start_projection: on.projection,
-            jet: ConstraintJet::new(m, n),
+            jet: RefCell::new(ConstraintJet::new(m, n)),
+            force_at: RefCell::new(vec![0.0; n]),
+            work: 0.0,
+            defect: parts.tangent.then_some(0.0),
         });
         let start = Start::Momentum { q: on.q, p: on.p };
         // The integrator's own solver is never asked: one that fits any Lagrangian.
@@ -115,20 +197,36 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
     }
 }
 
+/// What a constrained run is made of besides the Lagrangian and the element.
+pub(super) struct Constrained<'a, C> {
+    pub constraints: &'a C,
+    pub enforcement: Enforcement,
+    /// The non-conservative force, as the constrained step takes it.
+    pub forcing: Option<Box<dyn NodeForce + Send + 'a>>,
+    /// Whether the steps' symplecticity defect is measured.
+    pub tangent: bool,
+}
+
 /// The constrained step (`stepper.rs`) as a term.
 struct ConstrainedTerm<'a, L, C> {
     lag: &'a L,
     con: &'a C,
     element: &'a Element,
     stepper: Stepper,
+    forcing: Option<Box<dyn NodeForce + Send + 'a>>,
     /// The node as the stepper moves it: q_k, p_k and the projection's velocity v_k.
     q: Vec<f64>,
     p: Vec<f64>,
     v: Vec<f64>,
-    max_residual: f64,
+    max_residual: Cell<f64>,
     start_projection: f64,
     /// Scratch of the node quantities.
-    jet: ConstraintJet,
+    jet: RefCell<ConstraintJet>,
+    force_at: RefCell<Vec<f64>>,
+    /// The discrete work of the last element.
+    work: f64,
+    /// The largest symplecticity defect so far, when measured.
+    defect: Option<f64>,
 }
 
 impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
@@ -143,18 +241,13 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
         // The integrator's node: the same bits as the stepper's own after each step.
         self.q.copy_from_slice(&state.q);
         self.p.copy_from_slice(&state.p);
+        let (lag, con, element) = (self.lag, self.con, self.element);
+        let term = self.forcing.as_ref().map(|f| f.term());
         let times = (state.k, state.t, h, t_next);
-        self.stepper.step(
-            self.lag,
-            self.con,
-            self.element,
-            times,
-            &mut self.q,
-            &mut self.p,
-            &mut self.v,
-            None,
-        )?;
-        self.max_residual = self.max_residual.max(self.stepper.sys.end.residual());
+        self.stepper
+            .step(lag, con, element, times, &mut self.q, &mut self.p, &mut self.v, term)?;
+        let end = self.stepper.sys.end.residual();
+        self.max_residual.set(self.max_residual.get().max(end));
         // Row 0 is zero; rows 1 … s are the solved increments Q^j − q_k.
         let x = self.stepper.unknowns();
         let rows = out.incr.len() / n - 1;
@@ -165,57 +258,79 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
         for ((d, a), b) in out.dp.iter_mut().zip(&self.p).zip(&state.p) {
             *d = a - b;
         }
+        if let Some(f) = &self.forcing {
+            let time_work = self.stepper.time_work(lag, element, state.t, h);
+            let (qk, _) = self.stepper.previous();
+            self.work = f.work(element, state.t, h, qk, self.stepper.sys.increments()) + time_work;
+        }
+        if let Some(worst) = self.defect {
+            let phi = self
+                .stepper
+                .tangent_map(lag, con, element, (state.t, h, t_next), &self.q, &self.v, term);
+            let (q0, p0) = self.stepper.previous();
+            self.defect = Some(worst.max(step_defect(lag, con, phi, (state.t, q0, p0))));
+        }
         Ok(self.stepper.iterations)
     }
 
     fn accepted(&mut self, _n: usize) {}
 
     fn element_work(&self) -> f64 {
-        0.0
+        self.work
     }
 
     fn save(&self, w: &mut Words) {
         self.stepper.save(w);
         w.fs(&self.v);
-        w.f(self.max_residual);
+        w.f(self.max_residual.get());
     }
 
     fn load(&mut self, r: &mut Reader<'_>, _last: &LastElement) -> Result<()> {
         self.stepper.load(r)?;
         r.fs(&mut self.v)?;
-        self.max_residual = r.f()?;
+        self.max_residual.set(r.f()?);
         Ok(())
     }
 
     fn name(&self) -> &'static str {
-        "constraints"
+        if self.forcing.is_some() {
+            "constraints+forces"
+        } else {
+            "constraints"
+        }
     }
 
     fn momentum(&self) -> Option<&[f64]> {
         Some(&self.p)
     }
 
-    fn velocity(&self) -> Option<&[f64]> {
-        Some(&self.v)
-    }
-
-    fn constraints(&mut self, t: f64, q: &[f64]) -> Option<NodeConstraints> {
+    fn constraints(&self, t: f64, q: &[f64]) -> Option<NodeConstraints> {
         let n = q.len();
-        self.jet.eval(self.con, q, true);
+        let mut jet = self.jet.borrow_mut();
+        jet.eval(self.con, q, true);
         // The largest residual covers the nodes asked about, as the constrained run's covers
         // its kept nodes, besides every step's end.
-        self.max_residual = self.max_residual.max(self.jet.residual());
-        let jet = &self.jet;
+        self.max_residual.set(self.max_residual.get().max(jet.residual()));
         let v = &self.v;
         let hidden = (0..jet.m)
             .map(|l| (0..n).map(|a| jet.jac[l * n + a] * v[a]).sum::<f64>().abs())
             .fold(0.0f64, f64::max);
+        let mut f = self.force_at.borrow_mut();
+        let force = self.forcing.as_ref().map(|forcing| {
+            forcing.at(t, q, v, &mut f);
+            &f[..]
+        });
         Some(NodeConstraints {
-            multipliers: state_multiplier(self.lag, jet, (t, q, v), None),
+            multipliers: state_multiplier(self.lag, &jet, (t, q, v), force),
             residual: jet.residual(),
             hidden_residual: hidden,
-            max_residual: self.max_residual,
+            velocity: v.clone(),
+            max_residual: self.max_residual.get(),
             start_projection: self.start_projection,
         })
+    }
+
+    fn defect(&self) -> Option<f64> {
+        self.defect
     }
 }

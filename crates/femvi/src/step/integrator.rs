@@ -157,9 +157,15 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// The multipliers and residuals of a constrained run
     /// ([`Integrator::with_constraints`]) at the current node; None for a run without
     /// constraints.
-    pub fn node_constraints(&mut self) -> Option<crate::constraints::NodeConstraints> {
+    pub fn node_constraints(&self) -> Option<crate::constraints::NodeConstraints> {
         let (t, q) = (self.state.t, &self.state.q);
-        self.term.as_mut().and_then(|term| term.constraints(t, q))
+        self.term.as_ref().and_then(|term| term.constraints(t, q))
+    }
+
+    /// The largest symplecticity defect on the manifold of the steps so far, for a
+    /// constrained run set up to measure it (`femvi check`).
+    pub(crate) fn term_defect(&self) -> Option<f64> {
+        self.term.as_ref().and_then(|term| term.defect())
     }
 
     /// Whether a term (forces or constraints) solves the steps.
@@ -193,12 +199,6 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// ```
     pub fn energy(&self) -> Result<f64> {
         let n = self.state.n;
-        if let Some(v) = self.term.as_ref().and_then(|t| t.velocity()) {
-            // A constrained run's node velocity (the projection's): H = p·v − L.
-            let (t, q, p) = (self.state.t, &self.state.q, &self.state.p);
-            let pv: f64 = p.iter().zip(v).map(|(a, b)| a * b).sum();
-            return Ok(pv - self.lag.value(t, q, v));
-        }
         let mut v = self.state.v0.clone();
         let mut work = crate::lagrangian::PointDerivatives::new(n);
         crate::lagrangian::hamiltonian(

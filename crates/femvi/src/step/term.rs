@@ -11,7 +11,7 @@
 //! ([`Integrator::work`](super::Integrator::work)). The second is the holonomic constraints
 //! of [`crate::constraints`] (`constraints/term.rs`): the constrained step with its
 //! multipliers, whose new momentum is the projection onto T*N (set, not summed:
-//! [`StepTerm::momentum`]) and whose node velocity is the projection's ([`StepTerm::velocity`]).
+//! [`StepTerm::momentum`]).
 
 use super::checkpoint::{Reader, Words};
 use super::state::{Increments, LastElement, RunState};
@@ -57,14 +57,14 @@ pub(crate) trait StepTerm {
         None
     }
 
-    /// The velocity at the current node if the term knows it (a constrained run's, from the
-    /// projection), for the node's energy; None: the inverse Legendre transform of p.
-    fn velocity(&self) -> Option<&[f64]> {
+    /// The constraint quantities of a constrained run at the current node; None otherwise.
+    fn constraints(&self, _t: f64, _q: &[f64]) -> Option<crate::constraints::NodeConstraints> {
         None
     }
 
-    /// The constraint quantities of a constrained run at the current node; None otherwise.
-    fn constraints(&mut self, _t: f64, _q: &[f64]) -> Option<crate::constraints::NodeConstraints> {
+    /// The largest symplecticity defect of the steps so far, if the term measures it (a
+    /// constrained run for `femvi check`, on the manifold).
+    fn defect(&self) -> Option<f64> {
         None
     }
 }

@@ -69,7 +69,7 @@ fn double_pendulum(th1: f64, th2: f64) -> (Vec<f64>, [Vec<f64>; 2]) {
 /// term ½ε² g''(δq, δq)), within the start tolerance; the run projects the start momentum onto
 /// T*N and the first step returns to the manifold, so the run is a smooth map of the start and
 /// the common O(ε²) offset cancels in the central difference (error O(ε²)).
-fn constrained_fd<L: Lagrangian + Clone, C: femvi::constraints::Constraints>(
+fn constrained_fd<L: Lagrangian + Clone + Sync, C: femvi::constraints::Constraints + Sync>(
     problem: &Problem<L>,
     con: &C,
     el: &Element,

@@ -32,7 +32,7 @@ fn damped_driven() -> ExprForces {
     ExprForces::new(&["-c*x_dot + f0*cos(w*t)", "-c*y_dot", "-c*z_dot"], &xyz(), &params).unwrap()
 }
 
-fn run<F: Force>(force: &F, order: usize, h: f64, t_end: f64, every: usize) -> ForcedConstrainedSolution {
+fn run<F: Force + Sync>(force: &F, order: usize, h: f64, t_end: f64, every: usize) -> ForcedConstrainedSolution {
     let (lag, sphere) = models::chain(3, 1, 1.0, G, 1.0).unwrap();
     let options = SolveOptions {
         every,

@@ -74,7 +74,7 @@ fn double_pendulum(
 /// One step from every 50th node of the dense Newton run, by both paths: the step maps agree
 /// to round-off (a per-step comparison, free of the shear that amplifies differences along a
 /// trajectory).
-fn one_steps_agree<L: femvi::Lagrangian + Clone, C: femvi::constraints::Constraints>(
+fn one_steps_agree<L: femvi::Lagrangian + Clone + Sync, C: femvi::constraints::Constraints + Sync>(
     problem: &Problem<L>,
     con: &C,
     newton: &ConstrainedSolution,
