@@ -6,7 +6,10 @@
 //! signal, with the error). With [`RunControl::resume`] it continues a stopped run from its
 //! checkpoint ([`crate::resume`]), bit for bit. A problem with `[[events]]` is driven by the
 //! library's [`femvi::solution::solve_with`] instead, with the same outputs as observers and
-//! the located events written by [`crate::events`].
+//! the located events written by [`crate::events`]. Forces and constraints are terms of the
+//! same integrator (`Integrator::with_force`, `with_constraints`, `with_constraints_and_force`):
+//! their runs stream, stop, resume and plot as any run, with the work and the multipliers as
+//! columns and constraints.json beside summary.json ([`crate::constrained`]).
 
 use crate::problem::capabilities::Use;
 use crate::problem::Problem;
@@ -83,18 +86,12 @@ pub fn run_as(
         plots: out.plots || problem.plots,
         ..out
     };
-    // Runs on the fixed grid of a problem with [constraints] or [forces] keep their rows until
-    // they end (issue 33): the output estimate refuses them up front like the plain run.
+    // Forced runs in energy mode keep their rows until they end (issue 33): the output
+    // estimate refuses them up front like the plain run.
     let estimate = |out: &RunOutput| match control.resume {
         false => crate::estimate::check(problem, out, dir, control.max_output, 0),
         true => Ok(()),
     };
-    if let Some(c) = &problem.terms.constraints {
-        if let Err(msg) = refuse(problem, &out, control.resume).and_then(|()| estimate(&out)) {
-            return Ok(Outcome::Rejected(msg));
-        }
-        return crate::constrained::run(problem, c, dir, out, command);
-    }
     if let Some(a) = &problem.terms.adaptive {
         // Adaptive runs keep their rows until they end (and the times at `output_step`, which
         // were allocated before any check: `end = 1e12` aborted): refused up front when the
@@ -118,7 +115,7 @@ pub fn run_as(
         }
         return crate::forced::run(problem, f, dir, out, command);
     }
-    if problem.terms.force.is_some() {
+    if problem.terms.force.is_some() || problem.terms.constraints.is_some() {
         if let Err(msg) = refuse(problem, &out, control.resume) {
             return Ok(Outcome::Rejected(msg));
         }
@@ -189,10 +186,16 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
     } = *a;
     let clock = Instant::now();
     let (grid, start) = (problem.grid.clone(), problem.start.clone());
-    let made = match (problem.energy, &problem.terms.force) {
-        (None, None) => Integrator::new(lag, &problem.element, grid, start, problem.options),
-        (None, Some(f)) => Integrator::with_force(lag, &problem.element, grid, start, problem.options, f),
-        (Some(e), _) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
+    let (element, opts) = (&problem.element, problem.options);
+    let made = match (problem.energy, &problem.terms.force, &problem.terms.constraints) {
+        (None, None, None) => Integrator::new(lag, element, grid, start, opts),
+        (None, Some(f), None) => Integrator::with_force(lag, element, grid, start, opts, f),
+        (None, None, Some((c, e))) => Integrator::with_constraints(lag, element, grid, start, opts, c, *e),
+        (None, Some(f), Some((c, e))) => {
+            Integrator::with_constraints_and_force(lag, element, grid, start, opts, c, *e, f)
+        }
+        // Constraints with time steps as variables are refused when the problem is loaded.
+        (Some(e), _, _) => Integrator::with_energy(lag, element, grid, start, opts, e),
     };
     let mut it = match made {
         Ok(it) => it,
@@ -245,6 +248,9 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
         stats: it.energy_stats(),
         error: report.error.as_ref().map(|e| e.to_string()),
     };
+    if let Some(at) = it.node_constraints() {
+        crate::constrained::write_json(dir, problem, &at)?;
+    }
     let summary = run_summary(problem, end, &recorders, clock, command);
     match recorders.stopped_by() {
         Some(sig) => interrupted(dir, summary, sig),

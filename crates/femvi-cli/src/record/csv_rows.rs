@@ -105,11 +105,15 @@ impl<L: Lagrangian> Observer<L> for CsvRows {
         self.row.extend(node.q.iter().map(|&x| num(x)));
         self.row.extend(node.p.iter().map(|&x| num(x)));
         self.row.push(num(self.energy.get().h));
-        if it.has_term() {
+        if it.has_work() {
             self.row.push(num(it.work()));
         }
         if let Some(st) = it.energy_stats() {
             self.row.push(num(st.energy));
+        }
+        if let Some(at) = it.node_constraints() {
+            self.row.extend(at.multipliers.iter().map(|&x| num(x)));
+            self.row.push(num(at.residual));
         }
         self.writer
             .write_record(&self.row)

@@ -48,6 +48,12 @@ pub fn columns(problem: &Problem) -> Vec<String> {
     if problem.energy.is_some() {
         header.push("discrete_energy".into());
     }
+    if let Some((c, _)) = &problem.terms.constraints {
+        // The multipliers of the exact flow at the node (−Gᵀλ the constraint force) and
+        // max |g(q)|.
+        header.extend((1..=femvi::constraints::Constraints::count(c)).map(|l| format!("lambda_{l}")));
+        header.push("residual".into());
+    }
     header
 }
 

@@ -132,11 +132,17 @@ impl NpyRows {
             self.push(x)?;
         }
         self.push(self.energy.get().h)?;
-        if it.has_term() {
+        if it.has_work() {
             self.push(it.work())?;
         }
         if let Some(st) = it.energy_stats() {
             self.push(st.energy)?;
+        }
+        if let Some(at) = it.node_constraints() {
+            for &x in &at.multipliers {
+                self.push(x)?;
+            }
+            self.push(at.residual)?;
         }
         self.rows += 1;
         Ok(())

@@ -33,6 +33,8 @@ pub struct PlotData<'a> {
     q: Vec<f64>,
     p: Vec<f64>,
     rel_energy: Vec<f64>,
+    /// A constrained run's max |g(q)| per kept node (empty otherwise).
+    residual: Vec<f64>,
     /// Per kept node: the time since the previous node after `every` (NaN for the first).
     steps: Vec<f64>,
     /// The previous node after `every`, kept or not.
@@ -113,6 +115,7 @@ impl<'a> PlotData<'a> {
             q: vec![],
             p: vec![],
             rel_energy: vec![],
+            residual: vec![],
             steps: vec![],
             previous: None,
             decimation: Decimation::new(max_nodes(problem.coordinates.len())),
@@ -126,11 +129,12 @@ impl<'a> PlotData<'a> {
         keep_even(&mut self.q, n);
         keep_even(&mut self.p, n);
         keep_even(&mut self.rel_energy, 1);
+        keep_even(&mut self.residual, 1);
         keep_even(&mut self.steps, 1);
     }
 
-    /// Draws coordinates against time, phase portraits, the energy error and (energy mode)
-    /// the step sizes.
+    /// Draws coordinates against time, phase portraits, the energy error, (energy mode) the
+    /// step sizes and (constraints) the constraint residual.
     fn draw(&self) -> Result<(), String> {
         let (dir, f, problem) = (self.dir, self.format, self.problem);
         let n = problem.coordinates.len();
@@ -179,6 +183,22 @@ impl<'a> PlotData<'a> {
             }];
             let title = format!("{name}: step size (energy mode)");
             lines(&file(dir, "step_size", f), f, &title, "t", "h", &steps)?;
+        }
+        if !self.residual.is_empty() {
+            let residual = [Series {
+                name: "max |g(q)|".into(),
+                points: self.t.iter().zip(&self.residual).map(|(t, g)| (*t, *g)).collect(),
+            }];
+            let title = format!("{name}: constraint residual");
+            log_lines(
+                &file(dir, "residual", f),
+                f,
+                &title,
+                "t",
+                "max |g(q)|",
+                &residual,
+                false,
+            )?;
         }
         self.draw_orbits(name)
     }
@@ -256,6 +276,9 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
         self.q.extend_from_slice(node.q);
         self.p.extend_from_slice(node.p);
         self.rel_energy.push(self.energy.get().rel);
+        if let Some(at) = it.node_constraints() {
+            self.residual.push(at.residual);
+        }
         Ok(())
     }
 

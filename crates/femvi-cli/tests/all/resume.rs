@@ -4,7 +4,8 @@
 //! debug build) and resumed from their last checkpoint write the same trajectory.csv (and
 //! trajectory.npy) bytes and the same final state in summary.json as an uninterrupted run;
 //! a run stopped by SIGINT ends on a complete row, says so in summary.json, exits 130 and
-//! resumes the same way; a checkpoint of another problem or output format is refused.
+//! resumes the same way; a checkpoint of another problem or output format is refused. The
+//! cases include forced and constrained runs (issue 33: terms of the one integrator).
 //!
 //! The kill times are drawn from a seed printed by the test (set FEMVI_RESUME_SEED to repeat).
 
@@ -20,7 +21,7 @@ struct Case {
     args: &'static [&'static str],
 }
 
-const CASES: [Case; 8] = [
+const CASES: [Case; 10] = [
     Case {
         name: "explicit",
         end: 20.0,
@@ -74,6 +75,21 @@ const CASES: [Case; 8] = [
         name: "forced-fixed-point",
         end: 50.0,
         toml: "name = \"forced-fixed-point\"\n[system]\ncoordinates = [\"x\", \"y\"]\nparameters = { f0 = 0.2 }\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) - (1 - cos(x)) - 0.5*y^2 - 0.1*(1 - cos(x))*y^2\"\n[forces]\ngeneralized = [\"f0*cos(t)\", \"-0.05*y\"]\n[initial]\nq = [0.5, 0.1]\nv = [0.0, 0.2]\n[scheme]\ndegree = 3\n[time]\nstep = 0.02\nend = {end}\n",
+        args: &["--checkpoint-every-seconds", "0.05"],
+    },
+    // Constraints (issue 33): RATTLE steps on the spherical pendulum, and a damped, driven
+    // spherical pendulum at degree 2 (dense Newton with the discrete forces); the multipliers
+    // and residuals are columns, constraints.json is compared too.
+    Case {
+        name: "constrained-rattle",
+        end: 100.0,
+        toml: "name = \"constrained-rattle\"\n[system]\ncoordinates = [\"x\", \"y\", \"z\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z\"\n[constraints]\nholonomic = [\"x^2 + y^2 + z^2 - 1\"]\n[initial]\nq = [0.6, 0.0, -0.8]\nv = [0.3, 1.5, 0.225]\n[scheme]\ndegree = 1\nquadrature = \"trapezoid\"\n[time]\nstep = 0.001\nend = {end}\n[output]\nevery = 11\n",
+        args: &["--format", "csv,npy", "--checkpoint-every-steps", "997"],
+    },
+    Case {
+        name: "constrained-forced",
+        end: 20.0,
+        toml: "name = \"constrained-forced\"\n[system]\ncoordinates = [\"x\", \"y\", \"z\"]\nparameters = { c = 0.3, f0 = 0.5, w = 2.5 }\nlagrangian = \"0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z\"\n[constraints]\nholonomic = [\"x^2 + y^2 + z^2 - 1\"]\n[forces]\ndissipation = \"0.5*c*(x_dot^2 + y_dot^2 + z_dot^2)\"\ngeneralized = [\"f0*cos(w*t)\", \"0\", \"0\"]\n[initial]\nq = [0.6, 0.0, -0.8]\nv = [0.3, 1.5, 0.225]\n[scheme]\ndegree = 2\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 3\n",
         args: &["--checkpoint-every-seconds", "0.05"],
     },
 ];
@@ -141,7 +157,7 @@ fn summary(dir: &Path) -> serde_json::Value {
 
 /// Asserts that `dir` holds the outputs of `reference`, byte for byte, and its final state.
 fn assert_same_outputs(case: &Case, dir: &Path, reference: &Path, what: &str) {
-    for file in ["trajectory.csv", "trajectory.npy"] {
+    for file in ["trajectory.csv", "trajectory.npy", "constraints.json"] {
         let (a, b) = (std::fs::read(dir.join(file)), std::fs::read(reference.join(file)));
         match (a, b) {
             (Ok(a), Ok(b)) => assert!(

@@ -42,6 +42,8 @@ pub struct NodeConstraints {
     pub residual: f64,
     /// ‖G(q) v‖∞ (the hidden constraint) at the node.
     pub hidden_residual: f64,
+    /// The largest ‖G(q) v‖∞ over the nodes asked about so far.
+    pub max_hidden_residual: f64,
     /// The node velocity v from the projection onto T*N (∂L/∂v(t, q, v) + G(q)ᵀμ̂ = p̃,
     /// G(q) v = 0).
     pub velocity: Vec<f64>,
@@ -181,6 +183,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
             p: on.p.clone(),
             v: on.v,
             max_residual: Cell::new(jet.residual()),
+            max_hidden: Cell::new(0.0),
             start_projection: on.projection,
             jet: RefCell::new(ConstraintJet::new(m, n)),
             force_at: RefCell::new(vec![0.0; n]),
@@ -219,6 +222,7 @@ struct ConstrainedTerm<'a, L, C> {
     p: Vec<f64>,
     v: Vec<f64>,
     max_residual: Cell<f64>,
+    max_hidden: Cell<f64>,
     start_projection: f64,
     /// Scratch of the node quantities.
     jet: RefCell<ConstraintJet>,
@@ -283,12 +287,14 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
         self.stepper.save(w);
         w.fs(&self.v);
         w.f(self.max_residual.get());
+        w.f(self.max_hidden.get());
     }
 
     fn load(&mut self, r: &mut Reader<'_>, _last: &LastElement) -> Result<()> {
         self.stepper.load(r)?;
         r.fs(&mut self.v)?;
         self.max_residual.set(r.f()?);
+        self.max_hidden.set(r.f()?);
         Ok(())
     }
 
@@ -298,6 +304,10 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
         } else {
             "constraints"
         }
+    }
+
+    fn works(&self) -> bool {
+        self.forcing.is_some()
     }
 
     fn momentum(&self) -> Option<&[f64]> {
@@ -315,6 +325,7 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
         let hidden = (0..jet.m)
             .map(|l| (0..n).map(|a| jet.jac[l * n + a] * v[a]).sum::<f64>().abs())
             .fold(0.0f64, f64::max);
+        self.max_hidden.set(self.max_hidden.get().max(hidden));
         let mut f = self.force_at.borrow_mut();
         let force = self.forcing.as_ref().map(|forcing| {
             forcing.at(t, q, v, &mut f);
@@ -324,6 +335,7 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
             multipliers: state_multiplier(self.lag, &jet, (t, q, v), force),
             residual: jet.residual(),
             hidden_residual: hidden,
+            max_hidden_residual: self.max_hidden.get(),
             velocity: v.clone(),
             max_residual: self.max_residual.get(),
             start_projection: self.start_projection,

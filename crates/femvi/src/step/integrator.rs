@@ -168,6 +168,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.term.as_ref().and_then(|term| term.defect())
     }
 
+    /// Whether the run has a term that does work (forces, with or without constraints):
+    /// [`Integrator::work`] is then its discrete work.
+    pub fn has_work(&self) -> bool {
+        self.term.as_ref().is_some_and(|t| t.works())
+    }
+
     /// Whether a term (forces or constraints) solves the steps.
     pub fn has_term(&self) -> bool {
         self.term.is_some()

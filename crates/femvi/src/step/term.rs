@@ -51,6 +51,11 @@ pub(crate) trait StepTerm {
     /// The term's name in a checkpoint's fingerprint.
     fn name(&self) -> &'static str;
 
+    /// Whether the term does work ([`StepTerm::element_work`]): it has forces.
+    fn works(&self) -> bool {
+        true
+    }
+
     /// The momentum of the new node if the term sets it rather than summing an increment
     /// (the projection onto T*N of a constrained step); read right after the commit.
     fn momentum(&self) -> Option<&[f64]> {
