@@ -1,9 +1,9 @@
 //! `femvi convergence`: runs a problem's scheme at several step sizes over the same time span,
 //! measures the final nodal error in phase space, ‖(q, p) − (q, p)_ref‖₂, and fits observed
 //! orders. The reference is a closed form where the model has one (harmonic, kepler, without
-//! forces), or a run with a finer step and an element of degree s + 2. With `[forces]` every
-//! run, the reference's too, is the forced integrator (`Integrator::with_force`); with
-//! `[constraints]` each run is the constrained run (`femvi::constraints`), to its final node. With --l2 it also measures the L²
+//! forces), or a run with a finer step and an element of degree s + 2. Every run, the
+//! reference's too, is the one integrator with the problem's terms (`Integrator::with_force`,
+//! `with_constraints`, `with_constraints_and_force`). With --l2 it also measures the L²
 //! error of the piecewise-polynomial trajectory over the whole span ((2.33), (2.56)); with
 //! --plot it draws the errors against the step with the fitted slopes ([`plot`]).
 //!
@@ -126,11 +126,14 @@ fn integrator<'a, L: Lagrangian + Sync>(
     h: f64,
 ) -> Result<Integrator<'a, L>, (String, u8)> {
     let grid = TimeGrid::uniform(problem.grid.t0(), h, problem.grid.end()).map_err(fail)?;
-    let start = problem.start.clone();
-    match &problem.terms.force {
-        Some(force) => Integrator::with_force(lag, el, grid, start, problem.options, force).map_err(fail),
-        None => Integrator::new(lag, el, grid, start, problem.options).map_err(fail),
+    let (start, opts) = (problem.start.clone(), problem.options);
+    match (&problem.terms.force, &problem.terms.constraints) {
+        (Some(force), None) => Integrator::with_force(lag, el, grid, start, opts, force),
+        (None, None) => Integrator::new(lag, el, grid, start, opts),
+        (None, Some((c, e))) => Integrator::with_constraints(lag, el, grid, start, opts, c, *e),
+        (Some(f), Some((c, e))) => Integrator::with_constraints_and_force(lag, el, grid, start, opts, c, *e, f),
     }
+    .map_err(fail)
 }
 
 /// The state (q, p) of a run's current node.
@@ -146,41 +149,14 @@ fn run_to_end<L: Lagrangian>(mut it: Integrator<'_, L>) -> Result<Vec<f64>, (Str
 }
 
 /// The final state (q, p) of the run of `problem` with step `h` and element `el`, its terms
-/// included: the integrator (with its force) to the end, or for `[constraints]` the
-/// constrained run (with the force, if any), keeping its first and last nodes only.
-fn final_state<L: Lagrangian + Clone + Sync>(
+/// (forces, constraints) included: the integrator to the end.
+fn final_state<L: Lagrangian + Sync>(
     lag: &L,
     el: &Element,
     problem: &Problem,
     h: f64,
 ) -> Result<Vec<f64>, (String, u8)> {
-    let Some((con, enforcement)) = &problem.terms.constraints else {
-        return run_to_end(integrator(lag, el, problem, h)?);
-    };
-    let (t0, end) = (problem.grid.t0(), problem.grid.end());
-    let p = femvi::Problem::new(lag.clone(), problem.start.clone(), t0, end);
-    let options = femvi::SolveOptions {
-        solver: problem.options,
-        every: 0,
-        ..femvi::SolveOptions::step(h)
-    };
-    let sol = match &problem.terms.force {
-        None => femvi::constraints::solve_constrained_with(&p, con, el, &options, *enforcement),
-        Some(f) => {
-            femvi::constraints::solve_constrained_forced(&p, f, con, el, &options, *enforcement).map(|r| r.constrained)
-        }
-    }
-    .map_err(fail)?
-    .solution;
-    if let Some(e) = sol.error {
-        return Err(fail(e));
-    }
-    let last = sol.len().saturating_sub(1);
-    let (q, pk) = (sol.q_row(last), sol.p_row(last));
-    match (q, pk) {
-        (Some(q), Some(pk)) => Ok(q.iter().chain(pk).cloned().collect()),
-        _ => Err(("the run kept no node".into(), 1)),
-    }
+    run_to_end(integrator(lag, el, problem, h)?)
 }
 
 /// A run of the study with its L² sum (if measured).
@@ -194,9 +170,6 @@ struct Coarse<'a, L: Lagrangian> {
 /// elements (those the coarse runs can still ask for).
 enum Path<'a, L: Lagrangian> {
     Exact(ExactState),
-    /// The final state of a reference run whose elements are not kept (a constrained run,
-    /// without --l2).
-    Final(Vec<f64>),
     Run {
         it: Box<Integrator<'a, L>>,
         window: PiecewiseTrajectory,
@@ -230,7 +203,6 @@ impl<L: Lagrangian> Path<'_, L> {
                 out.copy_from_slice(&s[..out.len()]);
             }
             Path::Run { window, .. } => window.eval(t, out),
-            Path::Final(_) => out.fill(f64::NAN),
         }
     }
 }
@@ -354,13 +326,9 @@ fn study_with<L: Lagrangian + Clone + Sync>(
                 _ => finest / 4.0,
             };
             let label = format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}");
-            if problem.terms.constraints.is_some() {
-                (Path::Final(final_state(lag, &reference_element, problem, h)?), label)
-            } else {
-                let it = Box::new(integrator(lag, &reference_element, problem, h)?);
-                let window = PiecewiseTrajectory::new(&reference_element.basis, lag.dim());
-                (Path::Run { it, window, done: false }, label)
-            }
+            let it = Box::new(integrator(lag, &reference_element, problem, h)?);
+            let window = PiecewiseTrajectory::new(&reference_element.basis, lag.dim());
+            (Path::Run { it, window, done: false }, label)
         }
     };
     // Each run's final state and L² error (with --l2 in lockstep with the reference, which
@@ -374,7 +342,6 @@ fn study_with<L: Lagrangian + Clone + Sync>(
     let reference_state = match path {
         Path::Exact(f) => f(t_end).ok_or_else(|| ("the closed form failed at the end time".to_string(), 1))?,
         Path::Run { it, .. } => run_to_end(*it)?,
-        Path::Final(state) => state,
     };
     if !l2 {
         for &h in steps {

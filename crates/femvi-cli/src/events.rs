@@ -12,8 +12,10 @@ use crate::problem::Problem;
 use crate::record::Recorders;
 use crate::run_output::RunOutput;
 use crate::summary::{empty_summary, run_summary, RunEnd};
+use femvi::constraints::{solve_constrained_forced_observed, solve_constrained_observed, NodeConstraints};
 use femvi::forces::solve_forced_with;
 use femvi::solution::{solve_with, EventRecord};
+use femvi::step::Observer;
 use femvi::{Lagrangian, SolveOptions};
 use std::path::Path;
 use std::time::Instant;
@@ -42,9 +44,17 @@ pub fn run<L: Lagrangian + Clone + Sync>(
     let options = solve_options(problem);
     std::fs::create_dir_all(dir)?;
     let mut recorders = Recorders::attach(problem, dir, out, lag.dim())?;
-    let solved = match &problem.terms.force {
-        Some(f) => solve_forced_with(&p, f, &problem.element, &options, &mut recorders.observers()),
-        None => solve_with(&p, &problem.element, &options, &mut recorders.observers()),
+    let mut at_end = AtEnd(None);
+    let solved = {
+        let mut observers = recorders.observers();
+        observers.push(&mut at_end);
+        let (el, obs) = (&problem.element, &mut observers[..]);
+        match (&problem.terms.force, &problem.terms.constraints) {
+            (Some(f), None) => solve_forced_with(&p, f, el, &options, obs),
+            (None, None) => solve_with(&p, el, &options, obs),
+            (None, Some((c, e))) => solve_constrained_observed(&p, c, el, &options, *e, obs),
+            (Some(f), Some((c, e))) => solve_constrained_forced_observed(&p, f, c, el, &options, *e, obs),
+        }
     };
     if let Some(e) = recorders.write_failure() {
         return Err(e);
@@ -58,6 +68,9 @@ pub fn run<L: Lagrangian + Clone + Sync>(
         Err(e) => return Ok(Outcome::Rejected(e.to_string())),
     };
     write_events(dir, problem, &sol.events)?;
+    if let Some(at) = &at_end.0 {
+        crate::constrained::write_json(dir, problem, at)?;
+    }
     if out.plots {
         poincare(dir, problem, &sol.events, out.plot_format).map_err(std::io::Error::other)?;
     }
@@ -80,6 +93,20 @@ pub fn run<L: Lagrangian + Clone + Sync>(
             .map(|r| problem.events[r.event].name.clone()),
     );
     finish(dir, summary)
+}
+
+/// The constraint quantities at the node a constrained run ends on (for constraints.json).
+struct AtEnd(Option<NodeConstraints>);
+
+impl<L: Lagrangian> Observer<L> for AtEnd {
+    fn node(&mut self, _it: &femvi::Integrator<'_, L>, _last: bool) -> femvi::Result<()> {
+        Ok(())
+    }
+
+    fn finish(&mut self, it: &femvi::Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
+        self.0 = it.node_constraints();
+        Ok(())
+    }
 }
 
 /// The header of events.csv.

@@ -3,11 +3,11 @@
 //! and `constraints::solve_constrained_forced` with the file's element, grid and solver), and
 //! what they add to the solution — the discrete work W at the kept nodes and the energy
 //! balance max |H − H0 − W| for forces; the multipliers (constraint force −Gᵀλ) and the
-//! residual max |g(q)| at the kept nodes for constraints. A forced run at fixed steps with
-//! `saveat`, dense output or events goes through the recorder of every run (`forced.rs`).
-//! What these runs do not do yet (events, `saveat` and dense output with constraints or with
-//! forces in energy mode, a Python potential) is refused with a message rather than dropped,
-//! by the table of `femvi_cli::problem::capabilities`.
+//! residual max |g(q)| at the kept nodes for constraints. A forced or constrained run at fixed
+//! steps with `saveat`, dense output or events goes through the recorder of every run
+//! (`recorded.rs`). What these runs do not do yet (events, `saveat` and dense output with forces
+//! in energy mode, a Python potential) is refused with a message rather than dropped, by the
+//! table of `femvi_cli::problem::capabilities`.
 
 use crate::run::{Extras, Run};
 use femvi::constraints::{solve_constrained_forced, solve_constrained_with, ConstrainedSolution};
@@ -58,15 +58,10 @@ impl Tables {
         }
         if samples || events {
             problem.refuse(Use::SaveatOrDense, "femvi.solve").map_err(named)?;
-            if let (Some(force), None) = (&self.force, &self.constraints) {
-                // Forces at fixed steps: the run of the forced integrator with the recorder.
-                let (r, work) = femvi_cli::with_system!(&problem.system, l => crate::forced::run(l.clone(), force, problem, path, extras))?;
-                let added = Added {
-                    work: Some(work),
-                    constraints: None,
-                };
-                return Ok((r, added));
-            }
+            // Fixed steps: the run of the integrator with the terms, through the recorder.
+            let terms = (self.force.as_ref(), self.constraints.as_ref());
+            let (r, added) = femvi_cli::with_system!(&problem.system, l => crate::recorded::run(l.clone(), terms, problem, path, extras))?;
+            return Ok((r, added));
         }
         let mut options = problem.solve_options(extras.every.unwrap_or(problem.every));
         options.max_steps = extras.max_steps;

@@ -102,8 +102,6 @@ def test_forced_saveat_dense_and_events():
 
 def test_options_these_runs_do_not_take_are_refused():
     path = EXAMPLES / "forces" / "damped-oscillator.toml"
-    with pytest.raises(femvi.InputError, match="saveat"):
-        femvi.solve(EXAMPLES / "constrained" / "spherical-pendulum.toml", saveat=[1.0])
     with pytest.raises(femvi.InputError, match="events"):
         femvi.solve(EXAMPLES / "forces" / "damped-oscillator-energy.toml", events=[lambda t, q, v: q[0]])
     with pytest.raises(femvi.InputError, match="saveat"):
@@ -118,6 +116,31 @@ def test_options_these_runs_do_not_take_are_refused():
     full = femvi.solve(path, every=1)
     assert list(cut.t) == [full.t[k] for k in (0, 3, 6, 9, 10)]
     assert same(cut.work, full.work[[0, 3, 6, 9, 10]])
+
+
+def test_constrained_saveat_dense_and_events():
+    # Issue 33: a constrained run is the one integrator with the constraints as its term, so
+    # it takes saveat, dense output and events (on its element polynomials); its nodes, the
+    # multipliers and the residuals are those of the plain solve, bit for bit.
+    for name in ("spherical-pendulum", "damped-spherical-pendulum"):
+        path = EXAMPLES / "constrained" / f"{name}.toml"
+        plain = femvi.solve(path, t_span=(0.0, 4.0), every=3)
+        cross = femvi.Event(lambda t, q, v: q[0], name="cross")
+        sol = femvi.solve(path, t_span=(0.0, 4.0), every=3, saveat=[0.5, 1.5, 3.25], dense=True, events=[cross])
+        assert same(sol.t, plain.t) and same(sol.q, plain.q) and same(sol.p, plain.p)
+        assert same(sol.energy, plain.energy)
+        assert same(sol.multipliers, plain.multipliers) and same(sol.constraint_residual, plain.constraint_residual)
+        assert sol.max_constraint_residual == plain.max_constraint_residual
+        if plain.work is not None:
+            assert same(sol.work, plain.work)
+            assert sol.max_rel_energy_balance_error == plain.max_rel_energy_balance_error
+        assert len(sol.events) >= 2
+        for e in sol.events:
+            assert abs(e["q"][0]) < 1e-12 and abs(np.linalg.norm(e["q"]) - 1.0) < 1e-5
+        assert np.abs(np.linalg.norm(sol.saved.q, axis=1) - 1.0).max() < 1e-5
+        ts = np.linspace(0.0, 4.0, 41)
+        assert np.abs(np.linalg.norm(sol.q_at(ts), axis=1) - 1.0).max() < 1e-5
+        assert same(sol.q_at(sol.t), sol.q)
 
 
 def test_forced_ensemble_members_meet_the_closed_form():

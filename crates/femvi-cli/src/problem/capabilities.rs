@@ -6,9 +6,7 @@
 //!
 //! The reasons say which are mathematical (a step whose equations are not derived for the
 //! pair) and which are the remaining seams of issue 33 (forced runs in energy mode are solved
-//! to the end by the library's own run function, outside the streaming run of `femvi run`;
-//! events and Python's saveat and dense output of constrained runs are located on the plain
-//! solution's path, which does not take the constraints' term yet).
+//! to the end by the library's own run function, outside the streaming run of `femvi run`).
 
 use super::terms::Terms;
 use super::Problem;
@@ -101,8 +99,8 @@ impl Use {
 /// The reason shared by the uses that constrained runs and forced runs in energy mode do not
 /// reach yet.
 const SOLVED_TO_THE_END: &str = "these runs are solved to the end by the library's run of the term \
-     (femvi::constraints::solve_constrained_with, the forced energy equation of \
-     femvi::forces::solve_forced), not by the streaming run the option is an observer of (issue 33)";
+     (the forced energy equation of femvi::forces::solve_forced), not by the streaming run the \
+     option is an observer of (issue 33)";
 
 /// The pairs (term present, use) that are refused, with the reason.
 pub const REFUSED: &[(Term, Use, &str)] = &[
@@ -130,13 +128,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         "the study refines fixed steps h, and adaptive steps follow the monitor; use mode = \"fixed\"",
     ),
     (
-        Term::Constraints,
-        Use::ConvergenceL2,
-        "the L² error sums each run's element polynomials as they are solved, and the constrained \
-         run is solved to the end by femvi::constraints::solve_constrained_with, which keeps its \
-         nodes only (issue 33); the final-state errors are measured",
-    ),
-    (
         Term::ForcesInEnergyMode,
         Use::Convergence,
         "the study refines fixed steps h, and in energy mode the energy equation sets each step; use mode = \"fixed\"",
@@ -162,7 +153,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         "the symplecticity check's tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
     ),
     (Term::ForcesInEnergyMode, Use::Events, SOLVED_TO_THE_END),
-    (Term::Constraints, Use::Events, SOLVED_TO_THE_END),
     (
         Term::Adaptive,
         Use::Resume,
@@ -170,7 +160,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     ),
     (Term::ForcesInEnergyMode, Use::Resume, SOLVED_TO_THE_END),
     (Term::ForcesInEnergyMode, Use::SaveatOrDense, SOLVED_TO_THE_END),
-    (Term::Constraints, Use::SaveatOrDense, SOLVED_TO_THE_END),
     (
         Term::Forces,
         Use::PythonPotential,

@@ -80,12 +80,6 @@ fn bad_constrained_input_is_refused() {
             .arg(model("spherical-pendulum")),
         "unknown symbol 'w'",
     );
-    refused(
-        femvi()
-            .args(["convergence", "--steps", "0.1,0.05", "--l2"])
-            .arg(model("spherical-pendulum")),
-        "`femvi convergence --l2` is not available with [constraints]",
-    );
     femvi()
         .args(["run", "--quiet", "--set", "time.mode=\"energy\""])
         .arg(model("spherical-pendulum"))
@@ -147,4 +141,52 @@ fn forces_with_constraints_are_checked_by_their_energy_balance() {
         shown.contains("max |g(q)|") && shown.contains("energy balance"),
         "{shown}"
     );
+}
+
+/// `[[events]]` with `[constraints]` (issue 33: the constrained run is the one integrator, and
+/// events are located on its element polynomials): the crossings of x = 0 by the spherical
+/// pendulum land on x = 0 to round-off and on the sphere to the method's error, their times
+/// converge with the order of the element (a run at h/2 and h/4 as reference), and the
+/// trajectory keeps its multiplier columns and constraints.json.
+#[test]
+fn events_of_a_constrained_run_are_located_on_its_elements() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(model("spherical-pendulum")).unwrap()
+        + "\n[[events]]\nname = \"cross\"\nwhen = \"x\"\n";
+    let problem = tmp.path().join("sphere-events.toml");
+    std::fs::write(&problem, text).unwrap();
+    let times = |h: f64| -> Vec<f64> {
+        let out = tmp.path().join(format!("out-{h}"));
+        femvi()
+            .args(["run", "--quiet", "--set", "time.end=4.0", "--set"])
+            .arg(format!("time.step={h}"))
+            .arg(&problem)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success();
+        let header = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        assert!(header.starts_with("step,t,x,y,z,p_x,p_y,p_z,energy,lambda_1,residual\n"));
+        assert!(out.join("constraints.json").exists());
+        let events = std::fs::read_to_string(out.join("events.csv")).unwrap();
+        events
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                let x: Vec<f64> = f[3..6].iter().map(|s| s.parse().unwrap()).collect();
+                let r = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+                assert!(x[0].abs() < 1e-12 && (r - 1.0).abs() < 1e-4, "{l}");
+                f[2].parse().unwrap()
+            })
+            .collect()
+    };
+    let (a, b, c) = (times(0.02), times(0.01), times(0.005));
+    assert!(
+        a.len() >= 2 && a.len() == b.len() && b.len() == c.len(),
+        "{a:?} {b:?} {c:?}"
+    );
+    let gap = |x: &[f64], y: &[f64]| x.iter().zip(y).fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
+    let (g1, g2) = (gap(&a, &c), gap(&b, &c));
+    assert!(g1 < 1e-5 && g1 / g2 > 6.0, "{g1:e} {g2:e}");
 }

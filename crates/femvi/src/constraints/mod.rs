@@ -63,7 +63,10 @@
 //! (symplectic coordinates on the tangent space of T*N), `chaos_run.rs` (a run carrying
 //! tangent vectors, for [`crate::chaos::constrained_indicators`]); `bvp.rs` (constrained
 //! two-point boundary value problems, [`solve_constrained_bvp`], with `bvp_assembly.rs`,
-//! `bvp_newton.rs` and `bvp_finish.rs`; with forces `bvp_forced.rs`).
+//! `bvp_newton.rs` and `bvp_finish.rs`; with forces `bvp_forced.rs`); `term.rs` (the
+//! constraints as a term of the one integrator, [`crate::Integrator::with_constraints`], which
+//! every constrained run drives) and `observed.rs` (constrained runs with `saveat`, dense
+//! output, events and observers, [`solve_constrained_observed`]).
 
 mod bvp;
 mod bvp_assembly;
@@ -76,6 +79,7 @@ mod expr;
 mod forced;
 mod jet;
 mod layout;
+mod observed;
 mod project;
 mod rattle;
 mod small;
@@ -92,6 +96,7 @@ pub(crate) use chaos_run::ManifoldRun;
 pub use expr::ExprConstraints;
 pub use forced::{solve_constrained_forced, ForcedConstrainedSolution};
 pub use layout::Enforcement;
+pub use observed::{solve_constrained_forced_observed, solve_constrained_observed};
 pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};
 pub use tangent::{manifold_symplecticity, ManifoldSymplecticity};
 pub use term::NodeConstraints;

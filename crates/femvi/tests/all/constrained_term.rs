@@ -216,3 +216,61 @@ fn a_start_off_the_manifold_is_refused_as_by_the_constrained_run() {
     assert_eq!(err.to_string(), reference.to_string());
     assert!(err.to_string().contains("violates the constraints"));
 }
+
+/// `solve_constrained_observed`: the same nodes as `solve_constrained_with`, bit for bit, with
+/// events, `saveat` and dense output on the constrained element polynomials. The crossings of
+/// x = 0 are located to round-off in x, on the sphere to the method's error, and agree with a
+/// run at a quarter of the step to its order (the difference shrinks like h⁴).
+#[test]
+fn events_saveat_and_dense_output_of_a_constrained_run() {
+    use femvi::constraints::solve_constrained_observed;
+    use femvi::solution::Event;
+    let (lag, sphere) = models::chain(3, 1, 1.0, 9.81, 1.0).unwrap();
+    let problem = Problem::new(lag.clone(), sphere_start(), 0.0, 4.0);
+    let element = Element::with_order(4).unwrap();
+    let run = |h: f64| {
+        let options = SolveOptions {
+            events: vec![Event::new("x = 0", |_t, q: &[f64], _v: &[f64]| q[0])],
+            saveat: vec![0.5, 1.25, 3.0],
+            dense: true,
+            ..SolveOptions::step(h)
+        };
+        solve_constrained_observed(&problem, &sphere, &element, &options, Enforcement::Weak, &mut []).unwrap()
+    };
+    let (coarse, fine, finer) = (run(0.02), run(0.01), run(0.005));
+    let plain = solve_constrained_with(
+        &problem,
+        &sphere,
+        &element,
+        &SolveOptions::step(0.02),
+        Enforcement::Weak,
+    )
+    .unwrap();
+    assert_eq!(bits(&coarse.q), bits(&plain.solution.q));
+    assert_eq!(bits(&coarse.p), bits(&plain.solution.p));
+    assert_eq!(bits(&coarse.energy), bits(&plain.solution.energy));
+    assert!(coarse.events.len() >= 2, "{} events", coarse.events.len());
+    for e in &coarse.events {
+        let r = (e.q[0] * e.q[0] + e.q[1] * e.q[1] + e.q[2] * e.q[2]).sqrt();
+        assert!(e.q[0].abs() < 1e-12 && (r - 1.0).abs() < 1e-5, "{e:?}");
+    }
+    let gap = |a: &femvi::Solution, b: &femvi::Solution| {
+        assert_eq!(a.events.len(), b.events.len());
+        a.events
+            .iter()
+            .zip(&b.events)
+            .fold(0.0f64, |m, (x, y)| m.max((x.t - y.t).abs()))
+    };
+    let (g1, g2) = (gap(&coarse, &finer), gap(&fine, &finer));
+    // Order 4: halving h divides the error by 16; allow 8 to 24 (the finest run is not exact).
+    assert!(g1 / g2 > 8.0 && g1 / g2 < 24.0 && g1 < 1e-5, "{g1:e} {g2:e}");
+    assert_eq!(coarse.saved.t, vec![0.5, 1.25, 3.0]);
+    let dense = coarse.dense.as_ref().expect("dense output");
+    for (i, &t) in coarse.saved.t.iter().enumerate() {
+        let (mut q, mut v) = (vec![0.0; 3], vec![0.0; 3]);
+        dense.state_at(t, &mut q, &mut v).unwrap();
+        assert_eq!(bits(&q), bits(&coarse.saved.q[i * 3..(i + 1) * 3]));
+        let r = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!((r - 1.0).abs() < 1e-5, "|q({t})| = {r}");
+    }
+}
