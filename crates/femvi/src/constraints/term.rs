@@ -179,6 +179,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
             element,
             stepper,
             forcing: parts.forcing,
+            synced: true,
             q: on.q.clone(),
             p: on.p.clone(),
             v: on.v,
@@ -217,7 +218,9 @@ struct ConstrainedTerm<'a, L, C> {
     element: &'a Element,
     stepper: Stepper,
     forcing: Option<Box<dyn NodeForce + Send + 'a>>,
-    /// The node as the stepper moves it: q_k, p_k and the projection's velocity v_k.
+    /// The node as the stepper moves it: q_k, p_k and the projection's velocity v_k; `synced`
+    /// while they are the integrator's node (false after a restore).
+    synced: bool,
     q: Vec<f64>,
     p: Vec<f64>,
     v: Vec<f64>,
@@ -242,9 +245,14 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
         out: &mut Increments,
     ) -> Result<usize> {
         let n = state.n;
-        // The integrator's node: the same bits as the stepper's own after each step.
-        self.q.copy_from_slice(&state.q);
-        self.p.copy_from_slice(&state.p);
+        // The integrator's node: after a step of this term it is the stepper's own node, bit
+        // for bit (the same compensated sum; the momentum set); after a restore it is read
+        // here. Element by element: a few numbers, not worth a call to memmove per step.
+        if !self.synced {
+            copy(&mut self.q, &state.q);
+            copy(&mut self.p, &state.p);
+            self.synced = true;
+        }
         let (lag, con, element) = (self.lag, self.con, self.element);
         let term = self.forcing.as_ref().map(|f| f.term());
         let times = (state.k, state.t, h, t_next);
@@ -256,9 +264,12 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
         let x = self.stepper.unknowns();
         let rows = out.incr.len() / n - 1;
         let (zero, rest) = out.incr.split_at_mut(n);
-        zero.fill(0.0);
-        rest.copy_from_slice(x.get(..rows * n).ok_or_else(|| invalid("constraints", "step layout"))?);
-        out.dq.copy_from_slice(&rest[(rows - 1) * n..]);
+        zero.iter_mut().for_each(|z| *z = 0.0);
+        copy(
+            rest,
+            x.get(..rows * n).ok_or_else(|| invalid("constraints", "step layout"))?,
+        );
+        copy(&mut out.dq, &rest[(rows - 1) * n..]);
         for ((d, a), b) in out.dp.iter_mut().zip(&self.p).zip(&state.p) {
             *d = a - b;
         }
@@ -291,6 +302,7 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
     }
 
     fn load(&mut self, r: &mut Reader<'_>, _last: &LastElement) -> Result<()> {
+        self.synced = false;
         self.stepper.load(r)?;
         r.fs(&mut self.v)?;
         self.max_residual.set(r.f()?);
@@ -345,4 +357,10 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
     fn defect(&self) -> Option<f64> {
         self.defect
     }
+}
+
+/// `dst = src` element by element (slices of a few numbers: no call to memmove).
+#[inline(always)]
+fn copy(dst: &mut [f64], src: &[f64]) {
+    dst.iter_mut().zip(src).for_each(|(d, s)| *d = *s);
 }

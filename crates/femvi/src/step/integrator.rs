@@ -296,9 +296,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         let work = self.work + term.element_work();
         self.state.commit(&mut self.last, &mut self.inc, true, h, t_next)?;
         if let Some(p) = term.momentum() {
-            // Set, not summed: the projection onto T*N of a constrained step.
-            self.state.p.copy_from_slice(p);
-            self.state.comp_p.fill(0.0);
+            // Set, not summed: the projection onto T*N of a constrained step (element by
+            // element: a few numbers, not worth a call to memmove).
+            self.state.p.iter_mut().zip(p).for_each(|(a, b)| *a = *b);
+            self.state.comp_p.iter_mut().for_each(|c| *c = 0.0);
         }
         self.work = work;
         Ok(true)
