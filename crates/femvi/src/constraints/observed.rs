@@ -1,4 +1,4 @@
-//! Constrained runs through the recorder of every run ([`crate::solve_with`]): the one
+//! Constrained runs through the recorder of every run ([`crate::solution::solve_with`]): the one
 //! integrator with the constraints as its term (`term.rs`) driven with `saveat`, dense output,
 //! events and the caller's observers, so that the samples, the dense output and the event
 //! times come from the constrained element polynomials. The nodes are those of
@@ -18,7 +18,7 @@ use crate::solution::{grid, solve_on, Problem, Solution, SolveOptions, Steps};
 use crate::step::{Integrator, Observer};
 
 /// Solves a constrained problem as [`super::solve_constrained_with`] does, through the
-/// recorder of [`crate::solve_with`]: `saveat`, `dense` and `events` of `options` are sampled
+/// recorder of [`crate::solution::solve_with`]: `saveat`, `dense` and `events` of `options` are sampled
 /// and located on the constrained element polynomials, and `observers` see every node.
 ///
 /// # Errors

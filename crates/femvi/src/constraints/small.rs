@@ -59,6 +59,12 @@ pub(crate) fn conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -
     if n < m || !g.iter().all(|x| x.is_finite()) {
         return 0.0;
     }
+    if m == 1 {
+        // One row: no rotation, the ratio of its norm to itself (what the sweeps below give,
+        // without copying the row).
+        let s = dot(&g[..n], &g[..n]).sqrt();
+        return if s > 0.0 && s.is_finite() { 1.0 } else { 0.0 };
+    }
     let a = &mut scratch[..m * n];
     a.copy_from_slice(&g[..m * n]);
     for _sweep in 0..30 {
