@@ -11,7 +11,6 @@
 //! report them (their nodes are the same, bit for bit).
 
 use crate::run::{run_on, Extras, Run};
-use crate::tables::Added;
 use femvi::constraints::{solve_constrained_forced_observed, solve_constrained_observed, Enforcement, ExprConstraints};
 use femvi::forces::solve_forced_with;
 use femvi::step::Observer;
@@ -19,6 +18,16 @@ use femvi::{Integrator, Lagrangian};
 use femvi_cli::problem::forces::ProblemForce;
 use femvi_cli::problem::Problem;
 use std::path::Path;
+
+/// What a forced or constrained run adds to the solution.
+#[derive(Debug, Default)]
+pub struct Added {
+    /// Forces: W_k at the kept nodes, and the balance (absolute, relative to |H_0|).
+    pub work: Option<(Vec<f64>, f64, f64)>,
+    /// Constraints: their number m, the multipliers (kept nodes × m), max |g(q)| at each kept
+    /// node and over every node.
+    pub constraints: Option<(usize, Vec<f64>, Vec<f64>, f64)>,
+}
 
 /// W at the kept nodes, max |H − H0 − W| over every node, the same relative to |H0|.
 pub type Work = (Vec<f64>, f64, f64);

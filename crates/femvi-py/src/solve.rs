@@ -7,8 +7,9 @@
 
 use crate::arrays::{index1, rows, vec1};
 use crate::input_error;
+use crate::recorded::Added;
 use crate::run::{load_any, run, Extras, Run};
-use crate::tables::{Added, Tables};
+use crate::tables::Tables;
 use femvi::solution::DenseOutput;
 use femvi_cli::problem::capabilities::Use;
 use numpy::PyReadonlyArray1;

@@ -9,6 +9,7 @@
 //! in energy mode, a Python potential) is refused with a message rather than dropped, by the
 //! table of `femvi_cli::problem::capabilities`.
 
+use crate::recorded::Added;
 use crate::run::{Extras, Run};
 use femvi::constraints::{solve_constrained_forced, solve_constrained_with, ConstrainedSolution};
 use femvi::constraints::{Enforcement, ExprConstraints};
@@ -18,16 +19,6 @@ use femvi_cli::problem::capabilities::Use;
 use femvi_cli::problem::forces::ProblemForce;
 use femvi_cli::problem::Problem;
 use std::path::Path;
-
-/// What a forced or constrained run adds to the solution.
-#[derive(Debug, Default)]
-pub struct Added {
-    /// Forces: W_k at the kept nodes, and the balance (absolute, relative to |H_0|).
-    pub work: Option<(Vec<f64>, f64, f64)>,
-    /// Constraints: their number m, the multipliers (kept nodes × m), max |g(q)| at each kept
-    /// node and over every node.
-    pub constraints: Option<(usize, Vec<f64>, Vec<f64>, f64)>,
-}
 
 /// The tables of a loaded problem.
 pub struct Tables {

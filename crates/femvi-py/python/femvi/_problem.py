@@ -128,10 +128,10 @@ def to_dict(problem: Any, run: Optional[Mapping[str, Any]] = None) -> Tuple[Dict
     """The problem as a dict and the file it came from (None for text, a dict or a System);
     ``run``: :func:`femvi.solve`'s run keywords (a System's monitor is written in adaptive mode)."""
     from ._core import InputError
-    from ._system import System
 
-    if isinstance(problem, System):
-        return problem.to_dict(adaptive=(run or {}).get("mode") == "adaptive"), None
+    tables = getattr(problem, "_problem_tables", None)
+    if callable(tables):  # a femvi.System (which imports this module, not the other way)
+        return tables(adaptive=(run or {}).get("mode") == "adaptive"), None
     if isinstance(problem, Mapping):
         return copy.deepcopy(dict(problem)), None
     if isinstance(problem, os.PathLike) or (isinstance(problem, str) and not _looks_like_toml(problem)):

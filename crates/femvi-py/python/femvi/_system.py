@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any, Dict, List, Mapping, Optional, Sequence
 
 from ._core import InputError
-from ._problem import dumps
+from ._problem import apply_run, dumps
 from ._sympy import coordinate_name, is_sympy, to_expression
 
 
@@ -119,6 +119,10 @@ class System:
             d["time"] = {"monitor": self.monitor}
         return d
 
+    def _problem_tables(self, adaptive: bool = False) -> Dict[str, Any]:
+        """The hook by which the problem-file layer (``_problem.py``) reads a System."""
+        return self.to_dict(adaptive=adaptive)
+
     def to_toml(self, **run: Any) -> str:
         """The system's problem file. With :func:`femvi.solve`'s keywords (``q0``, ``v0`` or
         ``p0``, ``t_span``, ``dt``, ``degree`` or ``order``, ...) it is a complete file that
@@ -143,8 +147,6 @@ class System:
         step = 0.1
         <BLANKLINE>
         """
-        from ._problem import apply_run
-
         d = self.to_dict(adaptive=run.get("mode") == "adaptive")
         apply_run(d, **run)
         return dumps(d)

@@ -26,46 +26,18 @@
 
 use super::bvp_assembly::{Assembly, Numbering};
 use super::bvp_finish::finish;
+pub use super::bvp_finish::ConstrainedBvpSolution;
 use super::bvp_newton::{inf_norm, newton};
-use super::forced::NodeForce;
+use super::forcing::NodeForce;
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
-use super::solve::{MAX_COORDINATES, RANK_TOLERANCE, START_TOLERANCE};
+use super::limits::{MAX_COORDINATES, RANK_TOLERANCE, START_TOLERANCE};
 use super::Constraints;
-use crate::bvp::{BoundaryValues, BvpOptions, BvpSolution, MAX_JACOBIAN_ENTRIES};
+use crate::bvp::{BoundaryValues, BvpOptions, MAX_JACOBIAN_ENTRIES};
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result, StepError};
 use crate::lagrangian::Lagrangian;
 use crate::solve::{BandMatrix, NewtonFailure};
-
-/// A solved constrained boundary value problem.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ConstrainedBvpSolution {
-    /// Times, positions, momenta (on T*N) at the element ends, all nodal values, the discrete
-    /// action, the residual (max over all equations: node rows, constraints, interior
-    /// constraint rows) and the Newton iterations.
-    pub solution: BvpSolution,
-    /// Number of constraints m.
-    pub m: usize,
-    /// Velocities at the element ends (those of the projected momenta), row-major (N+1)×n.
-    pub v: Vec<f64>,
-    /// The multipliers λ of the exact flow at each element end state (as the initial value
-    /// run reports them; −G(q)ᵀλ is the constraint force), row-major (N+1)×m.
-    pub multipliers: Vec<f64>,
-    /// The node multipliers ν_1 … ν_{N−1} of the augmented action (impulses: −G(q_k)ᵀν_k is
-    /// the constraint impulse at q_k; for degree 1, ν_k ≈ h λ; for higher degrees the
-    /// interior multipliers of the elements carry most of the constraint force), row-major
-    /// (N−1)×m.
-    pub impulses: Vec<f64>,
-    /// ‖g(q)‖∞ at each element end.
-    pub residual: Vec<f64>,
-    /// ‖G(q) v‖∞ (the hidden constraint) at each element end.
-    pub hidden_residual: Vec<f64>,
-    /// Largest ‖g(q)‖∞ over the element ends.
-    pub max_residual: f64,
-    /// Where the constraints were enforced inside the elements.
-    pub enforcement: Enforcement,
-}
 
 /// [`solve_constrained_bvp_with`] with the default [`Enforcement`] (that of
 /// [`super::solve_constrained`]).

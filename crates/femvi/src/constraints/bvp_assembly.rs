@@ -9,7 +9,7 @@
 //! ν_N. Element k touches its own block and the end (q_k, h·ν_k) of the one before, so the
 //! bandwidth is I m + (s+1) n + m − 1 and a Newton iteration costs O(N).
 
-use super::forced::NodeForce;
+use super::forcing::NodeForce;
 use super::layout::Layout as Sites;
 use super::step::StepSystem;
 use super::Constraints;

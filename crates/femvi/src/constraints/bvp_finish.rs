@@ -4,19 +4,47 @@
 //! last element at t_N, projected onto T*N by module `project`), the velocity, the multiplier
 //! of the exact flow at that state and the constraint residuals.
 
-use super::bvp::ConstrainedBvpSolution;
 use super::bvp_assembly::Assembly;
 use super::bvp_newton::inf_norm;
-use super::forced::NodeForce;
+use super::forcing::NodeForce;
 use super::jet::ConstraintJet;
 use super::layout::Enforcement;
+use super::limits::RANK_TOLERANCE;
 use super::project::{state_multiplier, Projector};
-use super::solve::RANK_TOLERANCE;
 use super::Constraints;
 use crate::bvp::{BvpOptions, BvpSolution};
 use crate::discrete::ElementWork;
 use crate::error::{Error, Result, StepError};
 use crate::lagrangian::Lagrangian;
+
+/// A solved constrained boundary value problem.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConstrainedBvpSolution {
+    /// Times, positions, momenta (on T*N) at the element ends, all nodal values, the discrete
+    /// action, the residual (max over all equations: node rows, constraints, interior
+    /// constraint rows) and the Newton iterations.
+    pub solution: BvpSolution,
+    /// Number of constraints m.
+    pub m: usize,
+    /// Velocities at the element ends (those of the projected momenta), row-major (N+1)×n.
+    pub v: Vec<f64>,
+    /// The multipliers λ of the exact flow at each element end state (as the initial value
+    /// run reports them; −G(q)ᵀλ is the constraint force), row-major (N+1)×m.
+    pub multipliers: Vec<f64>,
+    /// The node multipliers ν_1 … ν_{N−1} of the augmented action (impulses: −G(q_k)ᵀν_k is
+    /// the constraint impulse at q_k; for degree 1, ν_k ≈ h λ; for higher degrees the
+    /// interior multipliers of the elements carry most of the constraint force), row-major
+    /// (N−1)×m.
+    pub impulses: Vec<f64>,
+    /// ‖g(q)‖∞ at each element end.
+    pub residual: Vec<f64>,
+    /// ‖G(q) v‖∞ (the hidden constraint) at each element end.
+    pub hidden_residual: Vec<f64>,
+    /// Largest ‖g(q)‖∞ over the element ends.
+    pub max_residual: f64,
+    /// Where the constraints were enforced inside the elements.
+    pub enforcement: Enforcement,
+}
 
 /// The solution at the unknowns `x`: residual, action, and per element end the position, the
 /// projected momentum, the velocity, the multiplier and the residuals.

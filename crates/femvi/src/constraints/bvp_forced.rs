@@ -7,7 +7,7 @@
 //! are those of the forced flow (F in the right-hand side, module `project`).
 
 use super::bvp::{solve_parts, BvpParts, ConstrainedBvpSolution};
-use super::forced::Forcing;
+use super::forcing::Forcing;
 use super::layout::Enforcement;
 use super::Constraints;
 use crate::bvp::{BoundaryValues, BvpOptions};

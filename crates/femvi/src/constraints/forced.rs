@@ -25,16 +25,15 @@
 //! ([`crate::Integrator::with_constraints_and_force`]). The multipliers reported per node are those of the exact forced flow at the
 //! node state (`project.rs`, with F in the right-hand side).
 
+use super::forcing::Forcing;
 use super::layout::Enforcement;
 use super::solve::{run_terms, ConstrainedSolution};
 use super::Constraints;
-use crate::bvp::ElementTerm;
 use crate::discrete::Element;
 use crate::error::{check_len, Result};
-use crate::forces::{element_forces, EnergyBalance, Force, ForceTerm};
+use crate::forces::{EnergyBalance, Force};
 use crate::lagrangian::Lagrangian;
 use crate::solution::{EnergyReport, Problem, SolveOptions};
-use std::cell::RefCell;
 
 /// A constrained run under non-conservative forces ([`solve_constrained_forced`]).
 #[derive(Debug, Clone)]
@@ -114,46 +113,4 @@ pub fn solve_constrained_forced<L: Lagrangian + Sync, F: Force + Sync, C: Constr
         work: run.work,
         balance: run.balance,
     })
-}
-
-/// What the constrained run needs of a force, without its type.
-pub(super) trait NodeForce {
-    /// The discrete forces as an element term of the step equations.
-    fn term(&self) -> &dyn ElementTerm;
-    /// The work h Σ_i b_i F(c_i)·q̇_h(c_i) of the element [t0, t0 + h] with first node `qk`
-    /// and increments `incr` (Q^j − q_k, j = 0 … s).
-    fn work(&self, element: &Element, t0: f64, h: f64, qk: &[f64], incr: &[f64]) -> f64;
-    /// F(t, q, v) into `out`.
-    fn at(&self, t: f64, q: &[f64], v: &[f64], out: &mut [f64]);
-}
-
-/// A force with its element term and scratch.
-pub(super) struct Forcing<'a, F> {
-    force: &'a F,
-    term: ForceTerm<'a, F>,
-    fd: RefCell<Vec<f64>>,
-}
-
-impl<'a, F: Force> Forcing<'a, F> {
-    /// `force` on elements like `element` in dimension n.
-    pub(super) fn new(force: &'a F, element: &'a Element, n: usize) -> Self {
-        let w = element.nodes().saturating_mul(n);
-        Self {
-            force,
-            term: ForceTerm::new(force, element, w),
-            fd: RefCell::new(vec![0.0; w]),
-        }
-    }
-}
-
-impl<F: Force> NodeForce for Forcing<'_, F> {
-    fn term(&self) -> &dyn ElementTerm {
-        &self.term
-    }
-    fn work(&self, element: &Element, t0: f64, h: f64, qk: &[f64], incr: &[f64]) -> f64 {
-        element_forces(element, self.force, t0, h, qk, incr, &mut self.fd.borrow_mut())
-    }
-    fn at(&self, t: f64, q: &[f64], v: &[f64], out: &mut [f64]) {
-        self.force.force(t, q, v, out);
-    }
 }

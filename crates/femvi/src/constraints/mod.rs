@@ -52,14 +52,16 @@
 //! Which interior enforcement keeps the nodal order 2s was measured on the spherical pendulum
 //! (README, "Holonomic constraints"): [`Enforcement::Weak`] is the default.
 //!
-//! Files: `expr.rs` (constraints from expressions), `jet.rs` (g, G, ∇²g by AD), `layout.rs`
+//! Files: `limits.rs` (the start tolerance, the size limit, the rank tolerance), `expr.rs`
+//! (constraints from expressions), `jet.rs` (g, G, ∇²g by AD), `layout.rs`
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `start.rs` (the checked start of a run),
 //! `solve.rs` (the run), `stepper.rs` (one step), `rattle.rs` (the RATTLE step on the
 //! multipliers, with `small.rs`), `forced.rs` (runs under non-conservative
 //! forces, [`solve_constrained_forced`]: the discrete Lagrange–d'Alembert principle on the
 //! augmented action, with the energy balance),
-//! `tangent.rs` (the step's tangent map, symplecticity on the manifold), `chart.rs`
+//! `forcing.rs` (a force as the constrained step takes it), `tangent.rs` (the step's tangent
+//! map and its defect on the manifold), `symplecticity.rs` ([`manifold_symplecticity`]), `chart.rs`
 //! (symplectic coordinates on the tangent space of T*N), `chaos_run.rs` (a run carrying
 //! tangent vectors, for [`crate::chaos::constrained_indicators`]); `bvp.rs` (constrained
 //! two-point boundary value problems, [`solve_constrained_bvp`], with `bvp_assembly.rs`,
@@ -77,8 +79,10 @@ mod chaos_run;
 mod chart;
 mod expr;
 mod forced;
+mod forcing;
 mod jet;
 mod layout;
+mod limits;
 mod observed;
 mod project;
 mod rattle;
@@ -87,6 +91,7 @@ mod solve;
 mod start;
 mod step;
 mod stepper;
+mod symplecticity;
 mod tangent;
 mod term;
 
@@ -96,9 +101,10 @@ pub(crate) use chaos_run::ManifoldRun;
 pub use expr::ExprConstraints;
 pub use forced::{solve_constrained_forced, ForcedConstrainedSolution};
 pub use layout::Enforcement;
+pub use limits::{MAX_COORDINATES, START_TOLERANCE};
 pub use observed::{solve_constrained_forced_observed, solve_constrained_observed};
-pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution, MAX_COORDINATES, START_TOLERANCE};
-pub use tangent::{manifold_symplecticity, ManifoldSymplecticity};
+pub use solve::{solve_constrained, solve_constrained_with, ConstrainedSolution};
+pub use symplecticity::{manifold_symplecticity, ManifoldSymplecticity};
 pub use term::NodeConstraints;
 
 use crate::lagrangian::Scalar;

@@ -87,7 +87,7 @@ pub fn solve_constrained_forced_observed<L: Lagrangian + Sync, F: Force + Sync, 
     let parts = Constrained {
         constraints,
         enforcement,
-        forcing: Some(Box::new(super::forced::Forcing::new(
+        forcing: Some(Box::new(super::forcing::Forcing::new(
             force,
             element,
             problem.lagrangian.dim(),

@@ -5,7 +5,7 @@
 //! constraint residuals per kept node, and with a force the discrete work and the energy
 //! balance (`forced.rs`).
 
-use super::forced::NodeForce;
+use super::forcing::NodeForce;
 use super::layout::Enforcement;
 use super::start::check_options;
 use super::term::Constrained;
@@ -16,17 +16,6 @@ use crate::forces::EnergyBalance;
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, Solution, SolveOptions};
 use crate::step::Integrator;
-
-/// A start is accepted if ‖g(q0)‖∞ ≤ `START_TOLERANCE` · max(1, ‖q0‖∞²).
-pub const START_TOLERANCE: f64 = 1e-10;
-
-/// The most coordinates a constrained problem may have: the steps are solved by dense Newton
-/// with constraint Hessians by hyper-dual numbers (m n² numbers per point), so memory and time
-/// grow like n³.
-pub const MAX_COORDINATES: usize = 200;
-
-/// Below this ratio of the smallest to the largest singular value, G(q) counts as singular.
-pub(super) const RANK_TOLERANCE: f64 = 1e-12;
 
 /// The result of [`solve_constrained`]: the usual [`Solution`] plus, per kept node, the
 /// multipliers and the residuals of the constraints.

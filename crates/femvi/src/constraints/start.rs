@@ -5,8 +5,8 @@
 
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
+use super::limits::{MAX_COORDINATES, RANK_TOLERANCE, START_TOLERANCE};
 use super::project::Projector;
-use super::solve::{MAX_COORDINATES, RANK_TOLERANCE, START_TOLERANCE};
 use super::Constraints;
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result, StepError};

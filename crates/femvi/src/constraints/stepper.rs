@@ -6,10 +6,10 @@
 //! steps here, so both follow the same nodes.
 
 use super::layout::Layout;
+use super::limits::RANK_TOLERANCE;
 use super::project::Projector;
 use super::rattle::RattleStep;
 use super::small::conditioning;
-use super::solve::RANK_TOLERANCE;
 use super::start::{singular, step_error};
 use super::step::StepSystem;
 use super::tangent::{step_map, StepEnds};

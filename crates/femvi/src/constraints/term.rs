@@ -14,7 +14,7 @@
 //! Lagrange–d'Alembert principle on the augmented action (`forced.rs`), and each element
 //! adds its discrete work to [`Integrator::work`].
 
-use super::forced::{Forcing, NodeForce};
+use super::forcing::{Forcing, NodeForce};
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
 use super::project::state_multiplier;
