@@ -78,14 +78,14 @@ pub fn solve_constrained<L: Lagrangian + Sync, C: Constraints + Sync>(
 
 /// Solves a constrained problem: fixed steps (`Steps::Fixed` or `Steps::Cycle`), nodes kept
 /// by `every`, up to `max_steps`. The start must satisfy the constraints
-/// (‖g(q0)‖∞ ≤ [`START_TOLERANCE`] · max(1, ‖q0‖∞²)); its momentum (∂L/∂v of a start velocity,
+/// (‖g(q0)‖∞ ≤ [`START_TOLERANCE`](super::START_TOLERANCE) · max(1, ‖q0‖∞²)); its momentum (∂L/∂v of a start velocity,
 /// or the start momentum) is projected onto the cotangent space of the manifold, and the size
 /// of that change is reported ([`ConstrainedSolution::start_projection`]). A step that fails
 /// ends the run with the error in `solution.error` (the nodes before it are kept).
 ///
 /// # Errors
 /// [`Error::Dimension`](crate::Error::Dimension) if the constraints and the Lagrangian disagree on n, or the start has
-/// the wrong length; [`Error::Invalid`](crate::Error::Invalid) for m ≥ n or n > [`MAX_COORDINATES`], a start off the
+/// the wrong length; [`Error::Invalid`](crate::Error::Invalid) for m ≥ n or n > [`MAX_COORDINATES`](super::MAX_COORDINATES), a start off the
 /// manifold (naming the residual), a
 /// start from (q0, q1), time steps as variables, `saveat`, `events` or `dense` (not
 /// available with constraints), or invalid solver options; [`Error::SingularConstraints`](crate::Error::SingularConstraints) if
