@@ -48,7 +48,7 @@ use crate::step::{Integrator, Observer};
 /// let sol = solve_constrained_observed(&problem, &sphere, &Element::with_order(4)?, &options, Enforcement::Weak, &mut [])?;
 /// assert!(!sol.events.is_empty() && sol.events[0].q[0].abs() < 1e-10);
 /// assert!(sol.dense.is_some());
-/// # Ok::<(), femvi::Error>(())
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn solve_constrained_observed<L: Lagrangian + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
@@ -107,7 +107,7 @@ fn observed<'a, L: Lagrangian + Sync, C: Constraints + Sync>(
     if let Steps::Energy { .. } = options.steps {
         return Err(invalid(
             "time mode",
-            "time steps as variables are not available with constraints",
+            "time steps as variables with constraints: the energy equation that sets each step is not derived for the augmented action with multipliers; use fixed steps",
         ));
     }
     let grid = grid(problem, &options.steps)?;

@@ -84,7 +84,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
     /// while it.step()? {}
     /// let at_end = it.node_constraints().expect("a constrained run");
     /// assert!(at_end.max_residual < 1e-13 && at_end.multipliers.len() == 1);
-    /// # Ok::<(), femvi::Error>(())
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn with_constraints<C: Constraints + Sync>(
         lag: &'a L,
@@ -132,7 +132,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
     /// let h0 = it.energy()?;
     /// while it.step()? {}
     /// assert!(it.energy()? < h0 && (it.energy()? - h0 - it.work()).abs() < 1e-8);
-    /// # Ok::<(), femvi::Error>(())
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     #[allow(clippy::too_many_arguments)]
     pub fn with_constraints_and_force<C: Constraints + Sync, F: Force + Sync>(
