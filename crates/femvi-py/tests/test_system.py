@@ -267,3 +267,27 @@ def test_adaptive_steps_with_a_sympy_monitor():
     assert "monitor" in femvi.problem_text(kepler, dt=0.01, mode="adaptive", **start)
     fixed = femvi.solve(kepler, dt=0.001, **start)
     assert fixed.error is None and fixed.s is None
+
+
+def test_expression_events_run_compiled_and_agree_with_callables():
+    # The crossings of q1 = 0 upwards, written three ways: a Python callable, a femvi string
+    # and a SymPy expression in the dynamicsymbols. The expressions become the problem file's
+    # [[events]] (compiled); all three locate the same times.
+    system = double_pendulum_system()
+    q1 = system._given[0]
+    run = dict(DP_RUN, t_span=(0.0, 20.0))
+    by_callable = femvi.solve(system, events=[femvi.Event(lambda t, q, v: q[0], direction="rising", name="cb")], **run)
+    by_string = femvi.solve(system, events=[femvi.Event("q1", direction="rising")], **run)
+    t = dynamicsymbols._t
+    by_sympy = femvi.solve(system, events=[femvi.Event(q1 + 0 * q1.diff(t), direction="rising", name="sym"),
+                                           femvi.Event("q2 - 10", name="never")], **run)
+    times = [np.array([e["t"] for e in s.events if e["name"] != "never"]) for s in (by_callable, by_string, by_sympy)]
+    assert len(times[0]) >= 3 and all(len(x) == len(times[0]) for x in times)
+    assert np.abs(times[1] - times[0]).max() < 1e-12 and np.abs(times[2] - times[0]).max() < 1e-12
+    assert [e["name"] for e in by_string.events] == ["event1"] * len(times[1])
+    assert all(e["from_file"] for e in by_string.events) and not any(e["from_file"] for e in by_callable.events)
+    assert same(by_string.q, by_callable.q)  # events do not change the nodes
+    with pytest.raises(TypeError, match="callable"):
+        femvi.Event(3.0)
+    with pytest.raises(femvi.InputError, match="besselj"):
+        femvi.solve(system, events=[femvi.Event(sp.besselj(0, q1))], **run)

@@ -112,6 +112,12 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
     True
     """
     evs = [e if isinstance(e, Event) else Event(e) for e in (events or [])]
+    # Expression events go into the problem file as [[events]] (compiled, located as the
+    # command locates them); callables stay Python's.
+    given = getattr(problem, "_given", [])
+    compiled = [e._table(given, e.name if e.name != "event" else f"event{i + 1}")
+                for i, e in enumerate(evs) if e.expression]
+    evs = [e for e in evs if not e.expression]
     run = split_run(dict(q0=q0, v0=v0, p0=p0, t_span=t_span, dt=dt, degree=degree, order=order,
                          quadrature=quadrature, points=points, nodes=nodes, method=method, mode=mode))
     merged = _merge(overrides, kw)
@@ -121,6 +127,11 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
             raise TypeError("potential= and force= go together (V(q) and -grad V(q))")
         problem, merged = _python_system(problem, merged), {}
         system = (potential, force, None if masses is None else [float(m) for m in masses])
+    if compiled:
+        problem, _ = to_dict(problem, run)
+        apply_overrides(problem, merged)
+        problem["events"] = list(problem.get("events", [])) + compiled
+        merged = {}
     with problem_file(problem, merged, run) as (path, shown):
         try:
             raw = _core.solve_file(str(path), every=every, saveat=None if saveat is None else

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from types import SimpleNamespace
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -226,25 +226,43 @@ class Solution:
 
 
 class Event:
-    """An event for :func:`femvi.solve`: the zeros of ``g(t, q, v) -> float`` (q and v NumPy
-    arrays), located on the finite element solution. ``direction``: "rising", "falling" or
-    "both"; ``stop``: end the run at the first one. Located events are ``sol.events`` (dicts
-    with name, event index, step, t, q, v, p; ``sol.to_pandas("events")`` as a table).
+    """An event for :func:`femvi.solve`: the zeros of g(t, q, v), located on the finite
+    element solution. ``g``: a callable ``g(t, q, v) -> float`` (q and v NumPy arrays), or an
+    expression — a femvi expression string or a SymPy expression in t, the coordinates and
+    their velocities (``NAME_dot``, or q(t).diff(t) for dynamicsymbols) — which runs compiled,
+    as a problem file's ``[[events]]`` (``when``), without a Python call per node.
+    ``direction``: "rising", "falling" or "both"; ``stop``: end the run at the first one.
+    Located events are ``sol.events`` (dicts with name, event index, step, t, q, v, p;
+    ``sol.to_pandas("events")`` as a table).
 
     >>> import math, femvi
     >>> down = femvi.Event(lambda t, q, v: q[0], direction="falling", stop=True, name="down")
     >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 5.0), dt=0.01, events=[down])
     >>> bool(abs(sol.events[0]["t"] - math.pi / 2) < 1e-8), bool(sol.t[-1] < 5.0)
     (True, True)
+    >>> up = femvi.Event("x_dot", direction="falling", name="top")   # compiled: x at its maximum
+    >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 7.0), dt=0.01, events=[up])
+    >>> [round(e["t"], 6) for e in sol.events]                        # t = 2 pi
+    [6.283185]
     """
 
     def __init__(self, g: Any, direction: str = "both", stop: bool = False, name: Optional[str] = None):
-        if not callable(g):
-            raise TypeError("an event needs a callable g(t, q, v)")
+        from ._sympy import is_sympy
+
+        self.expression = isinstance(g, str) or is_sympy(g)
+        if not callable(g) and not self.expression:
+            raise TypeError("an event needs a callable g(t, q, v), a femvi expression string or a SymPy expression")
         self.g = g
         self.direction = direction
         self.stop = bool(stop)
-        self.name = name if name is not None else getattr(g, "__name__", "event")
+        self.name = name if name is not None else ("event" if self.expression else getattr(g, "__name__", "event"))
+
+    def _table(self, coordinates: Sequence[Any], name: str) -> Dict[str, Any]:
+        """The event as a problem file's ``[[events]]`` table (an expression event)."""
+        from ._sympy import to_expression
+
+        when = to_expression(self.g, coordinates, f"event {name!r}")
+        return {"name": name, "when": when, "direction": self.direction, "stop": self.stop}
 
     def _spec(self):
         return (self.name, self.g, self.direction, self.stop)
