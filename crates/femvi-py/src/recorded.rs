@@ -197,14 +197,7 @@ pub fn run<L: Lagrangian + Sync>(
         if constraints.is_some() {
             added.constraints = Some(at.finish(&sol.step));
         }
-        let max_rel_energy_error = sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error);
-        Ok(Run {
-            sol,
-            max_rel_energy_error,
-            message: None,
-            event_names: vec![],
-            file_events: 0,
-        })
+        Ok(Run::of(sol))
     })?;
     Ok((r, added))
 }

@@ -35,6 +35,21 @@ pub struct Run {
     pub file_events: usize,
 }
 
+impl Run {
+    /// The run of a library solution: its energy report's largest relative error, no events
+    /// named yet ([`run_on`] names them).
+    pub fn of(sol: Solution) -> Self {
+        let max_rel_energy_error = sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error);
+        Run {
+            sol,
+            max_rel_energy_error,
+            message: None,
+            event_names: vec![],
+            file_events: 0,
+        }
+    }
+}
+
 /// Loads `path` as `femvi run` does (the message of a bad file is the command's), for
 /// ensembles: what the capability table refuses for them (forces in energy mode) is refused.
 pub fn load(path: &Path) -> Result<Problem, String> {
@@ -99,14 +114,7 @@ pub fn run_with<L: Lagrangian>(lag: L, problem: &Problem, options: &SolveOptions
         Err(femvi::Error::Step(e)) => return Ok(first_element_failed(n, e)),
         Err(e) => return Err(e),
     };
-    let max_rel_energy_error = sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error);
-    Ok(Run {
-        sol,
-        max_rel_energy_error,
-        message: None,
-        event_names: vec![],
-        file_events: 0,
-    })
+    Ok(Run::of(sol))
 }
 
 /// The run of a start from (q0, q1) whose first element failed.

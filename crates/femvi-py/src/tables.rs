@@ -91,17 +91,7 @@ impl Tables {
                 })
             }
         };
-        let max_rel_energy_error = sol.energy_report.map_or(f64::NAN, |r| r.max_rel_error);
-        Ok((
-            Run {
-                sol,
-                max_rel_energy_error,
-                message: None,
-                event_names: vec![],
-                file_events: 0,
-            },
-            added,
-        ))
+        Ok((Run::of(sol), added))
     }
 }
 

@@ -58,12 +58,7 @@ pub fn solve_constrained_observed<L: Lagrangian + Sync, C: Constraints + Sync>(
     enforcement: Enforcement,
     observers: &mut [&mut dyn Observer<L>],
 ) -> Result<Solution> {
-    let parts = Constrained {
-        constraints,
-        enforcement,
-        forcing: None,
-        tangent: false,
-    };
+    let parts = Constrained::new(constraints, enforcement, None);
     observed(problem, element, options, parts, observers)
 }
 
@@ -84,16 +79,15 @@ pub fn solve_constrained_forced_observed<L: Lagrangian + Sync, F: Force + Sync, 
     observers: &mut [&mut dyn Observer<L>],
 ) -> Result<Solution> {
     crate::error::check_len("force", problem.lagrangian.dim(), force.dim())?;
-    let parts = Constrained {
+    let parts = Constrained::new(
         constraints,
         enforcement,
-        forcing: Some(Box::new(super::forcing::Forcing::new(
+        Some(Box::new(super::forcing::Forcing::new(
             force,
             element,
             problem.lagrangian.dim(),
         ))),
-        tangent: false,
-    };
+    );
     observed(problem, element, options, parts, observers)
 }
 

@@ -95,12 +95,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         constraints: &'a C,
         enforcement: Enforcement,
     ) -> Result<Self> {
-        let parts = Constrained {
-            constraints,
-            enforcement,
-            forcing: None,
-            tangent: false,
-        };
+        let parts = Constrained::new(constraints, enforcement, None);
         Self::constrained(lag, element, grid, start_at, opts, parts)
     }
 
@@ -146,12 +141,11 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         force: &'a F,
     ) -> Result<Self> {
         check_len("force", lag.dim(), force.dim())?;
-        let parts = Constrained {
+        let parts = Constrained::new(
             constraints,
             enforcement,
-            forcing: Some(Box::new(Forcing::new(force, element, lag.dim()))),
-            tangent: false,
-        };
+            Some(Box::new(Forcing::new(force, element, lag.dim()))),
+        );
         Self::constrained(lag, element, grid, start_at, opts, parts)
     }
 
@@ -209,6 +203,22 @@ pub(super) struct Constrained<'a, C> {
     pub forcing: Option<Box<dyn NodeForce + Send + 'a>>,
     /// Whether the steps' symplecticity defect is measured.
     pub tangent: bool,
+}
+
+impl<'a, C> Constrained<'a, C> {
+    /// The parts of a run without the symplecticity measurement.
+    pub(super) fn new(
+        constraints: &'a C,
+        enforcement: Enforcement,
+        forcing: Option<Box<dyn NodeForce + Send + 'a>>,
+    ) -> Self {
+        Self {
+            constraints,
+            enforcement,
+            forcing,
+            tangent: false,
+        }
+    }
 }
 
 /// The constrained step (`stepper.rs`) as a term.
