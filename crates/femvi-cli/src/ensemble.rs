@@ -72,12 +72,7 @@ fn drive_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
         (None, None) => Integrator::new(lag, el, grid, start, opts),
         (None, Some(force)) => Integrator::with_force(lag, el, grid, start, opts, force),
         (Some(e), None) => Integrator::with_energy(lag, el, grid, start, opts, e),
-        (Some(_), Some(_)) => {
-            // Refused by the capability table before any member runs; never run without the force.
-            let why = crate::problem::capabilities::Use::Ensemble;
-            let e = problem.refuse(why, "femvi ensemble").err().unwrap_or_default();
-            return Member::failed(n, problem.grid.t0(), e);
-        }
+        (Some(e), Some(force)) => Integrator::with_force_energy(lag, el, grid, start, opts, force, e),
     };
     let mut it = match made {
         Ok(it) => it,

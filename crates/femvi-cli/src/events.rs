@@ -44,7 +44,7 @@ pub fn run<L: Lagrangian + Clone + Sync>(
     let options = solve_options(problem);
     std::fs::create_dir_all(dir)?;
     let mut recorders = Recorders::attach(problem, dir, out, lag.dim())?;
-    let mut at_end = AtEnd(None);
+    let mut at_end = AtEnd::default();
     let solved = {
         let mut observers = recorders.observers();
         observers.push(&mut at_end);
@@ -68,7 +68,7 @@ pub fn run<L: Lagrangian + Clone + Sync>(
         Err(e) => return Ok(Outcome::Rejected(e.to_string())),
     };
     write_events(dir, problem, &sol.events)?;
-    if let Some(at) = &at_end.0 {
+    if let Some(at) = &at_end.constraints {
         crate::constrained::write_json(dir, problem, at)?;
     }
     if out.plots {
@@ -82,6 +82,7 @@ pub fn run<L: Lagrangian + Clone + Sync>(
         p: sol.p_row(last).map(<[f64]>::to_vec).unwrap_or_default(),
         mean_iterations: sol.mean_iterations,
         stats: sol.energy_stats,
+        discrete_balance: at_end.discrete_balance,
         error: sol.error.as_ref().map(|e| e.to_string()),
     };
     let mut summary = run_summary(problem, end, &recorders, clock, command);
@@ -95,8 +96,14 @@ pub fn run<L: Lagrangian + Clone + Sync>(
     finish(dir, summary)
 }
 
-/// The constraint quantities at the node a constrained run ends on (for constraints.json).
-struct AtEnd(Option<NodeConstraints>);
+/// What the integrator knows at the node a run ends on: the constraint quantities of a
+/// constrained run (for constraints.json), the discrete energy balance of a forced run in the
+/// energy mode.
+#[derive(Default)]
+struct AtEnd {
+    constraints: Option<NodeConstraints>,
+    discrete_balance: Option<f64>,
+}
 
 impl<L: Lagrangian> Observer<L> for AtEnd {
     fn node(&mut self, _it: &femvi::Integrator<'_, L>, _last: bool) -> femvi::Result<()> {
@@ -104,7 +111,8 @@ impl<L: Lagrangian> Observer<L> for AtEnd {
     }
 
     fn finish(&mut self, it: &femvi::Integrator<'_, L>, _error: Option<&femvi::Error>) -> femvi::Result<()> {
-        self.0 = it.node_constraints();
+        self.constraints = it.node_constraints();
+        self.discrete_balance = it.discrete_balance().map(|b| b.max_rel);
         Ok(())
     }
 }

@@ -86,12 +86,6 @@ pub fn run_as(
         plots: out.plots || problem.plots,
         ..out
     };
-    // Forced runs in energy mode keep their rows until they end (issue 33): the output
-    // estimate refuses them up front like the plain run.
-    let estimate = |out: &RunOutput| match control.resume {
-        false => crate::estimate::check(problem, out, dir, control.max_output, 0),
-        true => Ok(()),
-    };
     if let Some(a) = &problem.terms.adaptive {
         // Adaptive runs keep their rows until they end (and the times at `output_step`, which
         // were allocated before any check: `end = 1e12` aborted): refused up front when the
@@ -107,13 +101,6 @@ pub fn run_as(
             return Ok(Outcome::Rejected(msg));
         }
         return crate::adaptive::run(problem, a, dir, out, command);
-    }
-    if let (Some(f), Some(_)) = (&problem.terms.force, problem.energy) {
-        // Forces with time steps as variables: the forced energy equation's own run.
-        if let Err(msg) = refuse(problem, &out, control.resume).and_then(|()| estimate(&out)) {
-            return Ok(Outcome::Rejected(msg));
-        }
-        return crate::forced::run(problem, f, dir, out, command);
     }
     if problem.terms.force.is_some() || problem.terms.constraints.is_some() {
         if let Err(msg) = refuse(problem, &out, control.resume) {
@@ -194,8 +181,9 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
         (None, Some(f), Some((c, e))) => {
             Integrator::with_constraints_and_force(lag, element, grid, start, opts, c, *e, f)
         }
+        (Some(e), Some(f), _) => Integrator::with_force_energy(lag, element, grid, start, opts, f, e),
         // Constraints with time steps as variables are refused when the problem is loaded.
-        (Some(e), _, _) => Integrator::with_energy(lag, element, grid, start, opts, e),
+        (Some(e), None, _) => Integrator::with_energy(lag, element, grid, start, opts, e),
     };
     let mut it = match made {
         Ok(it) => it,
@@ -246,6 +234,7 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
         p: p.to_vec(),
         mean_iterations: it.mean_iterations(),
         stats: it.energy_stats(),
+        discrete_balance: it.discrete_balance().map(|b| b.max_rel),
         error: report.error.as_ref().map(|e| e.to_string()),
     };
     if let Some(at) = it.node_constraints() {

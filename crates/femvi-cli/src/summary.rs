@@ -124,6 +124,8 @@ pub(crate) struct RunEnd {
     pub(crate) p: Vec<f64>,
     pub(crate) mean_iterations: f64,
     pub(crate) stats: Option<femvi::EnergyStats>,
+    /// The largest relative gap of the discrete energy balance (forces in the energy mode).
+    pub(crate) discrete_balance: Option<f64>,
     pub(crate) error: Option<String>,
 }
 
@@ -164,7 +166,7 @@ pub(crate) fn run_summary(
         events_located: None,
         stopped_by_event: None,
         final_work: balance.map(|b| b.work()),
-        max_rel_discrete_energy_balance_error: None,
+        max_rel_discrete_energy_balance_error: end.discrete_balance,
         chaos: None,
         femvi_version: env!("CARGO_PKG_VERSION").to_string(),
         command_line: command.to_vec(),

@@ -6,7 +6,7 @@
 //! ([`femvi::constraints::solve_constrained_forced`]: the constraint forces do no work, so the
 //! same balance holds) and the report adds the largest constraint residual max |g(q)|.
 
-use super::{solve_problem, ProblemForce};
+use super::ProblemForce;
 use crate::problem::Problem;
 use femvi::Lagrangian;
 use serde::Serialize;
@@ -57,7 +57,10 @@ fn check_with<L: Lagrangian + Clone + Sync>(
     problem: &Problem,
     force: &ProblemForce,
 ) -> Result<ForcedCheck, (String, u8)> {
-    let sol = solve_problem(lag, problem, force, 0).map_err(|e| (e, crate::BAD_INPUT))?;
+    let p = problem.library(lag.clone());
+    let options = problem.solve_options(0);
+    let sol = femvi::forces::solve_forced(&p, force, &problem.element, &options)
+        .map_err(|e| (e.to_string(), crate::BAD_INPUT))?;
     let s = &sol.solution;
     Ok(ForcedCheck {
         name: problem.name.clone(),

@@ -4,9 +4,10 @@
 //! combinations that no command can run (a term with another term, or with a time mode) are
 //! refused when the problem is loaded ([`check_terms`]). A pair that is not in the table works.
 //!
-//! The reasons say which are mathematical (a step whose equations are not derived for the
-//! pair) and which are the remaining seams of issue 33 (forced runs in energy mode are solved
-//! to the end by the library's own run function, outside the streaming run of `femvi run`).
+//! The reasons say which are mathematical (a step or tangent map whose equations are not
+//! derived for the pair, a study that refines a step the pair does not have) and which are
+//! the remaining seams of issue 33 (adaptive runs are solved to the end by
+//! `femvi::adaptive::solve_adaptive`, outside the streaming run with its checkpoints).
 
 use super::terms::Terms;
 use super::Problem;
@@ -21,7 +22,7 @@ pub enum Term {
     /// `[time] mode = "adaptive"`.
     Adaptive,
     /// `[forces]` in `[time] mode = "energy"` (time steps as variables): the forced energy
-    /// equation's own run, apart from the one integrator.
+    /// equation sets each step (`Integrator::with_force_energy`).
     ForcesInEnergyMode,
 }
 
@@ -96,12 +97,6 @@ impl Use {
     }
 }
 
-/// The reason shared by the uses that constrained runs and forced runs in energy mode do not
-/// reach yet.
-const SOLVED_TO_THE_END: &str = "these runs are solved to the end by the library's run of the term \
-     (the forced energy equation of femvi::forces::solve_forced), not by the streaming run the \
-     option is an observer of (issue 33)";
-
 /// The pairs (term present, use) that are refused, with the reason.
 pub const REFUSED: &[(Term, Use, &str)] = &[
     (
@@ -133,11 +128,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         "the study refines fixed steps h, and in energy mode the energy equation sets each step; use mode = \"fixed\"",
     ),
     (
-        Term::ForcesInEnergyMode,
-        Use::Ensemble,
-        "a member runs the one integrator, and the forced energy equation has its own run (issue 33)",
-    ),
-    (
         Term::Adaptive,
         Use::Chaos,
         "the tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
@@ -152,14 +142,11 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         Use::Check,
         "the symplecticity check's tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
     ),
-    (Term::ForcesInEnergyMode, Use::Events, SOLVED_TO_THE_END),
     (
         Term::Adaptive,
         Use::Resume,
         "adaptive runs write no checkpoints yet: their run is femvi::adaptive::solve_adaptive to the end (issue 33)",
     ),
-    (Term::ForcesInEnergyMode, Use::Resume, SOLVED_TO_THE_END),
-    (Term::ForcesInEnergyMode, Use::SaveatOrDense, SOLVED_TO_THE_END),
     (
         Term::Forces,
         Use::PythonPotential,

@@ -389,8 +389,13 @@ fn chunked(problem: &Problem) -> bool {
 }
 
 /// The discrete energy of energy mode at the node `it` is at (0 otherwise): fixed by the
-/// first step, NaN (undefined) before.
+/// first step, NaN (undefined) before; with forces the one measured on the element before the
+/// node (E⁺ + W⁺), whose balance against the work is the summary's.
 fn discrete_energy<L: Lagrangian>(it: &Integrator<'_, L>) -> f64 {
+    match it.discrete_energy() {
+        Some(e) if it.node().k > 0 => return e,
+        _ => {}
+    }
     match it.energy_stats() {
         Some(s) if it.node().k > 0 => s.energy,
         _ => 0.0,

@@ -92,16 +92,22 @@ fn every_forces_example_runs_and_balances() {
             .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
             .collect();
         if let Some(id) = col("discrete_energy") {
-            // Energy mode: discrete_energy − its first value − work is round-off, as reported.
-            let d0 = rows[0][id];
-            let worst = rows.iter().fold(0.0f64, |m, r| m.max((r[id] - d0 - r[iw]).abs()));
-            let reported = summary["max_rel_discrete_energy_balance_error"].as_f64().unwrap() * d0.abs();
+            // Energy mode: the rows stream, and node 0 precedes the first element, which
+            // fixes Ẽ_0 (NaN there). From node 1 on, (Ẽ_k − Ẽ_1) − (W_k − W_1) is the
+            // difference of two balance gaps Ẽ − Ẽ_0 − W: at most twice the reported one.
+            assert!(rows[0][id].is_nan(), "{}", path.display());
+            let (d1, w1) = (rows[1][id], rows[1][iw]);
+            let worst = rows[1..]
+                .iter()
+                .fold(0.0f64, |m, r| m.max(((r[id] - d1) - (r[iw] - w1)).abs()));
+            // |Ẽ_0| and |Ẽ_1| differ by one element's work (≪ 1 %).
+            let reported = summary["max_rel_discrete_energy_balance_error"].as_f64().unwrap() * d1.abs() * 1.01;
             eprintln!(
                 "{}: discrete balance {worst:.2e} (reported {reported:.2e})",
                 path.display()
             );
             assert!(
-                worst <= reported * (1.0 + 1e-9) + 1e-300 && reported < 1e-14,
+                worst <= 2.0 * reported + 1e-300 && reported < 1e-14,
                 "{worst} {reported}"
             );
             assert!(summary["max_step"].as_f64().unwrap() > summary["min_step"].as_f64().unwrap());
@@ -245,8 +251,9 @@ fn input_errors_and_failures() {
     assert!(svgs > 0, "no plots in {}", out.display());
     let columns = std::fs::read_to_string(out.join("columns.txt")).unwrap();
     assert!(columns.lines().any(|c| c == "work"), "{columns}");
-    // In energy mode (the forced energy equation's own run) too; --resume stays refused there,
-    // by the table.
+    // In energy mode too (issue 33: the forced energy equation is a term of the one run):
+    // plots, and `--resume` of a finished run has nothing left to do (resume.rs resumes
+    // killed ones byte for byte).
     let energy = DAMPED
         .replace("FORCES", "generalized = [\"-c*x_dot\"]")
         .replace("end = 5.0", "end = 5.0\nmode = \"energy\"");
@@ -261,11 +268,7 @@ fn input_errors_and_failures() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&resumed.stderr);
-    assert_eq!(resumed.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("--resume is not available with [forces] in [time] mode = \"energy\""),
-        "{err}"
-    );
+    assert!(err.contains("nothing to resume"), "{err}");
 }
 
 /// `[forces]` with `[time] mode = "adaptive"`: the adaptive integrator has no force terms, so

@@ -5,7 +5,8 @@
 //! trajectory.npy) bytes and the same final state in summary.json as an uninterrupted run;
 //! a run stopped by SIGINT ends on a complete row, says so in summary.json, exits 130 and
 //! resumes the same way; a checkpoint of another problem or output format is refused. The
-//! cases include forced and constrained runs (issue 33: terms of the one integrator).
+//! cases include forced runs (fixed steps and time steps as variables) and constrained runs
+//! (issue 33: terms of the one integrator).
 //!
 //! The kill times are drawn from a seed printed by the test (set FEMVI_RESUME_SEED to repeat).
 
@@ -21,7 +22,7 @@ struct Case {
     args: &'static [&'static str],
 }
 
-const CASES: [Case; 10] = [
+const CASES: [Case; 11] = [
     Case {
         name: "explicit",
         end: 20.0,
@@ -77,6 +78,15 @@ const CASES: [Case; 10] = [
         toml: "name = \"forced-fixed-point\"\n[system]\ncoordinates = [\"x\", \"y\"]\nparameters = { f0 = 0.2 }\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) - (1 - cos(x)) - 0.5*y^2 - 0.1*(1 - cos(x))*y^2\"\n[forces]\ngeneralized = [\"f0*cos(t)\", \"-0.05*y\"]\n[initial]\nq = [0.5, 0.1]\nv = [0.0, 0.2]\n[scheme]\ndegree = 3\n[time]\nstep = 0.02\nend = {end}\n",
         args: &["--checkpoint-every-seconds", "0.05"],
     },
+    // Forces with time steps as variables (issue 33): the forced energy equation sets each
+    // step of a damped, driven Duffing oscillator (midpoint; the drive keeps the energy up);
+    // its discrete energy balance is in the checkpoint.
+    Case {
+        name: "forced-energy",
+        end: 40.0,
+        toml: "name = \"forced-energy\"\n[system]\ncoordinates = [\"x\"]\nparameters = { c = 0.1, f0 = 0.3, w = 1.2 }\nlagrangian = \"0.5*x_dot^2 - 0.5*x^2 - 0.25*x^4\"\n[forces]\ngeneralized = [\"f0*cos(w*t)\"]\ndissipation = \"0.5*c*x_dot^2\"\n[initial]\nq = [1.0]\nv = [0.0]\n[scheme]\ndegree = 1\n[time]\nmode = \"energy\"\nstep = 0.01\nend = {end}\nmin_step = 0.0001\nmax_step = 0.5\n[output]\nevery = 3\n",
+        args: &["--format", "csv,npy", "--checkpoint-every-steps", "89"],
+    },
     // Constraints (issue 33): RATTLE steps on the spherical pendulum, and a damped, driven
     // spherical pendulum at degree 2 (dense Newton with the discrete forces); the multipliers
     // and residuals are columns, constraints.json is compared too.
@@ -95,7 +105,7 @@ const CASES: [Case; 10] = [
 ];
 
 /// The summary.json keys that describe the final state (not the wall time or command line).
-const FINAL_STATE: [&str; 15] = [
+const FINAL_STATE: [&str; 16] = [
     "status",
     "energy_nodes",
     "error",
@@ -111,6 +121,7 @@ const FINAL_STATE: [&str; 15] = [
     "degenerate_steps",
     "max_rel_energy_balance_error",
     "final_work",
+    "max_rel_discrete_energy_balance_error",
 ];
 
 fn femvi() -> Command {

@@ -18,22 +18,9 @@ use crate::lagrangian::Lagrangian;
 use crate::solve::DenseNewtonWork;
 use crate::step::{check_dense_newton, Guess, LastElement, SolverOptions};
 
-/// What an element solved at a trial step gives the energy equation.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct ElementEnergy {
-    /// E⁻ = ∂L_d/∂t_k.
-    pub(super) minus: f64,
-    /// E⁺ = −∂L_d/∂t_{k+1}.
-    pub(super) plus: f64,
-    /// W⁻ = h Σ_i b_i (1 − c_i) F_i·q̇_i, the work's share of the element's first node.
-    pub(super) w_minus: f64,
-    /// W⁺ = h Σ_i b_i c_i F_i·q̇_i, the share of its last node.
-    pub(super) w_plus: f64,
-    /// W = h Σ_i b_i F_i·q̇_i as [`element_forces`] sums it (the reported work).
-    pub(super) work: f64,
-    /// Size of the terms of E⁻ − W⁻ (the scale of the search's tolerances).
-    pub(super) magnitude: f64,
-}
+/// What an element solved at a trial step gives the energy equation (E⁻, E⁺, W⁻, W⁺, W and
+/// the magnitude of the terms of E⁻ − W⁻).
+pub(super) type ElementEnergy = crate::step::term::ElementEnergies;
 
 /// The forced Newton step with the conservative step's predictor and workspace.
 pub(super) struct EnergyStep<'a, L, F> {

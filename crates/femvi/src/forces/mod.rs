@@ -52,8 +52,8 @@
 
 mod bvp;
 mod element;
-mod energy;
 mod energy_step;
+mod energy_term;
 mod expr;
 mod fixed_point;
 mod linear;

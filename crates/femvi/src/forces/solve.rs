@@ -4,7 +4,6 @@
 //! `fixed_point.rs`), returning the usual [`Solution`] with the accumulated discrete work and
 //! the energy balance max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
 
-use super::energy::{solve_energy, Begin};
 use super::step::Taken;
 use super::Force;
 use crate::discrete::Element;
@@ -34,7 +33,7 @@ pub struct ForcedSolution {
     /// max |H_k − H_0 − W_k| over every node.
     pub balance: EnergyBalance,
     /// Energy mode only (else empty): the discrete energy Ẽ_k at the kept nodes, measured on
-    /// the solved elements (`forces/energy.rs`).
+    /// the solved elements (`forces/energy_term.rs`).
     pub discrete_energy: Vec<f64>,
     /// Energy mode only: max |Ẽ_k − Ẽ_0 − W_k| over every node (round-off where every
     /// energy equation was solved).
@@ -51,7 +50,7 @@ pub struct ForcedSolution {
 /// equations and agree to round-off (`tests/forces_fixed_point.rs`).
 ///
 /// Supported options: fixed or cyclic steps, time steps as variables ([`Steps::Energy`]: the
-/// forced energy equation of `forces/energy.rs`, solved by Newton; the result then carries
+/// forced energy equation of `forces/energy_term.rs`, solved by Newton; the result then carries
 /// [`ForcedSolution::discrete_energy`], [`ForcedSolution::discrete_balance`] and
 /// `energy_stats`), `every`, `max_steps`, the solver's tolerance and iteration cap. A numerical failure is not an `Err`: the solution then ends at the last good
 /// node with [`Solution::error`] naming the step and time.
@@ -91,16 +90,14 @@ pub fn solve_forced<L: Lagrangian + Sync, F: Force + Sync>(
     options.solver.validate()?;
     let grid = grid(problem, &options.steps)?;
     let (q0, p0, v0) = start(lag, &problem.start, problem.t0)?;
-    if let Steps::Energy { options: energy, .. } = &options.steps {
-        let begin = Begin {
-            t0: problem.t0,
-            q0: &q0,
-            p0: &p0,
-            v0: &v0,
-        };
-        return solve_energy(lag, force, element, options, (grid, *energy), begin);
-    }
-    let mut it = Integrator::with_force(lag, element, grid, problem.start.clone(), options.solver, force)?;
+    let start_at = problem.start.clone();
+    let energy_mode = matches!(options.steps, Steps::Energy { .. });
+    let mut it = match &options.steps {
+        Steps::Energy { options: energy, .. } => {
+            Integrator::with_force_energy(lag, element, grid, start_at, options.solver, force, *energy)?
+        }
+        _ => Integrator::with_force(lag, element, grid, start_at, options.solver, force)?,
+    };
     let mut run = Run::new(n, options.every);
     let mut node = Node {
         k: 0,
@@ -112,12 +109,18 @@ pub fn solve_forced<L: Lagrangian + Sync, F: Force + Sync>(
         work: 0.0,
     };
     let mut v = v0;
+    // In the energy mode, Ẽ at the kept nodes (node 0's is known once element 0 is solved).
+    let mut discrete: Vec<f64> = Vec::new();
     let (mut error, mut stopped) = (None, false);
     loop {
         let finished = it.finished();
+        let kept = run.kept();
         if let Err(e) = run.record(lag, &node, &mut v, finished) {
             error = Some(e);
             break;
+        }
+        if energy_mode && run.kept() > kept {
+            discrete.push(it.discrete_energy().unwrap_or(f64::NAN));
         }
         if finished {
             break;
@@ -134,12 +137,27 @@ pub fn solve_forced<L: Lagrangian + Sync, F: Force + Sync>(
             Ok(false) => break,
             Ok(true) => node.copy_from(&it),
         }
+        if node.k == 1 {
+            if let (Some(d), Some(first)) = (discrete.first_mut(), it.term_discrete_energy()) {
+                *d = first.first;
+            }
+        }
     }
     if stopped || error.is_some() {
+        let kept = run.kept();
         run.keep_last(&node, &v);
+        if energy_mode && run.kept() > kept {
+            discrete.push(it.discrete_energy().unwrap_or(f64::NAN));
+        }
     }
     let iterations = (it.mean_iterations() * node.k as f64).round() as usize;
-    Ok(run.finish(node.k, iterations, stopped, error))
+    let mut sol = run.finish(node.k, iterations, stopped, error);
+    if energy_mode {
+        sol.solution.energy_stats = it.energy_stats();
+        sol.discrete_energy = discrete;
+        sol.discrete_balance = it.discrete_balance();
+    }
+    Ok(sol)
 }
 
 /// [`crate::solution::solve_with`] under the force `force`: the run of
@@ -176,12 +194,14 @@ pub fn solve_forced_with<L: Lagrangian + Sync, F: Force + Sync>(
     options: &SolveOptions,
     observers: &mut [&mut dyn crate::step::Observer<L>],
 ) -> Result<Solution> {
-    if let Steps::Energy { .. } = options.steps {
-        return Err(super::term::refuse_energy_mode());
-    }
     let grid = grid(problem, &options.steps)?;
-    let lag = &problem.lagrangian;
-    let mut it = Integrator::with_force(lag, element, grid, problem.start.clone(), options.solver, force)?;
+    let (lag, start_at) = (&problem.lagrangian, problem.start.clone());
+    let mut it = match &options.steps {
+        Steps::Energy { options: energy, .. } => {
+            Integrator::with_force_energy(lag, element, grid, start_at, options.solver, force, *energy)?
+        }
+        _ => Integrator::with_force(lag, element, grid, start_at, options.solver, force)?,
+    };
     crate::solution::solve_on(&mut it, problem, element, options, observers)
 }
 

@@ -201,12 +201,3 @@ impl<L: Lagrangian, F: Force> StepTerm for FixedPointTerm<'_, L, F> {
         "forces"
     }
 }
-
-/// The refusal of time steps as variables on the integrator with a force: the forced energy
-/// equation runs in [`super::solve_forced`] only.
-pub(super) fn refuse_energy_mode() -> crate::Error {
-    crate::error::invalid(
-        "time steps as variables",
-        "with forces they run in femvi::forces::solve_forced only (not with saveat, dense output or events)",
-    )
-}

@@ -17,6 +17,7 @@ use super::element_work::buffers;
 use super::energy_search::search_step;
 use super::integrator::Integrator;
 use super::solver::{Kind, Solver};
+use super::term::ElementEnergies;
 use crate::error::{invalid, Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
 
@@ -116,6 +117,21 @@ impl EnergyState {
     }
 }
 
+/// Checks the step bounds of the energy mode against the first step h0.
+///
+/// # Errors
+/// Bounds that are not finite and positive, or that do not hold h0.
+pub(crate) fn check_bounds(h0: f64, energy: &EnergyOptions) -> Result<()> {
+    let (lo, hi) = (energy.min_step, energy.max_step);
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= h0 && h0 <= hi) {
+        return Err(invalid(
+            "step bounds",
+            format!("need 0 < min_step ({lo}) <= step ({h0}) <= max_step ({hi}), all finite"),
+        ));
+    }
+    Ok(())
+}
+
 impl<'a, L: Lagrangian> Integrator<'a, L> {
     /// Sets up a run with time steps as variables. The grid gives t0, the first step (taken
     /// with h as a parameter, which fixes the discrete energy, unless the start is from
@@ -132,24 +148,25 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         options: super::SolverOptions,
         energy: EnergyOptions,
     ) -> Result<Self> {
-        let h0 = grid.nominal(0);
-        let (lo, hi) = (energy.min_step, energy.max_step);
-        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= h0 && h0 <= hi) {
-            return Err(invalid(
-                "step bounds",
-                format!("need 0 < min_step ({lo}) <= step ({h0}) <= max_step ({hi}), all finite"),
-            ));
-        }
+        check_bounds(grid.nominal(0), &energy)?;
         let mut me = Self::new(lag, element, grid, start, options)?;
-        if me.solver.kind() == Kind::Explicit {
+        me.enable_energy(energy)?;
+        Ok(me)
+    }
+
+    /// Turns the steps of a new run into variables of the energy equation (bounds checked by
+    /// the caller with [`check_bounds`]): with a term, the term solves each trial step and
+    /// gives the energies with its shares ([`StepTerm::energies`](super::term::StepTerm)).
+    pub(crate) fn enable_energy(&mut self, energy: EnergyOptions) -> Result<()> {
+        if self.term.is_none() && self.solver.kind() == Kind::Explicit {
             // Explicit stepping keeps state between steps; the search solves a step repeatedly.
-            me.solver = Solver::new(Kind::FixedPoint, element, me.state.n)?;
+            self.solver = Solver::new(Kind::FixedPoint, &self.element, self.state.n)?;
         }
         let mut state = EnergyState {
             opts: energy,
             started: false,
             last_fresh: false,
-            h_prev: h0,
+            h_prev: self.grid.nominal(0),
             comp: 0.0,
             scratch: Vec::new(),
             stats: EnergyStats {
@@ -160,19 +177,19 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 max_rel_residual: 0.0,
             },
         };
-        if me.pending.is_some() {
+        if self.pending.is_some() {
             // Start from (q0, q1): element 0 was solved in `new`; its E⁺ at t1 is the energy.
-            let (t, h) = (me.last.t, me.last.h);
-            let base = me.last.base.clone();
-            me.inc.incr.copy_from_slice(&me.last.incr);
-            let (_, e_plus, _) = me.element_energies(t, h, &base);
+            let (t, h) = (self.last.t, self.last.h);
+            let base = self.last.base.clone();
+            self.inc.incr.copy_from_slice(&self.last.incr);
+            let e = self.element_energies(t, h, &base);
             state.started = true;
-            state.stats.energy = e_plus;
+            state.stats.energy = e.plus;
             state.stats.min_step = h;
             state.stats.max_step = h;
         }
-        me.energy = Some(state);
-        Ok(me)
+        self.energy = Some(state);
+        Ok(())
     }
 
     /// Statistics of the energy mode (None with steps as parameters).
@@ -180,9 +197,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.energy.as_ref().map(|e| e.stats)
     }
 
-    /// (E⁻, E⁺, magnitude of the energy terms) of the element [t, t + h] whose increments are
-    /// in `incr` (as left by a solve).
-    fn element_energies(&mut self, t: f64, h: f64, base: &[f64]) -> (f64, f64, f64) {
+    /// E⁻, E⁺ (with the term's shares of the work, if any) and the magnitude of the energy
+    /// terms of the element [t, t + h] whose increments are in `incr` (as left by a solve).
+    fn element_energies(&mut self, t: f64, h: f64, base: &[f64]) -> ElementEnergies {
+        if let Some(e) = self.term.as_mut().and_then(|term| term.energies(t, h, base)) {
+            return e;
+        }
         let autonomous = self.lag.is_autonomous();
         let n = self.state.n;
         let b = buffers(&mut self.bufs, &self.element, n);
@@ -199,7 +219,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                 .sum();
             mag += self.element.rule.weights[i] * (vlv + pd.value.abs());
         }
-        (em, ep, mag.max(em.abs()).max(f64::MIN_POSITIVE))
+        ElementEnergies {
+            minus: em,
+            plus: ep,
+            magnitude: mag.max(em.abs()).max(f64::MIN_POSITIVE),
+            ..ElementEnergies::default()
+        }
     }
 
     /// (g, E⁺ − E⁻, magnitude) with g(h) = E⁻ − target after solving at h; None if the solve
@@ -213,12 +238,13 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             .unwrap_or_default();
         base.clear();
         base.extend_from_slice(&self.state.q);
-        let (em, ep, mag) = self.element_energies(self.state.t, h, &base);
-        if let Some(e) = self.energy.as_mut() {
-            e.scratch = base;
+        let e = self.element_energies(self.state.t, h, &base);
+        if let Some(state) = self.energy.as_mut() {
+            state.scratch = base;
         }
-        let g = em - target;
-        g.is_finite().then_some((g, ep - em, mag))
+        // Without a term the shares are zero and these are E⁻ − E_k and E⁺ − E⁻ exactly.
+        let g = (e.minus - e.w_minus) - target;
+        g.is_finite().then_some((g, (e.plus - e.minus) + e.work, e.magnitude))
     }
 
     pub(super) fn step_energy(&mut self) -> Result<bool> {
@@ -236,8 +262,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             // The first element with its step as a parameter fixes the discrete energy.
             self.solve_at(h_prev)?;
             let base = self.state.q.clone();
-            let (_, ep, _) = self.element_energies(self.state.t, h_prev, &base);
-            (h_prev, ep, 0.0, false, true)
+            let e = self.element_energies(self.state.t, h_prev, &base);
+            (h_prev, e.plus + e.w_plus, 0.0, false, true)
         } else {
             match self.search_step(h_prev, target, opts) {
                 Ok((h, change, rel)) => (h, change, rel, false, false),
@@ -248,8 +274,8 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
                     let h = h_prev.clamp(opts.min_step, opts.max_step);
                     self.solve_at(h)?;
                     let base = self.state.q.clone();
-                    let (_, ep, _) = self.element_energies(self.state.t, h, &base);
-                    (h, ep, 0.0, true, true)
+                    let e = self.element_energies(self.state.t, h, &base);
+                    (h, e.plus + e.w_plus, 0.0, true, true)
                 }
                 Err(fail) => return Err(Error::Step(fail)),
             }

@@ -164,6 +164,10 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// The largest symplecticity defect on the manifold of the steps so far, for a
     /// constrained run set up to measure it (`femvi check`).
+    pub(crate) fn term_discrete_energy(&self) -> Option<super::term::DiscreteEnergy> {
+        self.term.as_ref().and_then(|term| term.discrete_energy())
+    }
+
     pub(crate) fn term_defect(&self) -> Option<f64> {
         self.term.as_ref().and_then(|term| term.defect())
     }
@@ -263,11 +267,11 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             self.state.steps += 1;
             return Ok(true);
         }
-        if self.term.is_some() {
-            return self.step_term();
-        }
         if self.energy.is_some() {
             return self.step_energy();
+        }
+        if self.term.is_some() {
+            return self.step_term();
         }
         if let Some(done) = self.fast_explicit(1, &mut every_node) {
             return done.map(|d| d > 0);
@@ -280,18 +284,31 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         Ok(true)
     }
 
-    /// Solves the step equations from the current node with step h into `inc`, without
-    /// moving the state.
     /// A step solved by the term: its increments are committed like the solvers', and its
     /// element's work is added to the run's.
     fn step_term(&mut self) -> Result<bool> {
         let Some((h, t_next)) = self.grid.next(self.state.k, self.state.t) else {
             return Ok(false);
         };
+        self.solve_term(h, t_next)?;
+        self.commit(h, t_next)?;
+        Ok(true)
+    }
+
+    /// The term's solve of the step (h, t_next) (the grid's t_next: the constraints hold there).
+    fn solve_term(&mut self, h: f64, t_next: f64) -> Result<()> {
+        if let Some(term) = self.term.as_mut() {
+            self.state.iterations += term.solve(&self.state, &mut self.last, (h, t_next), &mut self.inc)?;
+        }
+        Ok(())
+    }
+
+    /// Commits the step the term solved: its increments like the solvers', its element's
+    /// work added to the run's, the momentum it sets.
+    fn commit_term(&mut self, h: f64, t_next: f64) -> Result<()> {
         let Some(term) = self.term.as_mut() else {
-            return Ok(false);
+            return Ok(());
         };
-        self.state.iterations += term.solve(&self.state, &mut self.last, (h, t_next), &mut self.inc)?;
         term.accepted(self.state.n);
         let work = self.work + term.element_work();
         self.state.commit(&mut self.last, &mut self.inc, true, h, t_next)?;
@@ -302,10 +319,15 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             self.state.comp_p.iter_mut().for_each(|c| *c = 0.0);
         }
         self.work = work;
-        Ok(true)
+        Ok(())
     }
 
+    /// Solves the step equations from the current node with step h into `inc`, without
+    /// moving the state.
     pub(super) fn solve_at(&mut self, h: f64) -> Result<()> {
+        if self.term.is_some() {
+            return self.solve_term(h, self.state.t + h);
+        }
         let cx = context!(self);
         let iterations = self
             .solver
@@ -316,6 +338,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// Moves the state to the node solved by [`Self::solve_at`] with step h.
     pub(super) fn commit(&mut self, h: f64, t_next: f64) -> Result<()> {
+        if self.term.is_some() {
+            return self.commit_term(h, t_next);
+        }
         let cx = context!(self);
         self.solver.accepted(&cx, self.state.n);
         let swap = self.solver.kind() != Kind::Explicit;

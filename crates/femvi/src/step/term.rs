@@ -72,4 +72,51 @@ pub(crate) trait StepTerm {
     fn defect(&self) -> Option<f64> {
         None
     }
+
+    /// The discrete energies of the element solved last from (t, q) with step h, with the
+    /// term's shares of them (time steps as variables, `energy.rs`); None if the term has no
+    /// energy equation (the integrator then evaluates E⁻, E⁺ of L alone).
+    fn energies(&mut self, _t: f64, _h: f64, _q: &[f64]) -> Option<ElementEnergies> {
+        None
+    }
+
+    /// The discrete energy measured at the current node and its balance so far, if the term
+    /// keeps them (forces in the energy mode).
+    fn discrete_energy(&self) -> Option<DiscreteEnergy> {
+        None
+    }
+}
+
+/// The discrete energy Ẽ of a run in the energy mode with forces, measured on the solved
+/// elements (`forces/energy_term.rs`), and its balance Ẽ_k − Ẽ_0 − W_k.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct DiscreteEnergy {
+    /// Ẽ_k at the current node: E⁺ + W⁺ of the element before it (NaN at the start node).
+    pub(crate) at_node: f64,
+    /// Ẽ_0 = E⁻ − W⁻ of the first element (NaN before it).
+    pub(crate) first: f64,
+    /// The largest |Ẽ_k − Ẽ_0 − W_k| so far.
+    pub(crate) max_abs: f64,
+    /// The largest |Ẽ_k − Ẽ_0 − W_k| / |Ẽ_0| so far (/ 1 if Ẽ_0 = 0).
+    pub(crate) max_rel: f64,
+}
+
+/// What an element solved at a trial step gives the energy equation of time steps as
+/// variables: g(h) = (E⁻ − W⁻) − Ẽ_k, the carried change (E⁺ − E⁻) + W, and after a step with
+/// h as a parameter the new level E⁺ + W⁺ (`forces/energy_term.rs` derives the shares W⁻, W⁺ of
+/// the work; without a force they are zero and the equation is the paper's (3.3)).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct ElementEnergies {
+    /// E⁻ = ∂L_d/∂t_k.
+    pub(crate) minus: f64,
+    /// E⁺ = −∂L_d/∂t_{k+1}.
+    pub(crate) plus: f64,
+    /// W⁻ = h Σ_i b_i (1 − c_i) F_i·q̇_i, the work's share of the element's first node.
+    pub(crate) w_minus: f64,
+    /// W⁺ = h Σ_i b_i c_i F_i·q̇_i, the share of its last node.
+    pub(crate) w_plus: f64,
+    /// W = h Σ_i b_i F_i·q̇_i (the reported work).
+    pub(crate) work: f64,
+    /// Size of the terms of E⁻ − W⁻ (the scale of the search's tolerances).
+    pub(crate) magnitude: f64,
 }

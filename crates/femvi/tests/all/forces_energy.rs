@@ -1,4 +1,4 @@
-//! Forces in the energy mode (issue 19, item 1; `femvi::forces`, `forces/energy.rs`): the
+//! Forces in the energy mode (issue 19, item 1; `femvi::forces`, `forces/energy_term.rs`): the
 //! discrete energy balance Ẽ_k − Ẽ_0 − W_k at every node (checked for the midpoint element
 //! against the hand-derived energies and works of each element), the nodal order against the
 //! damped oscillator's closed form, a zero force against the conservative energy-mode run bit
@@ -64,7 +64,7 @@ fn run(problem: &Problem<impl Lagrangian + Sync>, c: f64, el: &Element, opts: &S
 /// So Ẽ_k = E(element k) − W_k/2 = E(element k − 1) + W_{k−1}/2, and Ẽ_k − Ẽ_0 = Σ_{j<k} W_j.
 ///
 /// Under damping the steps grow: Ẽ − H (about |Δz|²/8 for the midpoint rule) stays nearly
-/// constant while both decay, so h ∝ Ẽ^(−1/2) (module docs of `forces/energy.rs`); the run
+/// constant while both decay, so h ∝ Ẽ^(−1/2) (module docs of `forces/energy_term.rs`); the run
 /// stops within the step bounds [h0/1000, 10 h0] once Ẽ has decayed about 100-fold.
 #[test]
 fn midpoint_energy_equation_and_work_by_hand_over_a_long_run() {

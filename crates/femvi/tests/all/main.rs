@@ -33,6 +33,7 @@ mod explicit_wide;
 mod expr_compiled;
 mod forces;
 mod forces_energy;
+mod forces_energy_observed;
 mod forces_fixed_point;
 mod forces_newton;
 mod fuzz_expr;
