@@ -14,6 +14,9 @@ pub fn check(problem: &Problem) -> Result<CheckReport, (String, u8)> {
     if let Some(c) = &problem.terms.constraints {
         return crate::constrained::check::check(problem, c);
     }
+    if let Some(a) = &problem.terms.adaptive {
+        return crate::adaptive::check::check(problem, a);
+    }
     problem
         .refuse(Use::Check, "femvi check")
         .map_err(|e| (e, crate::BAD_INPUT))?;

@@ -8,8 +8,10 @@
 //! summary.json; the same table as trajectory.npy and columns.txt when NPY output is on
 //! (`output.rs`); `[[events]]` located on the dense output in s (`femvi::adaptive`) into
 //! events.csv and, with plots, Poincaré plots as for fixed steps; plots with `--plot`
-//! (`plots.rs`).
+//! (`plots.rs`). `femvi check` measures the step map in s and the physical energy
+//! (`check.rs`).
 
+pub mod check;
 mod output;
 mod plots;
 

@@ -139,11 +139,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     ),
     (
         Term::Adaptive,
-        Use::Check,
-        "the symplecticity check's tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
-    ),
-    (
-        Term::Adaptive,
         Use::Resume,
         "adaptive runs write no checkpoints yet: their run is femvi::adaptive::solve_adaptive to the end (issue 33)",
     ),
