@@ -9,9 +9,9 @@
 //! belongs to it (same femvi version, same problem text by SHA-256, same output formats: else
 //! a clear refusal, exit 2), restores the integrator, cuts the output files back to the
 //! checkpoint and continues, so that the outputs are those of an uninterrupted run, byte for
-//! byte. Refused: runs with `[[events]]` or plots (their observers keep whole-run state that is
-//! not checkpointed), and Lagrangians whose energy observer state is not yet checkpointable
-//! (see [`resumable`]).
+//! byte; with `[[events]]`, events.csv too (its length and the event locator's state are in
+//! the checkpoint). Refused: runs with plots (their observer keeps whole-run state that is not
+//! checkpointed; see [`resumable`]).
 
 use crate::problem::Problem;
 use crate::run_output::RunOutput;
@@ -82,6 +82,9 @@ pub struct RunCheckpoint {
     /// Runs with forces: the energy balance's state ([`crate::record::WorkBalance::words`]).
     #[serde(default)]
     pub balance: Option<[u64; 3]>,
+    /// Problems with `[[events]]`: events.csv's length, the count and the locator's state.
+    #[serde(default)]
+    pub events: Option<crate::record::EventsSaved>,
     /// The integrator's state.
     pub integrator: Checkpoint,
 }
@@ -197,16 +200,13 @@ pub fn killed_before_first_checkpoint(dir: &Path, problem: &Problem) -> bool {
     summary["status"] == "running" && summary["problem"] == problem.source.as_str()
 }
 
-/// Whether a run can be resumed: not with `[[events]]` or plots. Any Lagrangian: the
+/// Whether a run can be resumed: not with plots. Any Lagrangian: the
 /// checkpoint holds the integrator's state and the energy tracker's (reference energy,
 /// warm-start velocity, energy balance).
 ///
 /// # Errors
 /// The reason, for the user.
-pub fn resumable(problem: &Problem, out: &RunOutput) -> Result<(), String> {
-    if !problem.events.is_empty() {
-        return Err("--resume is not available for problems with [[events]]".into());
-    }
+pub fn resumable(out: &RunOutput) -> Result<(), String> {
     if out.plots {
         return Err(
             "--resume is not available with plots (--plot or [output] plots = true): resume without them and draw the plots from trajectory.csv".into(),

@@ -15,7 +15,6 @@ use crate::problem::capabilities::Use;
 use crate::problem::Problem;
 use crate::record::{Checkpointing, Recorders};
 use crate::resume::{self, Policy};
-use crate::signals;
 use femvi::{Integrator, Lagrangian};
 use std::path::Path;
 use std::time::Instant;
@@ -107,41 +106,14 @@ pub fn run_as(
             return Ok(Outcome::Rejected(msg));
         }
     }
-    if problem.events.is_empty() {
-        let args = RunArgs {
-            problem,
-            dir,
-            out,
-            control,
-            command,
-        };
-        return crate::with_system!(&problem.system, l => run_with(l, &args));
-    }
-    if control.resume {
-        return Ok(Outcome::Rejected(
-            "--resume is not available for problems with [[events]]".into(),
-        ));
-    }
-    if let Err(msg) = crate::estimate::check(problem, &out, dir, control.max_output, 0) {
-        return Ok(Outcome::Rejected(msg));
-    }
-    std::fs::create_dir_all(dir)?;
-    remove_checkpoint(dir)?;
-    write_summary(dir, &running_summary(problem, Instant::now(), command))?;
-    let outcome = crate::with_system!(&problem.system, l => crate::events::run(l, problem, dir, out, command))?;
-    match outcome {
-        Outcome::Rejected(msg) => {
-            std::fs::remove_file(dir.join("summary.json"))?;
-            Ok(Outcome::Rejected(msg))
-        }
-        Outcome::Done(s) | Outcome::Failed(s) => match signals::received() {
-            Some(sig) if s.error.is_none() && s.final_t < s.t_end && s.stopped_by_event == Some(None) => {
-                interrupted(dir, s, sig)
-            }
-            _ => finish(dir, s),
-        },
-        other => Ok(other),
-    }
+    let args = RunArgs {
+        problem,
+        dir,
+        out,
+        control,
+        command,
+    };
+    crate::with_system!(&problem.system, l => run_with(l, &args))
 }
 
 /// What [`run_with`] is asked to do.
@@ -197,7 +169,7 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
         }
         Err(e) => return Ok(Outcome::Rejected(e.to_string())),
     };
-    let resumable = resume::resumable(problem, &out);
+    let resumable = resume::resumable(&out);
     let checkpointing = Checkpointing {
         policy: control.checkpoints,
         tag: resume::problem_hash(problem),
@@ -240,7 +212,17 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
     if let Some(at) = it.node_constraints() {
         crate::constrained::write_json(dir, problem, &at)?;
     }
-    let summary = run_summary(problem, end, &recorders, clock, command);
+    let mut summary = run_summary(problem, end, &recorders, clock, command);
+    if let Some(events) = recorders.events() {
+        summary.events_located = Some(events.count());
+        summary.stopped_by_event = Some(events.stopper().map(str::to_string));
+        if out.plots {
+            let drawn = crate::events::poincare(dir, problem, events.kept(), out.plot_format);
+            if let Err(e) = drawn {
+                summary.error.get_or_insert(e);
+            }
+        }
+    }
     match recorders.stopped_by() {
         Some(sig) => interrupted(dir, summary, sig),
         None => {

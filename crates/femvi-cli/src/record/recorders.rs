@@ -8,7 +8,9 @@
 //! [`Policy`](crate::resume::Policy) and when a stop signal ends the run; and it resumes the
 //! outputs of a stopped run from a checkpoint.
 
-use super::{columns, CsvRows, EnergyError, NodeEnergy, NpyRows, Pacer, PlotData, Progress, WorkBalance, WriteFailure};
+use super::{
+    columns, CsvRows, EnergyError, EventRows, NodeEnergy, NpyRows, Pacer, PlotData, Progress, WorkBalance, WriteFailure,
+};
 use crate::problem::Problem;
 use crate::resume::{self, EnergySaved, Policy, RunCheckpoint};
 use crate::run_output::RunOutput;
@@ -67,6 +69,8 @@ pub struct Recorders<'a> {
     signal: Option<Signal>,
     /// Runs with forces: the energy balance H − H0 = W over every node.
     balance: Option<WorkBalance>,
+    /// Problems with `[[events]]`: the events located on each element, into events.csv.
+    events: Option<EventRows>,
 }
 
 impl<'a> Recorders<'a> {
@@ -146,6 +150,11 @@ impl<'a> Recorders<'a> {
             good: Good::new(0, f64::NAN),
             signal: None,
             balance: problem.terms.force.is_some().then(WorkBalance::default),
+            events: if problem.events.is_empty() {
+                None
+            } else {
+                Some(EventRows::create(problem, dir, dim, out.plots)?)
+            },
         })
     }
 
@@ -188,6 +197,14 @@ impl<'a> Recorders<'a> {
         }
         .transpose()
         .map_err(|e| format!("cannot resume trajectory.npy: {e}"))?;
+        let events = match (&cp.events, problem.events.is_empty()) {
+            (_, true) => None,
+            (Some(saved), false) => Some(
+                EventRows::resume(problem, dir, fresh.lagrangian().dim(), saved)
+                    .map_err(|e| format!("cannot resume events.csv: {e}"))?,
+            ),
+            (None, false) => return Err("cannot resume: the checkpoint has no events.csv state".into()),
+        };
         Ok(Recorders {
             progress: Progress::new(out.progress, problem),
             current: energy.current(),
@@ -213,6 +230,7 @@ impl<'a> Recorders<'a> {
                 .force
                 .is_some()
                 .then(|| cp.balance.map(WorkBalance::from_words).unwrap_or_default()),
+            events,
         })
     }
 
@@ -306,7 +324,13 @@ impl<'a> Recorders<'a> {
     fn flush(&mut self) -> femvi::Result<()> {
         let csv = self.csv.as_mut().map_or(Ok(()), CsvRows::flush);
         let npy = self.npy.as_mut().map_or(Ok(()), NpyRows::flush);
-        csv.and(npy).map_err(|e| self.failure.record(e))
+        let events = self.events.as_mut().map_or(Ok(()), EventRows::flush);
+        csv.and(npy).and(events).map_err(|e| self.failure.record(e))
+    }
+
+    /// The events of a problem with `[[events]]`.
+    pub fn events(&self) -> Option<&EventRows> {
+        self.events.as_ref()
     }
 
     /// Flushes the outputs and writes checkpoint.json for the node `it` is at.
@@ -316,6 +340,7 @@ impl<'a> Recorders<'a> {
         };
         let csv = self.csv.as_mut().map(CsvRows::sync).transpose();
         let npy = self.npy.as_mut().map(NpyRows::sync).transpose();
+        let events = self.events.as_mut().map(EventRows::sync).transpose();
         let cp = csv.and_then(|csv_bytes| {
             Ok(RunCheckpoint {
                 format: resume::FORMAT,
@@ -330,6 +355,7 @@ impl<'a> Recorders<'a> {
                     tracker: self.energy.words(),
                 },
                 balance: self.balance.map(|b| b.words()),
+                events: events?,
                 integrator: it.checkpoint(&c.tag),
             })
         });
@@ -385,7 +411,7 @@ fn energy_nodes(problem: &Problem) -> femvi::solution::EnergyNodes {
 /// energy is checked at every node) nor with forces (the balance needs the work at every
 /// node, which only [`Observer::node`] sees).
 fn chunked(problem: &Problem) -> bool {
-    problem.energy.is_none() && problem.terms.force.is_none()
+    problem.energy.is_none() && problem.terms.force.is_none() && problem.events.is_empty()
 }
 
 /// The discrete energy of energy mode at the node `it` is at (0 otherwise): fixed by the
@@ -408,6 +434,12 @@ impl<L: Lagrangian> Observer<L> for Recorders<'_> {
         if let Some(b) = self.balance.as_mut() {
             self.energy.publish();
             b.at(self.current.get().h, it.work());
+        }
+        if let Some(events) = self.events.as_mut() {
+            events.node(it, last).map_err(|e| match e {
+                femvi::Error::Observer(msg) => self.failure.record(std::io::Error::other(msg)),
+                other => other,
+            })?;
         }
         self.boundary(it, last)
     }
@@ -449,10 +481,13 @@ impl<L: Lagrangian> Observer<L> for Recorders<'_> {
         if let Some(plots) = self.plots.as_mut() {
             note(plots.finish(it, error));
         }
+        if let Some(events) = self.events.as_mut() {
+            note(events.finish(it, error));
+        }
         first
     }
 
     fn stop(&self) -> bool {
-        signals::received().is_some()
+        signals::received().is_some() || self.events.as_ref().is_some_and(|e| e.stopper().is_some())
     }
 }

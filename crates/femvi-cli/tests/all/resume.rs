@@ -8,6 +8,9 @@
 //! cases include forced runs (fixed steps and time steps as variables) and constrained runs
 //! (issue 33: terms of the one integrator).
 //!
+//! Two cases have `[[events]]`: events.csv is compared too, and "events_located" in
+//! summary.json.
+//!
 //! The kill times are drawn from a seed printed by the test (set FEMVI_RESUME_SEED to repeat).
 
 use std::path::Path;
@@ -44,7 +47,7 @@ const CASES: [Case; 11] = [
     Case {
         name: "energy",
         end: 60.0,
-        toml: "name = \"energy\"\n[system]\nmodel = \"henon-heiles\"\n[initial]\nq = [0.1, -0.1]\np = [0.3, 0.2]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nmode = \"energy\"\nstep = 0.05\nend = {end}\nmin_step = 0.0001\nmax_step = 0.5\n",
+        toml: "name = \"energy\"\n[system]\nmodel = \"henon-heiles\"\n[initial]\nq = [0.1, -0.1]\np = [0.3, 0.2]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nmode = \"energy\"\nstep = 0.05\nend = {end}\nmin_step = 0.0001\nmax_step = 0.5\n[[events]]\nname = \"section\"\nwhen = \"x\"\ndirection = \"rising\"\n",
         args: &["--checkpoint-every-steps", "101", "--checkpoint-every-seconds", "0.1"],
     },
     // Velocity- and time-dependent (Newton; the energy tracker's warm-start velocity and its
@@ -52,7 +55,7 @@ const CASES: [Case; 11] = [
     Case {
         name: "general",
         end: 110.0,
-        toml: "name = \"general\"\n[system]\ncoordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 0.5*b*(x*y_dot - y*x_dot) - 0.5*(x^2 + y^2)*(1 + 0.1*cos(t))\"\nparameters = { b = 1.0 }\n[initial]\nq = [1.0, 0.0]\nv = [0.0, 0.5]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 5\n",
+        toml: "name = \"general\"\n[system]\ncoordinates = [\"x\", \"y\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2) + 0.5*b*(x*y_dot - y*x_dot) - 0.5*(x^2 + y^2)*(1 + 0.1*cos(t))\"\nparameters = { b = 1.0 }\n[initial]\nq = [1.0, 0.0]\nv = [0.0, 0.5]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 5\n[[events]]\nname = \"x0\"\nwhen = \"x\"\n[[events]]\nname = \"y0\"\nwhen = \"y\"\ndirection = \"falling\"\n",
         args: &["--checkpoint-every-seconds", "0.05"],
     },
     // Velocity-dependent and autonomous: energies only at the kept nodes (energy_nodes =
@@ -105,7 +108,7 @@ const CASES: [Case; 11] = [
 ];
 
 /// The summary.json keys that describe the final state (not the wall time or command line).
-const FINAL_STATE: [&str; 16] = [
+const FINAL_STATE: [&str; 18] = [
     "status",
     "energy_nodes",
     "error",
@@ -122,6 +125,8 @@ const FINAL_STATE: [&str; 16] = [
     "max_rel_energy_balance_error",
     "final_work",
     "max_rel_discrete_energy_balance_error",
+    "events_located",
+    "stopped_by_event",
 ];
 
 fn femvi() -> Command {
@@ -168,7 +173,7 @@ fn summary(dir: &Path) -> serde_json::Value {
 
 /// Asserts that `dir` holds the outputs of `reference`, byte for byte, and its final state.
 fn assert_same_outputs(case: &Case, dir: &Path, reference: &Path, what: &str) {
-    for file in ["trajectory.csv", "trajectory.npy", "constraints.json"] {
+    for file in ["trajectory.csv", "trajectory.npy", "constraints.json", "events.csv"] {
         let (a, b) = (std::fs::read(dir.join(file)), std::fs::read(reference.join(file)));
         match (a, b) {
             (Ok(a), Ok(b)) => assert!(

@@ -143,7 +143,7 @@ impl Piece for SpanPiece<'_, '_> {
 pub(crate) struct Detector {
     pub(crate) events: Vec<Event>,
     /// g of each event at the end of the last element (NaN before the first).
-    last_g: Vec<f64>,
+    pub(crate) last_g: Vec<f64>,
     /// Scratch for the fixed-step elements' interpolants.
     pub(crate) eval: ElementEval,
     q: Vec<f64>,

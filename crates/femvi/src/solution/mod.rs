@@ -24,6 +24,7 @@ mod dense;
 mod energy;
 mod energy_nodes;
 mod events;
+mod located;
 mod record;
 mod solve;
 
@@ -34,6 +35,7 @@ pub use energy::{EnergyReport, EnergyTracker, NodeEnergy};
 pub use energy_nodes::EnergyNodes;
 pub use events::{Condition, Direction, Event, EventRecord};
 pub(crate) use events::{Detector, Piece};
+pub use located::EventLocator;
 pub use solve::{solve, solve_with};
 
 use crate::error::Error;
