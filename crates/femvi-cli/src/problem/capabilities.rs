@@ -130,7 +130,7 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     (
         Term::Adaptive,
         Use::Chaos,
-        "the tangent map of the time-transformed step is not derived; use mode = \"fixed\"",
+        "the indicators (MEGNO, Lyapunov exponents) are rates in physical time, and the tangent map of an adaptive step lives in the fictitious time s: their reparametrisation is not derived; use mode = \"fixed\"",
     ),
     (
         Term::Forces,
