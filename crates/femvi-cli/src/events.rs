@@ -1,6 +1,6 @@
 //! events.csv and the Poincaré plots of `femvi run` on a problem with `[[events]]`. The
 //! events are located by an observer of the one run (`record/event_rows.rs`, the library's
-//! [`femvi::solution::EventLocator`] on each element polynomial, as [`femvi::solve`] locates
+//! [`femvi::solution::EventLocator`] on each element polynomial, as [`femvi::solve()`] locates
 //! them), so trajectory.csv, the NPY file and the plots are those of a run without events,
 //! and such a run streams, checkpoints and resumes like any other. Here: the header of
 //! events.csv (`event,step,t,<coordinates>,p_<coordinates>`, one row per located event,

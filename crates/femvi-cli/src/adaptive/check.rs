@@ -2,7 +2,7 @@
 //! integrator on the time-transformed Lagrangian L_g(q, q') = g(q)·(L(q, q'/g(q)) + E₀)
 //! ([`femvi::adaptive::TimeTransformed`]), so its step map (q, p) ↦ (q, p) is the ordinary
 //! step map of L_g, whose momentum is the physical p: the library's check
-//! ([`femvi::diagnostics::check`]) on L_g over the steps the run takes measures the
+//! ([`femvi::diagnostics::check()`]) on L_g over the steps the run takes measures the
 //! symplecticity of that map (the tangent map by implicit differentiation of the step, as for
 //! any Lagrangian), its time reversal (L_g is reversible when L is) and the Noether momenta
 //! (conserved when g shares the symmetry). The energy figures are the physical ones: H of L at
