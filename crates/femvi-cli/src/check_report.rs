@@ -1,7 +1,9 @@
 //! What `femvi check` reports ([`CheckReport`], printed as JSON with `--json`): shared by the
-//! check of a Lagrangian (`check.rs`) and the check on a constraint manifold
-//! (`constrained/check.rs`), which `check.rs` dispatches to.
+//! check of a Lagrangian (`check.rs`), the check on a constraint manifold
+//! (`constrained/check.rs`) and the check of adaptive steps (`adaptive/check.rs`), which
+//! `check.rs` dispatches to; and the reversibility test they share ([`is_reversible`]).
 
+use femvi::Lagrangian;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -53,4 +55,27 @@ pub struct TwoForm {
     pub max_rel_difference: f64,
     /// Steps sampled.
     pub samples: usize,
+}
+
+/// Whether L(t, q, −v) = L(t, q, v) (to 1e-12 relative) at eight pseudo-random points with q
+/// near `q0` and v of unit size (the points are fixed, so the answer is reproducible).
+pub fn is_reversible<L: Lagrangian>(lag: &L, q0: &[f64], t0: f64) -> bool {
+    let n = lag.dim();
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    (0..8).all(|_| {
+        let t = t0 + next();
+        let q: Vec<f64> = (0..n)
+            .map(|i| q0.get(i).copied().unwrap_or(0.0) + 0.5 * next())
+            .collect();
+        let v: Vec<f64> = (0..n).map(|_| next()).collect();
+        let minus: Vec<f64> = v.iter().map(|x| -x).collect();
+        let (a, b): (f64, f64) = (lag.value(t, &q, &v), lag.value(t, &q, &minus));
+        !(a.is_finite() && b.is_finite()) || (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
+    })
 }

@@ -9,7 +9,7 @@
 //! the run's kept nodes against E₀, and the slope of its relative error per unit physical time.
 
 use super::{monitor, solve_problem, AdaptiveTime};
-use crate::check::{is_reversible, CheckReport, TwoForm};
+use crate::check_report::{is_reversible, CheckReport, TwoForm};
 use crate::problem::Problem;
 use femvi::adaptive::{AdaptiveSolution, TimeTransformed};
 use femvi::{Lagrangian, Method, Start, TimeGrid};

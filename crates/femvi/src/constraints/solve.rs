@@ -1,6 +1,7 @@
 //! The constrained run: [`solve_constrained`] checks the problem and its start against the
 //! constraints (`start.rs`), then drives the one integrator with the constraints as its term
-//! ([`crate::Integrator::with_constraints`], `term.rs`) on a grid of fixed steps, keeping nodes
+//! ([`crate::Integrator::with_constraints`], `term.rs`) on a grid of fixed steps
+//! ([`crate::step::drive()`] with one observer), keeping nodes
 //! as [`crate::solve()`] does, with the multipliers, the projection's velocity and the
 //! constraint residuals per kept node, and with a force the discrete work and the energy
 //! balance (`forced.rs`).
@@ -11,11 +12,11 @@ use super::start::check_options;
 use super::term::Constrained;
 use super::Constraints;
 use crate::discrete::Element;
-use crate::error::{finite_energy, Result};
+use crate::error::{finite_energy, Error, Result};
 use crate::forces::EnergyBalance;
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, Solution, SolveOptions};
-use crate::step::Integrator;
+use crate::step::{Integrator, Observer};
 
 /// The result of [`solve_constrained`]: the usual [`Solution`] plus, per kept node, the
 /// multipliers and the residuals of the constraints.
@@ -149,58 +150,22 @@ pub(super) fn run_terms<'a, L: Lagrangian + Sync, C: Constraints + Sync>(
     let lag = &problem.lagrangian;
     let mut it = Integrator::constrained(lag, element, grid, problem.start.clone(), options.solver, parts)?;
     let mut kept = Kept::new(lag.dim(), constraints.count(), enforcement, forced);
-    if let Err(e) = kept.keep(&it) {
-        // Node 0's energy is not finite: a failed run with nothing kept, as `solve`'s.
+    kept.every = options.every;
+    kept.max_steps = options.max_steps;
+    let report = crate::step::drive(&mut it, &mut [&mut kept]);
+    // The run's first error (a step's, or a node's energy), else one of keeping its last node.
+    if let Some(e) = report.error {
         kept.out.solution.error = Some(e);
-        return Ok(kept.done(&it));
     }
-    let (mut k, mut last_kept) = (0usize, 0usize);
-    loop {
-        if options.max_steps.is_some_and(|cap| k >= cap) {
-            kept.out.solution.stopped = !it.finished();
-            break;
-        }
-        match it.step() {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => {
-                kept.out.solution.error = Some(e);
-                break;
-            }
-        }
-        k += 1;
-        kept.out.solution.steps = k;
-        if forced {
-            match it.energy().and_then(|h| finite_energy(h, k, it.node().t)) {
-                Ok(energy) => kept.balance_at(energy, it.work()),
-                Err(e) => {
-                    // The new node's energy is not finite: nothing of it is kept.
-                    kept.out.solution.error = Some(e);
-                    last_kept = k;
-                    break;
-                }
-            }
-        }
-        let last = it.finished() || options.max_steps.is_some_and(|cap| k >= cap);
-        if last || (options.every > 0 && k % options.every == 0) {
-            last_kept = k;
-            if let Err(e) = kept.keep(&it) {
-                // Node k's energy is not finite: nothing of it is kept, the run ends.
-                kept.out.solution.error = Some(e);
-                break;
-            }
-        }
-    }
-    if last_kept != k {
-        // The node the run ended on (a failed step starts from it, or the step limit).
-        if let Err(e) = kept.keep(&it) {
-            kept.out.solution.error.get_or_insert(e);
-        }
-    }
+    kept.out.solution.stopped = report.stopped;
     Ok(kept.done(&it))
 }
 
 /// The kept nodes of a constrained run and its energy balance.
+///
+/// It is the observer of the run: node 0 and every `every`-th node are kept (and the node the
+/// run ends on), with a force the energy balance is taken at every node, and the step limit
+/// stops the run.
 struct Kept {
     out: ConstrainedSolution,
     work: Vec<f64>,
@@ -208,6 +173,55 @@ struct Kept {
     balance: EnergyBalance,
     max_rel_change: f64,
     forced: bool,
+    every: usize,
+    max_steps: Option<usize>,
+    /// The node last seen, the node last kept (or whose energy failed), and whether the node
+    /// last seen is the grid's final one.
+    k: usize,
+    last_kept: usize,
+    last: bool,
+}
+
+impl<L: Lagrangian + Sync> Observer<L> for Kept {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> Result<()> {
+        let k = it.node().k;
+        (self.k, self.last) = (k, last);
+        if k == 0 {
+            // Node 0's energy not finite: a failed run with nothing kept, as `solve`'s.
+            return self.keep(it);
+        }
+        self.out.solution.steps = k;
+        if self.forced {
+            match it.energy().and_then(|h| finite_energy(h, k, it.node().t)) {
+                Ok(energy) => self.balance_at(energy, it.work()),
+                Err(e) => {
+                    // The new node's energy is not finite: nothing of it is kept.
+                    self.last_kept = k;
+                    return Err(e);
+                }
+            }
+        }
+        let at_cap = self.max_steps.is_some_and(|cap| k >= cap);
+        if last || at_cap || (self.every > 0 && k.is_multiple_of(self.every)) {
+            self.last_kept = k;
+            self.keep(it)?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, it: &Integrator<'_, L>, _error: Option<&Error>) -> Result<()> {
+        if self.last_kept != self.k {
+            // The node the run ended on (a failed step starts from it, or the step limit).
+            if let Err(e) = self.keep(it) {
+                self.out.solution.error.get_or_insert(e);
+            }
+        }
+        Ok(())
+    }
+
+    fn stop(&self) -> bool {
+        !self.last && self.max_steps.is_some_and(|cap| self.k >= cap)
+    }
 }
 
 impl Kept {
@@ -228,6 +242,11 @@ impl Kept {
             balance: EnergyBalance::default(),
             max_rel_change: 0.0,
             forced,
+            every: 1,
+            max_steps: None,
+            k: 0,
+            last_kept: 0,
+            last: false,
         }
     }
 

@@ -1,8 +1,10 @@
 //! [`solve_forced`]: a run with non-conservative forces on the one integrator
 //! ([`Integrator::with_force`], `term.rs`: the forced Newton step of `step.rs` or, for a
 //! constant mass matrix and a force independent of v, the fixed-point solver of
-//! `fixed_point.rs`), returning the usual [`Solution`] with the accumulated discrete work and
-//! the energy balance max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
+//! `fixed_point.rs`; in the energy mode [`Integrator::with_force_energy`]), driven by
+//! [`crate::step::drive()`] with one observer that keeps the nodes, returning the usual
+//! [`Solution`] with the accumulated discrete work and the energy balance
+//! max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
 
 use super::step::Taken;
 use super::Force;
@@ -10,7 +12,7 @@ use crate::discrete::Element;
 use crate::error::{check_len, finite_energy, invalid, Error, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::{grid, EnergyReport, Problem, Solution, SolveOptions, Steps};
-use crate::step::{Integrator, Method, Start};
+use crate::step::{Integrator, Method, Observer, Start};
 
 /// How well the energy balance H(t_k) − H(t_0) = W_k holds over a run (every node).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -98,66 +100,91 @@ pub fn solve_forced<L: Lagrangian + Sync, F: Force + Sync>(
         }
         _ => Integrator::with_force(lag, element, grid, start_at, options.solver, force)?,
     };
-    let mut run = Run::new(n, options.every);
-    let mut node = Node {
-        k: 0,
-        t: problem.t0,
-        q: q0,
-        p: p0,
-        cq: vec![],
-        cp: vec![],
-        work: 0.0,
+    let mut recorder = Recorder {
+        run: Run::new(n, options.every),
+        node: Node {
+            k: 0,
+            t: problem.t0,
+            q: q0,
+            p: p0,
+            cq: vec![],
+            cp: vec![],
+            work: 0.0,
+        },
+        v: v0,
+        energy_mode,
+        discrete: Vec::new(),
+        max_steps: options.max_steps,
+        last: false,
     };
-    let mut v = v0;
-    // In the energy mode, Ẽ at the kept nodes (node 0's is known once element 0 is solved).
-    let mut discrete: Vec<f64> = Vec::new();
-    let (mut error, mut stopped) = (None, false);
-    loop {
-        let finished = it.finished();
-        let kept = run.kept();
-        if let Err(e) = run.record(lag, &node, &mut v, finished) {
-            error = Some(e);
-            break;
-        }
-        if energy_mode && run.kept() > kept {
-            discrete.push(it.discrete_energy().unwrap_or(f64::NAN));
-        }
-        if finished {
-            break;
-        }
-        if options.max_steps.is_some_and(|m| node.k >= m) {
-            stopped = true;
-            break;
-        }
-        match it.step() {
-            Err(e) => {
-                error = Some(e);
-                break;
-            }
-            Ok(false) => break,
-            Ok(true) => node.copy_from(&it),
-        }
-        if node.k == 1 {
-            if let (Some(d), Some(first)) = (discrete.first_mut(), it.term_discrete_energy()) {
-                *d = first.first;
-            }
-        }
-    }
-    if stopped || error.is_some() {
-        let kept = run.kept();
-        run.keep_last(&node, &v);
-        if energy_mode && run.kept() > kept {
-            discrete.push(it.discrete_energy().unwrap_or(f64::NAN));
-        }
-    }
-    let iterations = (it.mean_iterations() * node.k as f64).round() as usize;
-    let mut sol = run.finish(node.k, iterations, stopped, error);
+    let report = crate::step::drive(&mut it, &mut [&mut recorder]);
+    let k = recorder.node.k;
+    let iterations = (it.mean_iterations() * k as f64).round() as usize;
+    let mut sol = recorder.run.finish(k, iterations, report.stopped, report.error);
     if energy_mode {
         sol.solution.energy_stats = it.energy_stats();
-        sol.discrete_energy = discrete;
+        sol.discrete_energy = recorder.discrete;
         sol.discrete_balance = it.discrete_balance();
     }
     Ok(sol)
+}
+
+/// The observer of [`solve_forced`]'s run: H and the energy balance at every node, the kept
+/// nodes with their work, in the energy mode the discrete energy Ẽ at the kept nodes (node
+/// 0's is known once element 0 is solved), and the step limit.
+struct Recorder {
+    run: Run,
+    /// The node last recorded (node 0 as the start gives it).
+    node: Node,
+    /// The velocity at the node (the warm start of the next inverse Legendre transform).
+    v: Vec<f64>,
+    energy_mode: bool,
+    discrete: Vec<f64>,
+    max_steps: Option<usize>,
+    /// The node last recorded is the grid's final one.
+    last: bool,
+}
+
+impl Recorder {
+    /// Keeps the node the run ended on, after a stop or a failure (its H was recorded).
+    fn keep_last<L: Lagrangian>(&mut self, it: &Integrator<'_, L>) {
+        let kept = self.run.kept();
+        self.run.keep_last(&self.node, &self.v);
+        if self.energy_mode && self.run.kept() > kept {
+            self.discrete.push(it.discrete_energy().unwrap_or(f64::NAN));
+        }
+    }
+}
+
+impl<L: Lagrangian> Observer<L> for Recorder {
+    fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> Result<()> {
+        if it.node().k > 0 {
+            self.node.copy_from(it);
+        }
+        if self.node.k == 1 {
+            if let (Some(d), Some(first)) = (self.discrete.first_mut(), it.term_discrete_energy()) {
+                *d = first.first;
+            }
+        }
+        let kept = self.run.kept();
+        self.last = last;
+        self.run.record(it.lagrangian(), &self.node, &mut self.v, last)?;
+        if self.energy_mode && self.run.kept() > kept {
+            self.discrete.push(it.discrete_energy().unwrap_or(f64::NAN));
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, it: &Integrator<'_, L>, error: Option<&Error>) -> Result<()> {
+        if error.is_some() || Observer::<L>::stop(self) {
+            self.keep_last(it);
+        }
+        Ok(())
+    }
+
+    fn stop(&self) -> bool {
+        !self.last && self.max_steps.is_some_and(|m| self.node.k >= m)
+    }
 }
 
 /// [`crate::solution::solve_with`] under the force `force`: the run of
