@@ -85,6 +85,9 @@ pub struct RunCheckpoint {
     /// Problems with `[[events]]`: events.csv's length, the count and the locator's state.
     #[serde(default)]
     pub events: Option<crate::record::EventsSaved>,
+    /// Adaptive runs: the recorder's state, the rows written and the last kept node.
+    #[serde(default)]
+    pub adaptive: Option<crate::adaptive::stream::AdaptiveSaved>,
     /// The integrator's state.
     pub integrator: Checkpoint,
 }

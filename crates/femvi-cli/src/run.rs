@@ -86,9 +86,9 @@ pub fn run_as(
         ..out
     };
     if let Some(a) = &problem.terms.adaptive {
-        // Adaptive runs keep their rows until they end (and the times at `output_step`, which
-        // were allocated before any check: `end = 1e12` aborted): refused up front when the
-        // rows are known and too many, like every run.
+        // Adaptive runs stream their rows (`adaptive/stream.rs`); the times at `output_step`
+        // are allocated before the run, so such a run is refused up front when its rows are
+        // too many, like every run.
         let estimated = match crate::adaptive::estimated_rows(problem, a) {
             Some(rows) => {
                 let e = crate::estimate::of_rows(problem, &out, rows, rows);
@@ -99,7 +99,7 @@ pub fn run_as(
         if let Err(msg) = refuse(problem, &out, control.resume).and(estimated) {
             return Ok(Outcome::Rejected(msg));
         }
-        return crate::adaptive::run(problem, a, dir, out, command);
+        return crate::adaptive::run(problem, a, dir, out, control, command);
     }
     if problem.terms.force.is_some() || problem.terms.constraints.is_some() {
         if let Err(msg) = refuse(problem, &out, control.resume) {
@@ -126,7 +126,7 @@ struct RunArgs<'a> {
 }
 
 /// Removes a checkpoint left in `dir` by an earlier run.
-fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
+pub(crate) fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
     match std::fs::remove_file(dir.join(resume::FILE)) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
         _ => Ok(()),

@@ -5,24 +5,26 @@
 //! default "kepler" for the Kepler model and "nbody" for n-body). Writes trajectory.csv with
 //! the physical time t (columns step, t, q, p, energy, s) — or, with `output_step`, rows at
 //! uniform physical times from the element polynomials (columns row, t, q, p, energy) — and
-//! summary.json; the same table as trajectory.npy and columns.txt when NPY output is on
-//! (`output.rs`); `[[events]]` located on the dense output in s (`femvi::adaptive`) into
-//! events.csv and, with plots, Poincaré plots as for fixed steps; plots with `--plot`
-//! (`plots.rs`). `femvi check` measures the step map in s and the physical energy
-//! (`check.rs`).
+//! summary.json; the same table as trajectory.npy and columns.txt when NPY output is on;
+//! `[[events]]` located on the dense output in s (`femvi::adaptive`) into events.csv and,
+//! with plots, Poincaré plots as for fixed steps; plots with `--plot` (`plots.rs`). The run
+//! is the library's integrator on L_g driven with the library's adaptive recorder inside a
+//! writer that streams the rows, checkpoints and resumes (`stream.rs`). `femvi check`
+//! measures the step map in s and the physical energy (`check.rs`).
 
 pub mod check;
-mod output;
 mod plots;
+pub mod stream;
 
 use crate::outcome::{finish, Outcome};
 use crate::problem::{Problem, System};
+use crate::record::Checkpointing;
 use crate::run_output::RunOutput;
-use crate::summary::empty_summary;
+use crate::summary::{empty_summary, running_summary, write_summary};
 use femvi::adaptive::{
-    solve_adaptive, AdaptiveOptions, AdaptiveSolution, ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor,
+    solve_adaptive, AdaptiveOptions, AdaptiveSolution, ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor, Recorder,
 };
-use femvi::{Lagrangian, Scalar};
+use femvi::{Integrator, Lagrangian, Scalar};
 use std::path::Path;
 use std::time::Instant;
 
@@ -32,7 +34,8 @@ pub use crate::problem::AdaptiveTime;
 /// with `output_step` h, ⌊span/h⌋ + 1 rows at uniform physical times (and as many times held
 /// in memory). None for one row per node: their number follows the monitor along the orbit
 /// (from g(q0)·ds it was 550× too large for the e = 0.9 Kepler example, which starts at
-/// pericentre), so such runs are not estimated until adaptive runs stream (issue 33).
+/// pericentre), so such runs are not estimated: they stream their rows with bounded memory,
+/// stop on a signal with a checkpoint and resume (`stream.rs`).
 pub fn estimated_rows(problem: &Problem, settings: &AdaptiveTime) -> Option<f64> {
     let span = problem.grid.end() - problem.grid.t0();
     settings.output_step.map(|h| (span / h).floor() + 1.0)
@@ -93,7 +96,8 @@ fn monitor(problem: &Problem, name: Option<&str>) -> Result<AnyMonitor, String> 
     }
 }
 
-/// Runs `problem` in adaptive mode with output into `dir` (the module documentation).
+/// Runs `problem` in adaptive mode with output into `dir` (the module documentation): a
+/// fresh run, or with `control.resume` the continuation of the stopped one in `dir`.
 // One arm of the macro is a Copy type; the others need the clone.
 #[allow(clippy::clone_on_copy)]
 pub fn run(
@@ -101,19 +105,32 @@ pub fn run(
     settings: &AdaptiveTime,
     dir: &Path,
     out: RunOutput,
+    control: &crate::run::RunControl,
     command: &[String],
 ) -> std::io::Result<Outcome> {
-    crate::with_system!(&problem.system, l => run_with(l.clone(), problem, settings, dir, out, command))
+    let args = Args {
+        problem,
+        settings,
+        dir,
+        out,
+        control,
+        command,
+    };
+    crate::with_system!(&problem.system, l => run_with(l.clone(), &args))
 }
 
-fn run_with<L: Lagrangian>(
-    lag: L,
-    problem: &Problem,
-    settings: &AdaptiveTime,
-    dir: &Path,
+/// What [`run`] is asked to do.
+struct Args<'a> {
+    problem: &'a Problem,
+    settings: &'a AdaptiveTime,
+    dir: &'a Path,
     out: RunOutput,
-    command: &[String],
-) -> std::io::Result<Outcome> {
+    control: &'a crate::run::RunControl,
+    command: &'a [String],
+}
+
+fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
+    let (problem, settings, dir, out) = (a.problem, a.settings, a.dir, a.out);
     let clock = Instant::now();
     let (t0, end) = (problem.grid.t0(), problem.grid.end());
     let saveat: Vec<f64> = match settings.output_step {
@@ -124,44 +141,135 @@ fn run_with<L: Lagrangian>(
         None => vec![],
     };
     let p = femvi::Problem::new(lag, problem.start.clone(), t0, end);
-    let events = problem.events.iter().map(|e| e.event()).collect();
-    let sol = match solve_problem(&p, problem, settings, problem.every, saveat, events) {
-        Ok(sol) => sol,
+    let options = AdaptiveOptions {
+        solver: problem.options,
+        every: problem.every,
+        saveat,
+        events: problem.events.iter().map(|e| e.event()).collect(),
+        energy_level: energy_level(&p, problem),
+        ..AdaptiveOptions::step(settings.ds)
+    };
+    let g = match monitor(problem, settings.monitor.as_deref()) {
+        Ok(g) => g,
         Err(msg) => return Ok(Outcome::Rejected(msg)),
     };
-    std::fs::create_dir_all(dir)?;
-    output::write_trajectory(dir, problem, &p.lagrangian, &sol, settings, out)?;
-    let mut summary = empty_summary(problem, clock, String::new(), command);
-    if !problem.events.is_empty() {
-        crate::events::write_events(dir, problem, &sol.events)?;
-        if out.plots {
-            crate::events::poincare(dir, problem, &sol.events, out.plot_format).map_err(std::io::Error::other)?;
-        }
-        summary.events_located = Some(sol.events.len());
-        let stopper = sol.events.iter().find(|r| problem.events[r.event].stop);
-        summary.stopped_by_event = Some(
-            stopper
-                .filter(|_| sol.stopped)
-                .map(|r| problem.events[r.event].name.clone()),
-        );
+    let run = match femvi::adaptive::setup(&p, g, &options) {
+        Ok(run) => run,
+        Err(e) => return Ok(Outcome::Rejected(e.to_string())),
+    };
+    let made = Integrator::new(
+        &run.lagrangian,
+        &problem.element,
+        run.grid.clone(),
+        run.start.clone(),
+        run.solver,
+    );
+    let mut it = match made {
+        Ok(it) => it,
+        Err(e) => return Ok(Outcome::Rejected(e.to_string())),
+    };
+    let n = problem.coordinates.len();
+    let recorder = Recorder::new(&problem.element, n, t0, end, &options);
+    let resumable = crate::resume::resumable(&out);
+    if let (true, Err(msg)) = (a.control.resume, &resumable) {
+        return Ok(Outcome::Rejected(msg.clone()));
     }
-    let last = sol.t.len().saturating_sub(1);
-    let n = sol.n;
-    summary.steps = sol.steps;
-    summary.final_t = sol.t.get(last).copied().unwrap_or(t0);
-    summary.final_q = sol.q.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
-    summary.final_p = sol.p.get(last * n..(last + 1) * n).unwrap_or(&[]).to_vec();
-    summary.max_rel_energy_error = max_rel_energy_error(&sol);
-    summary.mean_solver_iterations = sol.mean_iterations;
-    summary.error = sol.error.as_ref().map(|e| e.to_string());
-    if out.plots {
+    let tag = crate::resume::problem_hash(problem);
+    let checkpointing = Checkpointing {
+        policy: a.control.checkpoints,
+        tag: tag.clone(),
+        outputs: crate::resume::outputs_label(&out),
+    };
+    let start = stream::Start {
+        problem,
+        settings,
+        dir,
+        out,
+        e0: run.e0,
+        checkpoints: resumable.ok().map(|()| checkpointing),
+    };
+    // A run killed before its first checkpoint resumes by starting again.
+    let fresh = !a.control.resume || crate::resume::killed_before_first_checkpoint(dir, problem);
+    let mut writer = if fresh {
+        std::fs::create_dir_all(dir)?;
+        crate::run::remove_checkpoint(dir)?;
+        write_summary(dir, &running_summary(problem, clock, a.command))?;
+        stream::Writer::create(start, recorder)?
+    } else {
+        let resumed = crate::resume::load(dir, problem, &out).and_then(|cp| {
+            let w = stream::Writer::resume(start, recorder, &cp)?;
+            it.restore(&cp.integrator, &tag)
+                .map_err(|e| format!("cannot resume: {e}"))?;
+            Ok(w)
+        });
+        match resumed {
+            Ok(w) => {
+                write_summary(dir, &running_summary(problem, clock, a.command))?;
+                w
+            }
+            Err(msg) => return Ok(Outcome::Rejected(msg)),
+        }
+    };
+    let report = femvi::step::drive(&mut it, &mut [&mut writer]);
+    if let Some(e) = writer.write_failure() {
+        return Err(e);
+    }
+    let mut summary = empty_summary(problem, clock, String::new(), a.command);
+    summary.steps = it.node().k;
+    match &writer.last {
+        Some((_, t, q, pp)) => {
+            summary.final_t = *t;
+            summary.final_q = q.clone();
+            summary.final_p = pp.clone();
+        }
+        None => summary.final_t = t0,
+    }
+    summary.max_rel_energy_error = writer.max_rel;
+    summary.mean_solver_iterations = it.mean_iterations();
+    summary.error = report.error.as_ref().map(|e| e.to_string());
+    if let Some(events) = &writer.events {
+        summary.events_located = Some(events.count());
+        let stopped = report.stopped && !writer.recorder.reached();
+        summary.stopped_by_event = Some(events.stopper().filter(|_| stopped).map(str::to_string));
+    }
+    if let Some(kept) = writer.kept.take() {
+        let sol = AdaptiveSolution {
+            n,
+            e0: run.e0,
+            s: kept.s,
+            t: kept.t,
+            q: kept.q,
+            p: kept.p,
+            v: kept.v,
+            energy: kept.energy,
+            saved: kept.saved,
+            events: kept.events,
+            steps: summary.steps,
+            mean_iterations: summary.mean_solver_iterations,
+            stopped: report.stopped,
+            error: None,
+        };
+        if !problem.events.is_empty() {
+            let drawn = crate::events::poincare(dir, problem, &sol.events, out.plot_format);
+            if let Err(e) = drawn {
+                summary.error.get_or_insert(e);
+            }
+        }
         if let Err(e) = plots::draw(dir, out.plot_format, problem, &sol, settings.ds) {
             summary.error.get_or_insert(e);
         }
     }
     summary.status = crate::summary::status_of(summary.error.as_deref()).into();
     summary.wall_seconds = clock.elapsed().as_secs_f64();
-    finish(dir, summary)
+    match writer.signal {
+        Some(sig) => crate::outcome::interrupted(dir, summary, sig),
+        None => {
+            if summary.error.is_none() {
+                crate::run::remove_checkpoint(dir)?;
+            }
+            finish(dir, summary)
+        }
+    }
 }
 
 /// Integrates the loaded `problem` (its system as `p`) in adaptive mode with its monitor,

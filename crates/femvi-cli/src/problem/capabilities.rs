@@ -4,10 +4,8 @@
 //! combinations that no command can run (a term with another term, or with a time mode) are
 //! refused when the problem is loaded ([`check_terms`]). A pair that is not in the table works.
 //!
-//! The reasons say which are mathematical (a step or tangent map whose equations are not
-//! derived for the pair, a study that refines a step the pair does not have) and which are
-//! the remaining seams of issue 33 (adaptive runs are solved to the end by
-//! `femvi::adaptive::solve_adaptive`, outside the streaming run with its checkpoints).
+//! The reasons are mathematical: a step or tangent map whose equations are not derived for
+//! the pair, or a study that refines a step the pair does not have.
 
 use super::terms::Terms;
 use super::Problem;
@@ -136,11 +134,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         Term::Forces,
         Use::ChaosInEnergyMode,
         "the tangent map of the forced energy equation is not derived; use mode = \"fixed\"",
-    ),
-    (
-        Term::Adaptive,
-        Use::Resume,
-        "adaptive runs write no checkpoints yet: their run is femvi::adaptive::solve_adaptive to the end (issue 33)",
     ),
     (
         Term::Forces,

@@ -88,6 +88,20 @@ impl CsvRows {
     }
 }
 
+impl CsvRows {
+    /// Writes one row of a table whose rows are not the integrator's nodes (an adaptive run's
+    /// rows in physical time): the index as an integer, then `values`.
+    ///
+    /// # Errors
+    /// The write failed.
+    pub fn values(&mut self, index: usize, values: &[f64]) -> std::io::Result<()> {
+        self.row.clear();
+        self.row.push(index.to_string());
+        self.row.extend(values.iter().map(|&x| num(x)));
+        self.writer.write_record(&self.row).map_err(std::io::Error::other)
+    }
+}
+
 /// Debug formatting of f64 is the shortest string that reads back to the same number.
 fn num(x: f64) -> String {
     format!("{x:?}")

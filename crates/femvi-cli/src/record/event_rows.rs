@@ -117,7 +117,16 @@ impl EventRows {
 
     /// Writes the events located since the last call.
     fn write_found(&mut self) -> std::io::Result<()> {
-        for r in self.locator.take() {
+        let found = self.locator.take();
+        self.write(found)
+    }
+
+    /// Writes events located by another run (an adaptive run's recorder).
+    ///
+    /// # Errors
+    /// The write failed.
+    pub fn write(&mut self, records: Vec<EventRecord>) -> std::io::Result<()> {
+        for r in records {
             let name = self.names.get(r.event).cloned().unwrap_or_default();
             if self.stopper.is_none() && self.locator.events().get(r.event).is_some_and(|e| e.stop) {
                 self.stopper = Some(name.clone());

@@ -120,6 +120,20 @@ impl NpyRows {
         Ok(self.rows)
     }
 
+    /// Writes one row of a table whose rows are not the integrator's nodes (an adaptive run's
+    /// rows in physical time): the index, then `values`.
+    ///
+    /// # Errors
+    /// The write failed.
+    pub fn values(&mut self, index: usize, values: &[f64]) -> std::io::Result<()> {
+        self.push(index as f64)?;
+        for &x in values {
+            self.push(x)?;
+        }
+        self.rows += 1;
+        Ok(())
+    }
+
     fn push(&mut self, x: f64) -> std::io::Result<()> {
         self.file.write_all(&x.to_le_bytes())
     }

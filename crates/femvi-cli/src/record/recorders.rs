@@ -356,6 +356,7 @@ impl<'a> Recorders<'a> {
                 },
                 balance: self.balance.map(|b| b.words()),
                 events: events?,
+                adaptive: None,
                 integrator: it.checkpoint(&c.tag),
             })
         });

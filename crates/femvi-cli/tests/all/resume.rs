@@ -25,7 +25,7 @@ struct Case {
     args: &'static [&'static str],
 }
 
-const CASES: [Case; 11] = [
+const CASES: [Case; 13] = [
     Case {
         name: "explicit",
         end: 20.0,
@@ -89,6 +89,20 @@ const CASES: [Case; 11] = [
         end: 40.0,
         toml: "name = \"forced-energy\"\n[system]\ncoordinates = [\"x\"]\nparameters = { c = 0.1, f0 = 0.3, w = 1.2 }\nlagrangian = \"0.5*x_dot^2 - 0.5*x^2 - 0.25*x^4\"\n[forces]\ngeneralized = [\"f0*cos(w*t)\"]\ndissipation = \"0.5*c*x_dot^2\"\n[initial]\nq = [1.0]\nv = [0.0]\n[scheme]\ndegree = 1\n[time]\nmode = \"energy\"\nstep = 0.01\nend = {end}\nmin_step = 0.0001\nmax_step = 0.5\n[output]\nevery = 3\n",
         args: &["--format", "csv,npy", "--checkpoint-every-steps", "89"],
+    },
+    // Adaptive steps (issue 33): the rows in physical time streamed by the writer of
+    // `adaptive/stream.rs`, the recorder's clock, output times and events in the checkpoint.
+    Case {
+        name: "adaptive-nodes",
+        end: 60.0,
+        toml: "name = \"adaptive-nodes\"\n[system]\nmodel = \"kepler\"\nparameters = { mu = 1.0 }\n[initial]\nq = [0.1, 0.0]\np = [0.0, 4.358898943540674]\n[scheme]\ndegree = 2\n[time]\nmode = \"adaptive\"\nds = 0.05\nend = {end}\n[output]\nevery = 3\n[[events]]\nname = \"pericentre\"\nwhen = \"y\"\ndirection = \"rising\"\n",
+        args: &["--format", "csv,npy", "--checkpoint-every-steps", "101"],
+    },
+    Case {
+        name: "adaptive-uniform",
+        end: 60.0,
+        toml: "name = \"adaptive-uniform\"\n[system]\nmodel = \"kepler\"\nparameters = { mu = 1.0 }\n[initial]\nq = [0.1, 0.0]\np = [0.0, 4.358898943540674]\n[scheme]\ndegree = 2\n[time]\nmode = \"adaptive\"\nds = 0.05\nend = {end}\noutput_step = 0.1\n",
+        args: &["--format", "csv,npy", "--checkpoint-every-seconds", "0.05"],
     },
     // Constraints (issue 33): RATTLE steps on the spherical pendulum, and a damped, driven
     // spherical pendulum at degree 2 (dense Newton with the discrete forces); the multipliers

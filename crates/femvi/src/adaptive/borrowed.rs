@@ -5,8 +5,16 @@
 use crate::lagrangian::{Lagrangian, MassMatrix, PointDerivatives, Scalar};
 
 /// `&L`, delegating every method of [`Lagrangian`] (the hand-coded ones included).
+///
+/// ```
+/// use femvi::adaptive::Borrowed;
+/// use femvi::{models, Lagrangian};
+/// let kepler = models::kepler(1.0)?;
+/// assert_eq!(Borrowed(&kepler).dim(), 2);
+/// # Ok::<(), femvi::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Borrowed<'a, L>(pub(crate) &'a L);
+pub struct Borrowed<'a, L>(pub &'a L);
 
 impl<L: Lagrangian> Lagrangian for Borrowed<'_, L> {
     fn dim(&self) -> usize {

@@ -35,10 +35,12 @@ mod monitor;
 mod record;
 mod solve;
 
+pub use borrowed::Borrowed;
 pub use energy::{kepler_energy, nbody_energy};
 pub use lagrangian::TimeTransformed;
 pub use monitor::{ExprMonitor, KeplerMonitor, Monitor, NBodyMonitor};
-pub use solve::{solve_adaptive, start_momentum};
+pub use record::{AdaptiveRows, Recorder};
+pub use solve::{setup, solve_adaptive, start_momentum, AdaptiveSetup};
 
 use crate::error::Error;
 use crate::solution::{Event, EventRecord, Saved};

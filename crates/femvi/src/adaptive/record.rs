@@ -17,7 +17,35 @@ use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::{Detector, EventRecord, Saved};
 use crate::step::{Integrator, Observer};
 
-pub(crate) struct Recorder<'e> {
+/// The observer of an adaptive run (the module documentation): the physical clock, the kept
+/// nodes, the states at requested physical times and the events. [`super::solve_adaptive`]
+/// keeps everything it records; a streaming run takes what was recorded after each node
+/// ([`Recorder::take`]) and carries the recorder's state through checkpoints
+/// ([`Recorder::state`], [`Recorder::restore`]).
+///
+/// # Example
+///
+/// ```
+/// use femvi::adaptive::{setup, AdaptiveOptions, KeplerMonitor, Recorder};
+/// use femvi::step::drive;
+/// use femvi::{models, Element, Integrator, Problem, Start};
+///
+/// // A circular Kepler orbit, one period 2π, streamed: the rows are taken after each node.
+/// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
+/// let problem = Problem::new(models::kepler(1.0)?, start, 0.0, 2.0 * std::f64::consts::PI);
+/// let (element, options) = (Element::with_order(4)?, AdaptiveOptions::step(0.05));
+/// let run = setup(&problem, KeplerMonitor, &options)?;
+/// let mut it = Integrator::new(&run.lagrangian, &element, run.grid.clone(), run.start.clone(), run.solver)?;
+/// let mut recorder = Recorder::new(&element, 2, 0.0, problem.t_end, &options);
+/// drive(&mut it, &mut [&mut recorder]);
+/// let rows = recorder.take();
+/// let last = rows.t.len() - 1;
+/// // The run stops at the first node past the end; on the circle x = cos t, y = sin t.
+/// let (t, x, y) = (rows.t[last], rows.q[2 * last], rows.q[2 * last + 1]);
+/// assert!(t >= problem.t_end && (x - t.cos()).abs() < 1e-6 && (y - t.sin()).abs() < 1e-6);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub struct Recorder<'e> {
     element: &'e Element,
     every: usize,
     t_end: f64,
@@ -43,10 +71,36 @@ pub(crate) struct Recorder<'e> {
     k: usize,
     detector: Option<Detector>,
     pub(crate) events: Vec<EventRecord>,
+    /// The next node shown is the one a restored run continues from (recorded before).
+    skip_next: bool,
+}
+
+/// What a [`Recorder`] recorded since it was last taken: the kept nodes (s, physical t, q, p,
+/// physical v and H, row-major), the states at requested physical times and the events.
+#[derive(Debug, Clone, Default)]
+pub struct AdaptiveRows {
+    /// Fictitious times s of the kept nodes.
+    pub s: Vec<f64>,
+    /// Physical times of the kept nodes.
+    pub t: Vec<f64>,
+    /// Positions, n per node.
+    pub q: Vec<f64>,
+    /// Momenta, n per node.
+    pub p: Vec<f64>,
+    /// Physical velocities, n per node.
+    pub v: Vec<f64>,
+    /// H at the kept nodes.
+    pub energy: Vec<f64>,
+    /// States at the requested physical times.
+    pub saved: Saved,
+    /// Located events.
+    pub events: Vec<EventRecord>,
 }
 
 impl<'e> Recorder<'e> {
-    pub(crate) fn new(element: &'e Element, n: usize, t0: f64, t_end: f64, options: &super::AdaptiveOptions) -> Self {
+    /// The recorder of a run from physical time t0 to t_end in dimension n with `element` and
+    /// the options' `every`, `saveat`, `events` and `max_steps`.
+    pub fn new(element: &'e Element, n: usize, t0: f64, t_end: f64, options: &super::AdaptiveOptions) -> Self {
         Self {
             element,
             every: options.every,
@@ -72,7 +126,84 @@ impl<'e> Recorder<'e> {
             k: 0,
             detector: (!options.events.is_empty()).then(|| Detector::new(options.events.clone(), &element.basis, n)),
             events: vec![],
+            skip_next: false,
         }
+    }
+
+    /// Takes what was recorded so far (the recorder keeps its clock and state).
+    pub fn take(&mut self) -> AdaptiveRows {
+        AdaptiveRows {
+            s: std::mem::take(&mut self.s),
+            t: std::mem::take(&mut self.time),
+            q: std::mem::take(&mut self.q),
+            p: std::mem::take(&mut self.p),
+            v: std::mem::take(&mut self.v),
+            energy: std::mem::take(&mut self.energy),
+            saved: std::mem::take(&mut self.saved),
+            events: std::mem::take(&mut self.events),
+        }
+    }
+
+    /// The physical time of the current node.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// Whether the run reached its physical end time.
+    pub fn reached(&self) -> bool {
+        self.reached
+    }
+
+    /// The recorder's state for a checkpoint: the clock with its compensation, the next
+    /// requested time, the last kept node, the step and the event detector's state.
+    pub fn state(&self) -> Vec<u64> {
+        let mut w = vec![
+            self.t.to_bits(),
+            self.t_comp.to_bits(),
+            self.next_save as u64,
+            self.last_kept.map_or(u64::MAX, |k| k as u64),
+            u64::from(self.reached),
+            self.k as u64,
+        ];
+        if let Some(d) = &self.detector {
+            w.extend(d.last_g.iter().map(|g| g.to_bits()));
+            w.push(u64::from(d.stop));
+        }
+        w
+    }
+
+    /// Restores [`Recorder::state`]; the next node shown is taken to be the checkpoint's,
+    /// which was recorded before it.
+    ///
+    /// # Errors
+    /// A state of another length (another run's).
+    pub fn restore(&mut self, words: &[u64]) -> Result<()> {
+        let m = self.detector.as_ref().map_or(0, |d| d.last_g.len() + 1);
+        if words.len() != 6 + m {
+            return Err(crate::error::invalid(
+                "checkpoint",
+                format!(
+                    "an adaptive recorder state of {} words, this run has {}",
+                    words.len(),
+                    6 + m
+                ),
+            ));
+        }
+        self.t = f64::from_bits(words[0]);
+        self.t_comp = f64::from_bits(words[1]);
+        self.next_save = words[2] as usize;
+        self.last_kept = (words[3] != u64::MAX).then_some(words[3] as usize);
+        self.reached = words[4] != 0;
+        self.k = words[5] as usize;
+        if let Some(d) = self.detector.as_mut() {
+            let n = d.last_g.len();
+            for (g, w) in d.last_g.iter_mut().zip(&words[6..6 + n]) {
+                *g = f64::from_bits(*w);
+            }
+            d.stop = words[6 + n] != 0;
+        }
+        self.skip_next = true;
+        Ok(())
     }
 
     fn keep<L: Lagrangian>(&mut self, lag: &L, k: usize, s: f64, q: &[f64], p: &[f64]) -> Result<()> {
@@ -125,6 +256,9 @@ impl<'e> Recorder<'e> {
 
 impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Recorder<'_> {
     fn node(&mut self, it: &Integrator<'_, TimeTransformed<L, G>>, _last: bool) -> Result<()> {
+        if std::mem::take(&mut self.skip_next) {
+            return Ok(());
+        }
         let node = it.node();
         let lg = it.lagrangian();
         self.k = node.k;

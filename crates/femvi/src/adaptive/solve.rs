@@ -12,7 +12,7 @@ use crate::discrete::Element;
 use crate::error::{check_len, invalid, Result};
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
 use crate::solution::Problem;
-use crate::step::{drive, Integrator, Method, Start, TimeGrid};
+use crate::step::{drive, Integrator, Method, SolverOptions, Start, TimeGrid};
 
 /// The start as (q0, p0), as [`solve_adaptive`] takes it: from (q0, v0) by p0 = ∂L/∂v; the
 /// start from (q0, q1) is refused (q1 would be at an unknown fictitious time).
@@ -86,6 +86,57 @@ pub fn solve_adaptive<L: Lagrangian, G: Monitor>(
     element: &Element,
     options: &AdaptiveOptions,
 ) -> Result<AdaptiveSolution> {
+    let run = setup(problem, monitor, options)?;
+    let n = problem.lagrangian.dim();
+    let mut it = Integrator::new(&run.lagrangian, element, run.grid, run.start, run.solver)?;
+    let mut recorder = Recorder::new(element, n, problem.t0, problem.t_end, options);
+    let report = drive(&mut it, &mut [&mut recorder]);
+    let stopped = report.stopped && !recorder.reached;
+    let rows = recorder.take();
+    Ok(AdaptiveSolution {
+        n,
+        e0: run.e0,
+        s: rows.s,
+        t: rows.t,
+        q: rows.q,
+        p: rows.p,
+        v: rows.v,
+        energy: rows.energy,
+        saved: rows.saved,
+        events: rows.events,
+        steps: report.steps,
+        mean_iterations: it.mean_iterations(),
+        stopped,
+        error: report.error,
+    })
+}
+
+/// The parts of an adaptive run of `problem` with `monitor` and `options` (the checks and
+/// set-up of [`solve_adaptive`]): the time-transformed Lagrangian L_g on the problem's
+/// Lagrangian, the grid in s (long enough for the step limit; a [`super::Recorder`] stops the
+/// run at the physical end), the start (q0, p0), the step solver and the energy level E₀. A
+/// streaming run builds its [`Integrator`] from them and drives it with a recorder.
+///
+/// # Errors
+/// As [`solve_adaptive`].
+///
+/// # Example
+///
+/// ```
+/// use femvi::adaptive::{setup, AdaptiveOptions, KeplerMonitor};
+/// use femvi::{models, Problem, Start};
+///
+/// let start = Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 1.0] };
+/// let problem = Problem::new(models::kepler(1.0)?, start, 0.0, 1.0);
+/// let run = setup(&problem, KeplerMonitor, &AdaptiveOptions::step(0.1))?;
+/// assert!((run.e0 + 0.5).abs() < 1e-15 && run.grid.nominal(0) == 0.1);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn setup<'l, L: Lagrangian, G: Monitor>(
+    problem: &'l Problem<L>,
+    monitor: G,
+    options: &AdaptiveOptions,
+) -> Result<AdaptiveSetup<'l, L, G>> {
     let lag = &problem.lagrangian;
     let (t0, t_end) = (problem.t0, problem.t_end);
     if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
@@ -123,12 +174,11 @@ pub fn solve_adaptive<L: Lagrangian, G: Monitor>(
     if !(g0.is_finite() && g0 > 0.0) {
         return Err(invalid("monitor", format!("g(q0) = {g0} is not positive and finite")));
     }
-    let lg = TimeTransformed::new(Borrowed(lag), &monitor, e0)?;
+    let lg = TimeTransformed::new(Borrowed(lag), monitor, e0)?;
     let lg = if options.hand_derivatives { lg } else { lg.by_ad() };
     // A grid in s long enough for the step limit; the recorder stops at t_end.
     let s_end = ds * (options.max_steps as f64 + 1.0);
     let grid = TimeGrid::uniform(0.0, ds, s_end)?;
-    let start = Start::Momentum { q: q0, p: p0 };
     // Auto is full Newton here: on the e = 0.9 Kepler orbit (order 8, ds 0.3) the simplified
     // iteration's energy slope over 10⁴ periods was −1.2e-16 per period against full Newton's
     // −2e-17 (measured, `examples/adaptive_drift`), for 0.85× the time per step.
@@ -136,23 +186,26 @@ pub fn solve_adaptive<L: Lagrangian, G: Monitor>(
     if solver.method == Method::Auto {
         solver.method = Method::FullNewton;
     }
-    let mut it = Integrator::new(&lg, element, grid, start, solver)?;
-    let mut recorder = Recorder::new(element, n, t0, t_end, options);
-    let report = drive(&mut it, &mut [&mut recorder]);
-    Ok(AdaptiveSolution {
-        n,
+    Ok(AdaptiveSetup {
+        lagrangian: lg,
+        grid,
+        start: Start::Momentum { q: q0, p: p0 },
+        solver,
         e0,
-        s: std::mem::take(&mut recorder.s),
-        t: std::mem::take(&mut recorder.time),
-        q: std::mem::take(&mut recorder.q),
-        p: std::mem::take(&mut recorder.p),
-        v: std::mem::take(&mut recorder.v),
-        energy: std::mem::take(&mut recorder.energy),
-        saved: std::mem::take(&mut recorder.saved),
-        events: std::mem::take(&mut recorder.events),
-        steps: report.steps,
-        mean_iterations: it.mean_iterations(),
-        stopped: report.stopped && !recorder.reached,
-        error: report.error,
     })
+}
+
+/// The parts of an adaptive run ([`setup`]).
+#[derive(Debug, Clone)]
+pub struct AdaptiveSetup<'l, L, G> {
+    /// L_g on the problem's Lagrangian.
+    pub lagrangian: TimeTransformed<Borrowed<'l, L>, G>,
+    /// Fixed steps ds in s.
+    pub grid: TimeGrid,
+    /// (q0, p0).
+    pub start: Start,
+    /// The step solver (`Method::Auto` made full Newton).
+    pub solver: SolverOptions,
+    /// The energy level E₀ of the transformation.
+    pub e0: f64,
 }
