@@ -35,6 +35,10 @@ pub struct AdaptiveSaved {
     pub rows: usize,
     /// The last kept node: its step, t, q and p (bits).
     pub last: Option<(usize, Vec<u64>)>,
+    /// The warm start of the inverse Legendre transform at the output-time rows (bits), so
+    /// that a resumed run's energies there are the uninterrupted run's for any Lagrangian.
+    #[serde(default)]
+    pub v: Vec<u64>,
 }
 
 /// The last kept node: (step, t, q, p).
@@ -64,8 +68,13 @@ pub struct Writer<'a> {
     progress: Progress,
     failure: WriteFailure,
     pub(super) signal: Option<Signal>,
-    /// Warm start of the inverse Legendre transform at the output-time rows.
+    /// Warm start of the inverse Legendre transform at the output-time rows, and its
+    /// workspace.
     v: Vec<f64>,
+    work: femvi::lagrangian::PointDerivatives,
+    /// The rows taken from the recorder, and one row's values (reused, no allocation per node).
+    taken: AdaptiveRows,
+    values: Vec<f64>,
 }
 
 /// How a [`Writer`] starts: the outputs asked for, the energy level and the checkpoints.
@@ -153,6 +162,9 @@ impl<'a> Writer<'a> {
         };
         let mut me = Self::with(s, recorder, (csv, npy, events), failure, true);
         me.rows = saved.rows;
+        if saved.v.len() == me.n {
+            me.v = saved.v.iter().map(|b| f64::from_bits(*b)).collect();
+        }
         me.max_rel = f64::from_bits(cp.energy.max_rel_bits);
         me.last = saved.last.as_ref().and_then(|(k, bits)| {
             let n = me.n;
@@ -193,6 +205,9 @@ impl<'a> Writer<'a> {
             failure,
             signal: None,
             v: vec![0.0; n],
+            work: femvi::lagrangian::PointDerivatives::new(n),
+            taken: AdaptiveRows::default(),
+            values: Vec::with_capacity(2 * n + 3),
         }
     }
 
@@ -203,16 +218,30 @@ impl<'a> Writer<'a> {
 
     /// Writes what the recorder recorded since the last call.
     fn write_taken<L: Lagrangian>(&mut self, lag: &L) -> std::io::Result<()> {
-        let rows = self.recorder.take();
+        self.recorder.take_into(&mut self.taken);
+        let rows = std::mem::take(&mut self.taken);
+        let written = self.write_rows(lag, &rows);
+        self.taken = rows;
+        written
+    }
+
+    fn write_rows<L: Lagrangian>(&mut self, lag: &L, rows: &AdaptiveRows) -> std::io::Result<()> {
         let n = self.n;
         let scale = if self.e0 == 0.0 { 1.0 } else { self.e0.abs() };
-        let mut values = Vec::with_capacity(2 * n + 3);
+        let mut values = std::mem::take(&mut self.values);
         for (i, &t) in rows.t.iter().enumerate() {
             let (q, p) = (&rows.q[i * n..(i + 1) * n], &rows.p[i * n..(i + 1) * n]);
             let h = rows.energy[i];
             self.max_rel = self.max_rel.max((h - self.e0).abs() / scale);
             let k = (rows.s[i] / self.ds).round() as usize;
-            self.last = Some((k, t, q.to_vec(), p.to_vec()));
+            match self.last.as_mut() {
+                Some(last) => {
+                    (last.0, last.1) = (k, t);
+                    last.2.copy_from_slice(q);
+                    last.3.copy_from_slice(p);
+                }
+                None => self.last = Some((k, t, q.to_vec(), p.to_vec())),
+            }
             if !self.uniform {
                 values.clear();
                 values.push(t);
@@ -223,10 +252,9 @@ impl<'a> Writer<'a> {
             }
         }
         if self.uniform {
-            let mut work = femvi::lagrangian::PointDerivatives::new(n);
             for (i, &t) in rows.saved.t.iter().enumerate() {
                 let (q, p) = (&rows.saved.q[i * n..(i + 1) * n], &rows.saved.p[i * n..(i + 1) * n]);
-                let h = femvi::lagrangian::hamiltonian(lag, t, q, p, &mut self.v, &mut work).unwrap_or(f64::NAN);
+                let h = femvi::lagrangian::hamiltonian(lag, t, q, p, &mut self.v, &mut self.work).unwrap_or(f64::NAN);
                 values.clear();
                 values.push(t);
                 values.extend_from_slice(q);
@@ -235,11 +263,12 @@ impl<'a> Writer<'a> {
                 self.write_row(self.rows, &values)?;
             }
         }
-        if let Some(events) = self.events.as_mut() {
+        self.values = values;
+        if let (Some(events), false) = (self.events.as_mut(), rows.events.is_empty()) {
             events.write(rows.events.clone())?;
         }
         if let Some(kept) = self.kept.as_mut() {
-            append(kept, rows);
+            append(kept, rows.clone());
         }
         Ok(())
     }
@@ -299,6 +328,7 @@ impl<'a> Writer<'a> {
                 recorder: self.recorder.state(),
                 rows: self.rows,
                 last,
+                v: self.v.iter().map(|x| x.to_bits()).collect(),
             }),
             integrator: it.checkpoint(&tag),
         };

@@ -130,6 +130,27 @@ impl<'e> Recorder<'e> {
         }
     }
 
+    /// Moves what was recorded so far into `rows` (cleared first), keeping the capacity of
+    /// both: a streaming run's way of taking the rows without an allocation per node.
+    pub fn take_into(&mut self, rows: &mut AdaptiveRows) {
+        fn swap(a: &mut Vec<f64>, b: &mut Vec<f64>) {
+            b.clear();
+            std::mem::swap(a, b);
+        }
+        swap(&mut self.s, &mut rows.s);
+        swap(&mut self.time, &mut rows.t);
+        swap(&mut self.q, &mut rows.q);
+        swap(&mut self.p, &mut rows.p);
+        swap(&mut self.v, &mut rows.v);
+        swap(&mut self.energy, &mut rows.energy);
+        swap(&mut self.saved.t, &mut rows.saved.t);
+        swap(&mut self.saved.q, &mut rows.saved.q);
+        swap(&mut self.saved.v, &mut rows.saved.v);
+        swap(&mut self.saved.p, &mut rows.saved.p);
+        rows.events.clear();
+        std::mem::swap(&mut self.events, &mut rows.events);
+    }
+
     /// Takes what was recorded so far (the recorder keeps its clock and state).
     pub fn take(&mut self) -> AdaptiveRows {
         AdaptiveRows {
