@@ -87,9 +87,36 @@ pub struct RunCheckpoint {
     pub events: Option<crate::record::EventsSaved>,
     /// Adaptive runs: the recorder's state, the rows written and the last kept node.
     #[serde(default)]
-    pub adaptive: Option<crate::adaptive::stream::AdaptiveSaved>,
+    pub adaptive: Option<AdaptiveSaved>,
     /// The integrator's state.
     pub integrator: Checkpoint,
+}
+
+/// What a checkpoint keeps of an adaptive run beyond the integrator: the recorder's state,
+/// the rows written (the index of the next output-time row) and the last kept node (t, q, p).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AdaptiveSaved {
+    /// [`femvi::adaptive::Recorder::state`].
+    pub recorder: Vec<u64>,
+    /// Rows written.
+    pub rows: usize,
+    /// The last kept node: its step, t, q and p (bits).
+    pub last: Option<(usize, Vec<u64>)>,
+    /// The warm start of the inverse Legendre transform at the output-time rows (bits), so
+    /// that a resumed run's energies there are the uninterrupted run's for any Lagrangian.
+    #[serde(default)]
+    pub v: Vec<u64>,
+}
+
+/// Removes a checkpoint left in `dir` by an earlier run.
+///
+/// # Errors
+/// The file exists and cannot be removed.
+pub fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
+    match std::fs::remove_file(dir.join(FILE)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    }
 }
 
 /// The SHA-256 (hex) of a problem's text: the tag of its checkpoints.

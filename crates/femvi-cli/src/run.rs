@@ -99,7 +99,7 @@ pub fn run_as(
         if let Err(msg) = refuse(problem, &out, control.resume).and(estimated) {
             return Ok(Outcome::Rejected(msg));
         }
-        return crate::adaptive::run(problem, a, dir, out, control, command);
+        return crate::adaptive::run(problem, a, dir, out, (control.checkpoints, control.resume), command);
     }
     if problem.terms.force.is_some() || problem.terms.constraints.is_some() {
         if let Err(msg) = refuse(problem, &out, control.resume) {
@@ -123,14 +123,6 @@ struct RunArgs<'a> {
     out: RunOutput,
     control: &'a RunControl,
     command: &'a [String],
-}
-
-/// Removes a checkpoint left in `dir` by an earlier run.
-pub(crate) fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
-    match std::fs::remove_file(dir.join(resume::FILE)) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
-        _ => Ok(()),
-    }
 }
 
 /// Builds the integrator, attaches the outputs (or resumes them), drives the run and writes
@@ -163,7 +155,7 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
             // Only the start from (q0, q1) solves anything here.
             let summary = empty_summary(problem, clock, format!("first element: {e}"), command);
             std::fs::create_dir_all(dir)?;
-            remove_checkpoint(dir)?;
+            resume::remove_checkpoint(dir)?;
             write_summary(dir, &summary)?;
             return Ok(Outcome::Failed(summary));
         }
@@ -190,7 +182,7 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
             return Ok(Outcome::Rejected(msg));
         }
         std::fs::create_dir_all(dir)?;
-        remove_checkpoint(dir)?;
+        resume::remove_checkpoint(dir)?;
         write_summary(dir, &running_summary(problem, clock, command))?;
         Recorders::start(problem, dir, out, lag.dim(), resumable.ok().map(|_| checkpointing))?
     };
@@ -227,7 +219,7 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
         Some(sig) => interrupted(dir, summary, sig),
         None => {
             if summary.error.is_none() {
-                remove_checkpoint(dir)?;
+                resume::remove_checkpoint(dir)?;
             }
             finish(dir, summary)
         }

@@ -97,7 +97,8 @@ fn monitor(problem: &Problem, name: Option<&str>) -> Result<AnyMonitor, String> 
 }
 
 /// Runs `problem` in adaptive mode with output into `dir` (the module documentation): a
-/// fresh run, or with `control.resume` the continuation of the stopped one in `dir`.
+/// fresh run, or with `resume` the continuation of the stopped one in `dir`, checkpointed by
+/// the policy `checkpoints`.
 // One arm of the macro is a Copy type; the others need the clone.
 #[allow(clippy::clone_on_copy)]
 pub fn run(
@@ -105,7 +106,7 @@ pub fn run(
     settings: &AdaptiveTime,
     dir: &Path,
     out: RunOutput,
-    control: &crate::run::RunControl,
+    (checkpoints, resume): (crate::resume::Policy, bool),
     command: &[String],
 ) -> std::io::Result<Outcome> {
     let args = Args {
@@ -113,7 +114,8 @@ pub fn run(
         settings,
         dir,
         out,
-        control,
+        checkpoints,
+        resume,
         command,
     };
     crate::with_system!(&problem.system, l => run_with(l.clone(), &args))
@@ -125,7 +127,8 @@ struct Args<'a> {
     settings: &'a AdaptiveTime,
     dir: &'a Path,
     out: RunOutput,
-    control: &'a crate::run::RunControl,
+    checkpoints: crate::resume::Policy,
+    resume: bool,
     command: &'a [String],
 }
 
@@ -171,12 +174,12 @@ fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
     let n = problem.coordinates.len();
     let recorder = Recorder::new(&problem.element, n, t0, end, &options);
     let resumable = crate::resume::resumable(&out);
-    if let (true, Err(msg)) = (a.control.resume, &resumable) {
+    if let (true, Err(msg)) = (a.resume, &resumable) {
         return Ok(Outcome::Rejected(msg.clone()));
     }
     let tag = crate::resume::problem_hash(problem);
     let checkpointing = Checkpointing {
-        policy: a.control.checkpoints,
+        policy: a.checkpoints,
         tag: tag.clone(),
         outputs: crate::resume::outputs_label(&out),
     };
@@ -189,10 +192,10 @@ fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
         checkpoints: resumable.ok().map(|()| checkpointing),
     };
     // A run killed before its first checkpoint resumes by starting again.
-    let fresh = !a.control.resume || crate::resume::killed_before_first_checkpoint(dir, problem);
+    let fresh = !a.resume || crate::resume::killed_before_first_checkpoint(dir, problem);
     let mut writer = if fresh {
         std::fs::create_dir_all(dir)?;
-        crate::run::remove_checkpoint(dir)?;
+        crate::resume::remove_checkpoint(dir)?;
         write_summary(dir, &running_summary(problem, clock, a.command))?;
         stream::Writer::create(start, recorder)?
     } else {
@@ -265,7 +268,7 @@ fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
         Some(sig) => crate::outcome::interrupted(dir, summary, sig),
         None => {
             if summary.error.is_none() {
-                crate::run::remove_checkpoint(dir)?;
+                crate::resume::remove_checkpoint(dir)?;
             }
             finish(dir, summary)
         }

@@ -15,7 +15,7 @@
 use super::AdaptiveTime;
 use crate::problem::Problem;
 use crate::record::{Checkpointing, CsvRows, EventRows, NodeEnergy, NpyRows, Pacer, Progress, WriteFailure};
-use crate::resume::{self, EnergySaved, RunCheckpoint};
+use crate::resume::{self, AdaptiveSaved, EnergySaved, RunCheckpoint};
 use crate::signals::{self, Signal};
 use femvi::adaptive::{AdaptiveRows, Monitor, Recorder, TimeTransformed};
 use femvi::step::Observer;
@@ -24,22 +24,6 @@ use std::cell::Cell;
 use std::path::Path;
 use std::rc::Rc;
 use std::time::Instant;
-
-/// What a checkpoint keeps of an adaptive run beyond the integrator: the recorder's state,
-/// the rows written (the index of the next output-time row) and the last kept node (t, q, p).
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct AdaptiveSaved {
-    /// [`Recorder::state`].
-    pub recorder: Vec<u64>,
-    /// Rows written.
-    pub rows: usize,
-    /// The last kept node: its step, t, q and p (bits).
-    pub last: Option<(usize, Vec<u64>)>,
-    /// The warm start of the inverse Legendre transform at the output-time rows (bits), so
-    /// that a resumed run's energies there are the uninterrupted run's for any Lagrangian.
-    #[serde(default)]
-    pub v: Vec<u64>,
-}
 
 /// The last kept node: (step, t, q, p).
 type LastNode = (usize, f64, Vec<f64>, Vec<f64>);
