@@ -31,7 +31,7 @@ pub fn check(problem: &Problem) -> Result<CheckReport, (String, u8)> {
 }
 
 fn check_with<L: Lagrangian>(lag: &L, problem: &Problem) -> Result<CheckReport, (String, u8)> {
-    let r = femvi::diagnostics::check(
+    let mut r = femvi::diagnostics::check(
         lag,
         &problem.element,
         problem.grid.clone(),
@@ -44,7 +44,7 @@ fn check_with<L: Lagrangian>(lag: &L, problem: &Problem) -> Result<CheckReport, 
         let code = if matches!(e, femvi::Error::Step(_)) { 1 } else { 2 };
         (e.to_string(), code)
     })?;
-    let mut notes = r.notes;
+    let mut notes = std::mem::take(&mut r.notes);
     let autonomous = lag.is_autonomous();
     if !autonomous {
         notes.push("the Lagrangian depends on time: H is not conserved, so max_rel_energy_error and energy_drift measure its change, not an error".into());
@@ -57,32 +57,7 @@ fn check_with<L: Lagrangian>(lag: &L, problem: &Problem) -> Result<CheckReport, 
     if !reversible {
         notes.push("time reversal not tested: L(t, q, -v) != L(t, q, v) (checked at sample points), so reversing the momenta does not retrace the motion".into());
     }
-    Ok(CheckReport {
-        name: problem.name.clone(),
-        scheme: problem.scheme_label.clone(),
-        steps: r.steps,
-        final_t: r.final_t,
-        symplecticity_defect: r.symplecticity_defect,
-        symplecticity_defect_relative: r.symplecticity_defect_relative,
-        symplecticity_samples: r.symplecticity_samples,
-        max_rel_energy_error: r.max_rel_energy_error,
-        energy_conserved: autonomous,
-        energy_drift: r.energy_drift,
-        momentum_drift: problem
-            .symmetries
-            .iter()
-            .zip(&r.momentum_drift)
-            .map(|(s, d)| (s.label(&problem.coordinates), *d))
-            .collect(),
-        time_reversal_error: r.time_reversal_error.filter(|_| reversible),
-        max_rel_discrete_energy_error: r.max_rel_discrete_energy_error,
-        two_form: r.two_form.map(|t| TwoForm {
-            formula: t.formula,
-            max_rel_difference: t.max_rel_difference,
-            samples: t.samples,
-        }),
-        notes,
-    })
+    Ok(CheckReport::from_library(problem, r, (autonomous, reversible), notes))
 }
 
 /// Prints the report for a person (`femvi check` without `--json`).

@@ -46,6 +46,45 @@ pub struct CheckReport {
     pub notes: Vec<String>,
 }
 
+impl CheckReport {
+    /// The report of the library's check `r` of `problem`: its figures as they are, the
+    /// Noether momenta named by their symmetries, the time reversal only where the Lagrangian
+    /// is `reversible`, `energy_conserved` as given, and `notes`.
+    pub fn from_library(
+        problem: &crate::problem::Problem,
+        r: femvi::diagnostics::CheckReport,
+        (energy_conserved, reversible): (bool, bool),
+        notes: Vec<String>,
+    ) -> Self {
+        CheckReport {
+            name: problem.name.clone(),
+            scheme: problem.scheme_label.clone(),
+            steps: r.steps,
+            final_t: r.final_t,
+            symplecticity_defect: r.symplecticity_defect,
+            symplecticity_defect_relative: r.symplecticity_defect_relative,
+            symplecticity_samples: r.symplecticity_samples,
+            max_rel_energy_error: r.max_rel_energy_error,
+            energy_conserved,
+            energy_drift: r.energy_drift,
+            momentum_drift: problem
+                .symmetries
+                .iter()
+                .zip(&r.momentum_drift)
+                .map(|(s, d)| (s.label(&problem.coordinates), *d))
+                .collect(),
+            time_reversal_error: r.time_reversal_error.filter(|_| reversible),
+            max_rel_discrete_energy_error: r.max_rel_discrete_energy_error,
+            two_form: r.two_form.map(|t| TwoForm {
+                formula: t.formula,
+                max_rel_difference: t.max_rel_difference,
+                samples: t.samples,
+            }),
+            notes,
+        }
+    }
+}
+
 /// The two-form comparison.
 #[derive(Debug, Serialize)]
 pub struct TwoForm {

@@ -9,7 +9,7 @@
 //! the run's kept nodes against E₀, and the slope of its relative error per unit physical time.
 
 use super::{monitor, solve_problem, AdaptiveTime};
-use crate::check_report::{is_reversible, CheckReport, TwoForm};
+use crate::check_report::{is_reversible, CheckReport};
 use crate::problem::Problem;
 use femvi::adaptive::{AdaptiveSolution, TimeTransformed};
 use femvi::{Lagrangian, Method, Start, TimeGrid};
@@ -45,13 +45,12 @@ fn check_with<L: Lagrangian + Clone>(
         options.method = Method::FullNewton;
     }
     let start = Start::Momentum { q: q0.clone(), p: p0 };
-    let r = femvi::diagnostics::check(&lg, &problem.element, grid, start, options, None, &problem.symmetries).map_err(
-        |e| {
+    let mut r = femvi::diagnostics::check(&lg, &problem.element, grid, start, options, None, &problem.symmetries)
+        .map_err(|e| {
             let code = if matches!(e, femvi::Error::Step(_)) { 1 } else { 2 };
             (e.to_string(), code)
-        },
-    )?;
-    let mut notes = r.notes;
+        })?;
+    let mut notes = std::mem::take(&mut r.notes);
     notes.push(format!(
         "adaptive: symplecticity, time reversal and momenta are of the step map (q, p) -> (q, p) \
          in fictitious time s (fixed steps ds = {ds} on L_g = g(q)(L(q, q'/g) + E0)); the energy \
@@ -61,32 +60,14 @@ fn check_with<L: Lagrangian + Clone>(
     if !reversible {
         notes.push("time reversal not tested: L(t, q, -v) != L(t, q, v) (checked at sample points)".into());
     }
-    Ok(CheckReport {
-        name: problem.name.clone(),
-        scheme: problem.scheme_label.clone(),
-        steps: sol.steps,
-        final_t: sol.t.last().copied().unwrap_or(t0),
-        symplecticity_defect: r.symplecticity_defect,
-        symplecticity_defect_relative: r.symplecticity_defect_relative,
-        symplecticity_samples: r.symplecticity_samples,
-        max_rel_energy_error: super::max_rel_energy_error(&sol),
-        energy_conserved: true,
-        energy_drift: energy_drift(&sol),
-        momentum_drift: problem
-            .symmetries
-            .iter()
-            .zip(&r.momentum_drift)
-            .map(|(s, d)| (s.label(&problem.coordinates), *d))
-            .collect(),
-        time_reversal_error: r.time_reversal_error.filter(|_| reversible),
-        max_rel_discrete_energy_error: None,
-        two_form: r.two_form.map(|t| TwoForm {
-            formula: t.formula,
-            max_rel_difference: t.max_rel_difference,
-            samples: t.samples,
-        }),
-        notes,
-    })
+    // The run's steps in t and its physical energy, in place of those of the run in s.
+    let mut report = CheckReport::from_library(problem, r, (true, reversible), notes);
+    report.steps = sol.steps;
+    report.final_t = sol.t.last().copied().unwrap_or(t0);
+    report.max_rel_energy_error = super::max_rel_energy_error(&sol);
+    report.energy_drift = energy_drift(&sol);
+    report.max_rel_discrete_energy_error = None;
+    Ok(report)
 }
 
 /// The least-squares slope of (H − E₀)/|E₀| against physical time over the kept nodes (0

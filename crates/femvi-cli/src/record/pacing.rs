@@ -72,4 +72,29 @@ impl Pacer {
             false
         }
     }
+
+    /// What is due after a node: (flush the outputs, write a checkpoint). A checkpoint is due
+    /// at the first node of a fresh run (`(nodes, fresh)`: nodes recorded by this process,
+    /// and whether it is not a resumed one), every `every_steps` steps (`steps`: the node's)
+    /// and `every_seconds` after the last one (`since`); never without a `policy`.
+    pub fn due(
+        &mut self,
+        policy: Option<&crate::resume::Policy>,
+        (nodes, fresh): (usize, bool),
+        steps: usize,
+        since: Instant,
+    ) -> (bool, bool) {
+        let mut checkpoint = match (policy, nodes) {
+            (None, _) => false,
+            (Some(_), 1) => fresh,
+            (Some(p), _) => p.every_steps.is_some_and(|n| n > 0 && steps.is_multiple_of(n)),
+        };
+        let mut flush = false;
+        if let Some((now, gap)) = self.tick() {
+            flush = self.flush_due(now, gap);
+            let every = policy.and_then(|p| p.every_seconds);
+            checkpoint |= every.is_some_and(|s| now.duration_since(since).as_secs_f64() >= s);
+        }
+        (flush, checkpoint)
+    }
 }

@@ -368,17 +368,11 @@ impl<'a> Recorders<'a> {
     /// Flushes and checkpoints when due, after node `it` (`last`: the grid's final node).
     fn pace<L: Lagrangian>(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
         let steps = self.steps_at(it.node().k);
-        let mut checkpoint = match (&self.checkpoints, self.nodes) {
-            (None, _) => false,
-            (Some(_), 1) => self.resumed.is_none(),
-            (Some(c), _) => c.policy.every_steps.is_some_and(|n| n > 0 && steps.is_multiple_of(n)),
-        };
-        if let Some((now, gap)) = self.pacer.tick() {
-            if self.pacer.flush_due(now, gap) {
-                self.flush()?;
-            }
-            let every = self.checkpoints.as_ref().and_then(|c| c.policy.every_seconds);
-            checkpoint |= every.is_some_and(|s| now.duration_since(self.last_checkpoint).as_secs_f64() >= s);
+        let policy = self.checkpoints.as_ref().map(|c| &c.policy);
+        let fresh = self.resumed.is_none();
+        let (flush, checkpoint) = self.pacer.due(policy, (self.nodes, fresh), steps, self.last_checkpoint);
+        if flush {
+            self.flush()?;
         }
         if checkpoint && !last {
             self.checkpoint(it)?;
