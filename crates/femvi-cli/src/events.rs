@@ -4,8 +4,7 @@
 //! them), so trajectory.csv, the NPY file and the plots are those of a run without events,
 //! and such a run streams, checkpoints and resumes like any other. Here: the header of
 //! events.csv (`event,step,t,<coordinates>,p_<coordinates>`, one row per located event,
-//! numbers in shortest round-trip form), the file written at once for adaptive runs, and the
-//! Poincaré plot per event (`poincare_<event>.svg`: the first coordinate against its momentum,
+//! numbers in shortest round-trip form), and the Poincaré plot per event (`poincare_<event>.svg`: the first coordinate against its momentum,
 //! as points).
 
 use crate::plot::{file, scatter, Series};
@@ -19,22 +18,6 @@ pub fn columns(problem: &Problem) -> Vec<String> {
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
     header
-}
-
-/// Writes `dir`/events.csv.
-pub fn write_events(dir: &Path, problem: &Problem, events: &[EventRecord]) -> std::io::Result<()> {
-    let mut w = csv::Writer::from_path(dir.join("events.csv"))?;
-    w.write_record(columns(problem))?;
-    for r in events {
-        let mut row = vec![
-            problem.events[r.event].name.clone(),
-            r.step.to_string(),
-            format!("{:?}", r.t),
-        ];
-        row.extend(r.q.iter().chain(&r.p).map(|x| format!("{x:?}")));
-        w.write_record(&row)?;
-    }
-    w.flush()
 }
 
 /// `poincare_<event>` for each event: the first coordinate against its momentum at the

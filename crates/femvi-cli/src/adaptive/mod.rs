@@ -236,22 +236,8 @@ fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
         summary.stopped_by_event = Some(events.stopper().filter(|_| stopped).map(str::to_string));
     }
     if let Some(kept) = writer.kept.take() {
-        let sol = AdaptiveSolution {
-            n,
-            e0: run.e0,
-            s: kept.s,
-            t: kept.t,
-            q: kept.q,
-            p: kept.p,
-            v: kept.v,
-            energy: kept.energy,
-            saved: kept.saved,
-            events: kept.events,
-            steps: summary.steps,
-            mean_iterations: summary.mean_solver_iterations,
-            stopped: report.stopped,
-            error: None,
-        };
+        let statistics = (summary.steps, summary.mean_solver_iterations, report.stopped);
+        let sol = AdaptiveSolution::from_rows(n, run.e0, kept, statistics, None);
         if !problem.events.is_empty() {
             let drawn = crate::events::poincare(dir, problem, &sol.events, out.plot_format);
             if let Err(e) = drawn {

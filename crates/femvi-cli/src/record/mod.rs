@@ -16,7 +16,6 @@ mod pacing;
 mod plot_data;
 mod progress;
 mod recorders;
-mod table;
 
 pub use balance::WorkBalance;
 pub use chunks::drive_in_chunks;
@@ -28,7 +27,6 @@ pub use pacing::Pacer;
 pub use plot_data::PlotData;
 pub use progress::Progress;
 pub use recorders::{Checkpointing, Recorders};
-pub use table::{plot_trajectory, write_trajectory};
 
 use crate::problem::Problem;
 use std::cell::RefCell;

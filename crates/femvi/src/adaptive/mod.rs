@@ -129,3 +129,39 @@ pub struct AdaptiveSolution {
     /// The error that stopped the run; the arrays hold everything before it.
     pub error: Option<Error>,
 }
+
+impl AdaptiveSolution {
+    /// The solution of dimension n at energy level `e0` from the `rows` a [`Recorder`]
+    /// recorded, with the run's statistics: (steps, mean iterations, stopped) and its error.
+    ///
+    /// ```
+    /// use femvi::adaptive::{AdaptiveRows, AdaptiveSolution};
+    /// let rows = AdaptiveRows { t: vec![0.0, 0.5], energy: vec![-0.5, -0.5], ..AdaptiveRows::default() };
+    /// let sol = AdaptiveSolution::from_rows(2, -0.5, rows, (1, 3.0, false), None);
+    /// assert_eq!((sol.t.len(), sol.steps), (2, 1));
+    /// ```
+    pub fn from_rows(
+        n: usize,
+        e0: f64,
+        rows: AdaptiveRows,
+        (steps, mean_iterations, stopped): (usize, f64, bool),
+        error: Option<Error>,
+    ) -> Self {
+        AdaptiveSolution {
+            n,
+            e0,
+            s: rows.s,
+            t: rows.t,
+            q: rows.q,
+            p: rows.p,
+            v: rows.v,
+            energy: rows.energy,
+            saved: rows.saved,
+            events: rows.events,
+            steps,
+            mean_iterations,
+            stopped,
+            error,
+        }
+    }
+}

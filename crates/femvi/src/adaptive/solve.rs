@@ -93,22 +93,8 @@ pub fn solve_adaptive<L: Lagrangian, G: Monitor>(
     let report = drive(&mut it, &mut [&mut recorder]);
     let stopped = report.stopped && !recorder.reached;
     let rows = recorder.take();
-    Ok(AdaptiveSolution {
-        n,
-        e0: run.e0,
-        s: rows.s,
-        t: rows.t,
-        q: rows.q,
-        p: rows.p,
-        v: rows.v,
-        energy: rows.energy,
-        saved: rows.saved,
-        events: rows.events,
-        steps: report.steps,
-        mean_iterations: it.mean_iterations(),
-        stopped,
-        error: report.error,
-    })
+    let statistics = (report.steps, it.mean_iterations(), stopped);
+    Ok(AdaptiveSolution::from_rows(n, run.e0, rows, statistics, report.error))
 }
 
 /// The parts of an adaptive run of `problem` with `monitor` and `options` (the checks and
