@@ -43,11 +43,15 @@
 //! constraints only restrict the interior unknowns over which L_d is made stationary), so it
 //! is symplectic on T*N ([`manifold_symplecticity`] measures it). Each step is solved by dense
 //! Newton on (Q^1 … Q^s, λ̂, Λ̂) with exact Jacobians (the element's Hessian, and the constraint
-//! derivatives by hyper-dual numbers, `jet.rs`), [`crate::solve::newton_dense`]; in the RATTLE
-//! case above without forces, under `Method::Auto`, `Method::Explicit` and `Method::FixedPoint`
-//! (the Newton methods keep dense Newton; Explicit and FixedPoint are input errors where RATTLE
-//! does not fit), by Newton on the m multipliers λ̂ alone and a linear projection
-//! (`rattle.rs`).
+//! derivatives by hyper-dual numbers, `jet.rs`), [`crate::solve::newton_dense`], under the
+//! Newton methods and wherever the faster solvers do not fit. For a mechanical Lagrangian
+//! without forces, under `Method::Auto` and `Method::FixedPoint`: in the RATTLE case above
+//! (also under `Method::Explicit`) by Newton on the m multipliers λ̂ alone and a linear
+//! projection (`rattle.rs`); on other elements whose constraints are enforced weakly, at the
+//! quadrature points or at the ends, by a fixed-point iteration on the forces with the
+//! multipliers from a linearised m(1 + I) system in each sweep (`shake/`, derived there),
+//! which under `Method::Auto` hands a step it cannot converge to dense Newton. Explicit and
+//! FixedPoint are input errors where their steps do not fit (`rattle::choose` names why).
 //!
 //! Which interior enforcement keeps the nodal order 2s was measured on the spherical pendulum
 //! (README, "Holonomic constraints"): [`Enforcement::Weak`] is the default.
@@ -57,8 +61,8 @@
 //! (where the constraints are enforced), `step.rs` (the step equations), `project.rs` (the
 //! projection onto T*N and the multiplier at a node), `start.rs` (the checked start of a run),
 //! `solve.rs` (the run), `stepper.rs` (one step), `rattle.rs` (the RATTLE step on the
-//! multipliers, with `small.rs`), `forced.rs` (runs under non-conservative
-//! forces, [`solve_constrained_forced`]: the discrete Lagrange–d'Alembert principle on the
+//! multipliers, with `small.rs`), `shake/` (the fixed-point step of any degree),
+//! `forced.rs` (runs under non-conservative forces, [`solve_constrained_forced`]: the discrete Lagrange–d'Alembert principle on the
 //! augmented action, with the energy balance),
 //! `forcing.rs` (a force as the constrained step takes it), `tangent.rs` (the step's tangent
 //! map and its defect on the manifold), `symplecticity.rs` ([`manifold_symplecticity`]), `chart.rs`
@@ -86,6 +90,7 @@ mod limits;
 mod observed;
 mod project;
 mod rattle;
+mod shake;
 mod small;
 mod solve;
 mod start;

@@ -35,40 +35,62 @@ use crate::lagrangian::{Lagrangian, MassMatrix};
 use crate::solve::NewtonFailure;
 use crate::step::Method;
 
-/// Whether a constrained run takes RATTLE steps ([`RattleStep`]): for `Method::Auto`,
-/// `Method::Explicit` and `Method::FixedPoint` when the element is degree 1 with the trapezoid
-/// rule (no interior multipliers), the Lagrangian mechanical and the run has no forces
-/// (`forced`); the Newton methods keep the dense Newton step.
+/// How a constrained run solves its steps ([`choose`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Path {
+    /// RATTLE on the multipliers ([`RattleStep`]).
+    Rattle,
+    /// Fixed point on the forces, linearised multipliers (`shake/`).
+    Shake,
+    /// Dense Newton on the whole step (`step.rs`).
+    Newton,
+}
+
+/// How a constrained run takes its steps. On a mechanical Lagrangian without forces
+/// (`forced`), `Method::Auto` and `Method::FixedPoint` take RATTLE steps on degree 1 with the
+/// trapezoid rule (no interior multipliers) and the SHAKE-style fixed point of `shake/` on
+/// other elements whose constraints are enforced at the quadrature points or the ends
+/// ([`super::shake::ShakeStep::fits`]); `Method::Explicit` takes RATTLE steps; the Newton
+/// methods and everything else take dense Newton.
 ///
 /// # Errors
-/// `Method::Explicit` or `Method::FixedPoint` where the RATTLE step does not fit, naming why.
+/// `Method::Explicit` or `Method::FixedPoint` where their steps do not fit, naming why.
 pub(crate) fn choose<L: Lagrangian>(
     method: Method,
     lag: &L,
     element: &Element,
     layout: &Layout,
     forced: bool,
-) -> Result<bool> {
-    let misfit = if element.degree() != 1 || element.rule.kind != QuadratureKind::Trapezoid || layout.sites != 0 {
-        Some("degree 1 with the trapezoid rule")
-    } else if lag.mass_matrix().is_none() {
+) -> Result<Path> {
+    let rattle = element.degree() == 1 && element.rule.kind == QuadratureKind::Trapezoid && layout.sites == 0;
+    let shake = super::shake::ShakeStep::fits(element, layout);
+    let model = if lag.mass_matrix().is_none() {
         Some("a mechanical Lagrangian (L = 1/2 v'Mv - V)")
     } else if forced {
         Some("no non-conservative forces")
     } else {
         None
     };
-    match (method, misfit) {
-        (Method::Newton | Method::FullNewton | Method::SimplifiedNewton, _) => Ok(false),
-        (Method::Auto, m) => Ok(m.is_none()),
-        (Method::Explicit | Method::FixedPoint, None) => Ok(true),
-        (Method::Explicit | Method::FixedPoint, Some(need)) => Err(invalid(
+    let refuse = |steps: &str, need: &str| {
+        Err(invalid(
             "solver method",
-            format!(
-                "a constrained run takes explicit (RATTLE) steps only with {need}; \
-                 use the newton method (or auto) for this problem"
-            ),
-        )),
+            format!("a constrained run takes {steps} steps only with {need}; use the newton method (or auto) for this problem"),
+        ))
+    };
+    match (method, model) {
+        (Method::Newton | Method::FullNewton | Method::SimplifiedNewton, _) => Ok(Path::Newton),
+        (Method::Auto, Some(_)) => Ok(Path::Newton),
+        (Method::Auto | Method::FixedPoint, None) if rattle => Ok(Path::Rattle),
+        (Method::Auto | Method::FixedPoint, None) if shake => Ok(Path::Shake),
+        (Method::Auto, None) => Ok(Path::Newton),
+        (Method::Explicit, None) if rattle => Ok(Path::Rattle),
+        (Method::Explicit, None) => refuse("explicit (RATTLE)", "degree 1 with the trapezoid rule"),
+        (Method::Explicit, Some(need)) => refuse("explicit (RATTLE)", need),
+        (Method::FixedPoint, None) => refuse(
+            "fixed-point",
+            "constraints enforced weakly, at the quadrature points or at the ends (not at the nodes)",
+        ),
+        (Method::FixedPoint, Some(need)) => refuse("fixed-point", need),
     }
 }
 

@@ -1,8 +1,25 @@
-//! Small dense linear algebra of the RATTLE step (`rattle.rs`) without allocation: the m×m
-//! solves of its Newton iteration on the multipliers and of the projection
-//! (Hairer–Lubich–Wanner VII.1.4: G(q_k + Δq) M⁻¹ G(q_k)ᵀ δ = g, G M⁻¹ Gᵀ μ̂ = G M⁻¹ p̃), and the
+//! Small dense linear algebra of the RATTLE and fixed-point steps (`rattle.rs`, `shake/`)
+//! without allocation: the m×m solves of the Newton iteration on the multipliers and of the
+//! projection (Hairer–Lubich–Wanner VII.1.4: G(q_k + Δq) M⁻¹ G(q_k)ᵀ δ = g,
+//! G M⁻¹ Gᵀ μ̂ = G M⁻¹ p̃, [`project_linear`]), copies and M⁻¹ of a few numbers, and the
 //! conditioning of the constraint Jacobian G checked at every node (the ratio of its extreme
 //! singular values, by one-sided Jacobi rotations of its rows, Hestenes 1958).
+
+/// `dst = src` element by element (slices of a few numbers: no call to memmove).
+#[inline(always)]
+pub(crate) fn copy(dst: &mut [f64], src: &[f64]) {
+    dst.iter_mut().zip(src).for_each(|(d, s)| *d = *s);
+}
+
+/// out = M⁻¹x, the identity by [`copy`] (slices of a few numbers: no call to memmove).
+#[inline]
+pub(crate) fn mass_solve(mass: &crate::lagrangian::MassMatrix, x: &[f64], out: &mut [f64]) {
+    if mass.is_identity() {
+        copy(out, x);
+    } else {
+        mass.solve(x, out);
+    }
+}
 
 pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -16,6 +33,29 @@ pub(super) fn solve_small(a: &mut [f64], b: &mut [f64], m: usize) -> bool {
         b[0] = x;
         return a[0] != 0.0 && x.is_finite();
     }
+    if let ([a00, a01, a10, a11], [b0, b1]) = (&mut *a, &mut *b) {
+        // The same elimination with partial pivoting, unrolled.
+        if a10.abs() > a00.abs() {
+            std::mem::swap(a00, a10);
+            std::mem::swap(a01, a11);
+            std::mem::swap(b0, b1);
+        }
+        let d = *a00;
+        if d == 0.0 || !d.is_finite() {
+            return false;
+        }
+        let f = *a10 / d;
+        *a11 -= f * *a01;
+        *b1 -= f * *b0;
+        *b1 /= *a11;
+        *b0 = (*b0 - *a01 * *b1) / d;
+        return b0.is_finite() && b1.is_finite();
+    }
+    solve_general(a, b, m)
+}
+
+/// [`solve_small`] for any m: the elimination loops.
+fn solve_general(a: &mut [f64], b: &mut [f64], m: usize) -> bool {
     for k in 0..m {
         let piv = (k..m).fold(k, |best, i| {
             if a[i * m + k].abs() > a[best * m + k].abs() {
@@ -101,6 +141,41 @@ pub(crate) fn conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -
     }
 }
 
+/// The projection of `ptilde` onto T*N at a node whose jet is `jet`, for a constant mass matrix:
+/// (G M⁻¹ Gᵀ) μ̂ = G M⁻¹ p̃, p = p̃ − Gᵀμ̂ (into `p`), v = M⁻¹p (into `v`), μ̂ into `mu`.
+/// `scratch` holds m n + m² + m entries. False if G M⁻¹ Gᵀ is singular.
+pub(crate) fn project_linear(
+    mass: &crate::lagrangian::MassMatrix,
+    jet: &super::jet::ConstraintJet,
+    ptilde: &[f64],
+    scratch: &mut [f64],
+    p: &mut [f64],
+    v: &mut [f64],
+    mu: &mut [f64],
+) -> bool {
+    let (m, n) = (jet.m, jet.n);
+    let (w, rest) = scratch.split_at_mut(m * n);
+    let (mat, rhs) = rest.split_at_mut(m * m);
+    for l in 0..m {
+        mass_solve(mass, &jet.jac[l * n..(l + 1) * n], &mut w[l * n..(l + 1) * n]);
+    }
+    for i in 0..m {
+        let gi = &jet.jac[i * n..(i + 1) * n];
+        for l in 0..m {
+            mat[i * m + l] = dot(gi, &w[l * n..(l + 1) * n]);
+        }
+        rhs[i] = dot(&w[i * n..(i + 1) * n], ptilde);
+    }
+    if !solve_small(mat, &mut rhs[..m], m) {
+        return false;
+    }
+    copy(mu, &rhs[..m]);
+    copy(p, ptilde);
+    jet.add_transpose_times(mu, -1.0, p);
+    mass_solve(mass, p, v);
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::{conditioning, solve_small};
@@ -134,5 +209,29 @@ mod tests {
         assert_eq!(b, [1.0, 2.0]);
         assert!(!solve_small(&mut [1.0, 2.0, 2.0, 4.0], &mut [1.0, 1.0], 2));
         assert!(!solve_small(&mut [0.0], &mut [1.0], 1));
+    }
+
+    /// The unrolled 2×2 elimination makes the loops' operations: the same bits (the RATTLE
+    /// steps of two constraints kept theirs, `golden/terms.txt`).
+    #[test]
+    fn the_two_by_two_solve_is_the_general_elimination() {
+        let mut x = 0.37f64;
+        let mut next = || {
+            x = (x * 7.31 + 0.113).fract();
+            x - 0.5
+        };
+        for _ in 0..1000 {
+            let a: Vec<f64> = (0..4).map(|_| next()).collect();
+            let b: Vec<f64> = (0..2).map(|_| next()).collect();
+            let (mut a1, mut b1, mut a2, mut b2) = (a.clone(), b.clone(), a, b);
+            assert_eq!(
+                solve_small(&mut a1, &mut b1, 2),
+                super::solve_general(&mut a2, &mut b2, 2)
+            );
+            assert_eq!(
+                b1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                b2.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
+        }
     }
 }

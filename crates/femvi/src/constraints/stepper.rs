@@ -1,15 +1,17 @@
 //! One constrained step at a time: the Newton solve of the step equations (`step.rs`), the new
 //! node q_{k+1} by compensated summation and its momentum projected onto T*N (`project.rs`);
 //! or, where [`super::rattle::choose`] picks them, RATTLE steps solved on the multipliers
-//! (`rattle.rs`), committed the same way.
+//! (`rattle.rs`) or SHAKE-style fixed-point steps (`shake/`), committed the same way; under
+//! `Method::Auto` a fixed-point step that fails is taken again by Newton.
 //! The run of `solve.rs` and the chaos run on the manifold ([`crate::chaos`]) take their
 //! steps here, so both follow the same nodes.
 
 use super::layout::Layout;
 use super::limits::RANK_TOLERANCE;
 use super::project::Projector;
-use super::rattle::RattleStep;
-use super::small::conditioning;
+use super::rattle::{Path, RattleStep};
+use super::shake::ShakeStep;
+use super::small::{conditioning, copy, project_linear};
 use super::start::{singular, step_error};
 use super::step::StepSystem;
 use super::tangent::{step_map, StepEnds};
@@ -41,10 +43,16 @@ pub(crate) struct Stepper {
     pub iterations: usize,
     /// The RATTLE step, if the run takes it ([`super::rattle::choose`]).
     rattle: Option<RattleStep>,
+    /// The SHAKE-style step, if the run takes it, and whether a failed one falls back to
+    /// Newton (`Method::Auto`).
+    shake: Option<ShakeStep>,
+    fallback: bool,
     /// Whether the method asked for explicit steps (an error under forces, which need Newton).
     insist: bool,
     /// m n scratch of the end node's conditioning.
     scratch: Vec<f64>,
+    /// Scratch of the linear projection (`small::project_linear`).
+    projection: Vec<f64>,
     /// Whether `sys.end` (and the RATTLE step's end force) are those of the current node,
     /// evaluated there by the last RATTLE step: the next step takes them as its start.
     end_at_node: bool,
@@ -64,7 +72,17 @@ impl Stepper {
         lag: &L,
         forced: bool,
     ) -> Result<Self, Error> {
-        let fast = super::rattle::choose(solver.method, lag, element, &layout, forced)?;
+        let path = super::rattle::choose(solver.method, lag, element, &layout, forced)?;
+        let shake = match path {
+            Path::Shake => ShakeStep::new(element, &layout, n, m),
+            _ => None,
+        };
+        if path == Path::Shake && shake.is_none() && solver.method != Method::Auto {
+            return Err(invalid(
+                "solver method",
+                "the element has no fixed-point form; use the newton method",
+            ));
+        }
         let sys = StepSystem::new(element, layout, n, m);
         let newton = DenseNewtonWork::new(sys.unknowns());
         Ok(Self {
@@ -79,9 +97,12 @@ impl Stepper {
             p_prev: vec![0.0; n],
             mu: vec![0.0; m],
             iterations: 0,
-            rattle: fast.then(|| RattleStep::new(n, m)),
+            rattle: (path == Path::Rattle).then(|| RattleStep::new(n, m)),
+            shake,
+            fallback: solver.method == Method::Auto,
             insist: matches!(solver.method, Method::Explicit | Method::FixedPoint),
             scratch: vec![0.0; m * n],
+            projection: vec![0.0; m * n + m * m + m],
             end_at_node: false,
         })
     }
@@ -112,6 +133,17 @@ impl Stepper {
             self.rattle_step(lag, con, element, (k, t, h, t1), q, p, v, reuse)?;
             self.end_at_node = true;
             return Ok(());
+        }
+        if term.is_none() && self.shake.is_some() {
+            let reuse = std::mem::take(&mut self.end_at_node);
+            match self.shake_step(lag, con, (k, t, h, t1), q, p, v, reuse) {
+                Ok(()) => {
+                    self.end_at_node = true;
+                    return Ok(());
+                }
+                Err(e) if !self.fallback => return Err(e),
+                Err(_) => {}
+            }
         }
         self.end_at_node = false;
         if term.is_some() && self.insist {
@@ -215,8 +247,8 @@ impl Stepper {
         };
         let (n, m) = (q.len(), self.mu.len());
         if reuse {
-            self.sys.start.g.copy_from_slice(&self.sys.end.g);
-            self.sys.start.jac.copy_from_slice(&self.sys.end.jac);
+            copy(&mut self.sys.start.g, &self.sys.end.g);
+            copy(&mut self.sys.start.jac, &self.sys.end.jac);
         } else {
             self.sys.start.eval(con, q, false);
         }
@@ -263,6 +295,76 @@ impl Stepper {
         Ok(())
     }
 
+    /// The SHAKE-style step of [`Stepper::step`] (`shake/`): the same unknowns in `x`, the
+    /// same commit of q_{k+1} and jets (`sys.start` at q_k, `sys.end` at q_{k+1}, without
+    /// second derivatives), μ̂ from the linear projection onto T*N. With `reuse`, the start jet
+    /// is the last step's end jet, evaluated at this very node.
+    #[allow(clippy::too_many_arguments)]
+    fn shake_step<L: Lagrangian, C: Constraints>(
+        &mut self,
+        lag: &L,
+        con: &C,
+        (k, t, h, t1): (usize, f64, f64, f64),
+        q: &mut Vec<f64>,
+        p: &mut Vec<f64>,
+        v: &mut [f64],
+        reuse: bool,
+    ) -> Result<(), Error> {
+        let (Some(shake), Some(mass)) = (self.shake.as_mut(), lag.mass_matrix()) else {
+            return Err(invalid(
+                "solver method",
+                "fixed-point steps need a mechanical Lagrangian",
+            ));
+        };
+        let (n, m) = (q.len(), self.mu.len());
+        if reuse {
+            copy(&mut self.sys.start.g, &self.sys.end.g);
+            copy(&mut self.sys.start.jac, &self.sys.end.jac);
+        } else {
+            self.sys.start.eval(con, q, false);
+        }
+        let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
+        let solved = shake.solve(
+            (lag, mass, con),
+            &self.sys.start,
+            (t, h),
+            (q, p, v, &self.comp),
+            (self.tol, self.max_iterations, scale),
+        );
+        self.iterations = solved.map_err(|f| {
+            if f.failure == StepFailure::Singular && self.sys.start.conditioning() <= RANK_TOLERANCE {
+                singular(k, t, &self.sys.start)
+            } else {
+                step_error(k, t, f)
+            }
+        })?;
+        shake.finish(&self.sys.start, (h, p), &mut self.x);
+        let s = self.sys.s;
+        for (l, &xl) in self.sys.mult.iter_mut().zip(&self.x[s * n..]) {
+            *l = xl / h;
+        }
+        let (q1, p1) = (&mut self.q_prev, &mut self.p_prev);
+        for c in 0..n {
+            let y = self.x[(s - 1) * n + c] + self.comp[c];
+            let sum = q[c] + y;
+            self.comp[c] = y - (sum - q[c]);
+            q1[c] = sum;
+        }
+        // The end jet was evaluated at q1 itself (`ShakeStep::solve`).
+        let end = &mut self.sys.end;
+        copy(&mut end.g, &shake.end_jet().g);
+        copy(&mut end.jac, &shake.end_jet().jac);
+        if conditioning(&end.jac, m, n, &mut self.scratch) <= RANK_TOLERANCE {
+            return Err(singular(k + 1, t1, end));
+        }
+        if !project_linear(mass, end, &shake.ptilde, &mut self.projection, p1, v, &mut self.mu) {
+            return Err(singular(k + 1, t1, end));
+        }
+        std::mem::swap(q, &mut self.q_prev);
+        std::mem::swap(p, &mut self.p_prev);
+        Ok(())
+    }
+
     /// −h Σ_i b_i ∂L/∂t at the quadrature points of the last step's element (the
     /// explicit-time part of the energy balance, `crate::forces`; 0 for an autonomous L).
     /// Call it after [`Stepper::step`] succeeded; it overwrites the element's scratch.
@@ -288,6 +390,9 @@ impl Stepper {
         if let Some(rattle) = &self.rattle {
             rattle.save(w);
         }
+        if let Some(shake) = &self.shake {
+            shake.save(w);
+        }
     }
 
     /// Reads what [`Stepper::save`] wrote; the next step evaluates its start jet again (the
@@ -301,6 +406,9 @@ impl Stepper {
         r.fs(&mut self.mu)?;
         if let Some(rattle) = self.rattle.as_mut() {
             rattle.load(r)?;
+        }
+        if let Some(shake) = self.shake.as_mut() {
+            shake.load(r)?;
         }
         self.end_at_node = false;
         Ok(())

@@ -18,6 +18,7 @@ use super::forcing::{Forcing, NodeForce};
 use super::jet::ConstraintJet;
 use super::layout::{Enforcement, Layout};
 use super::project::state_multiplier;
+use super::small::copy;
 use super::start::start_on_manifold;
 use super::stepper::Stepper;
 use super::tangent::step_defect;
@@ -367,10 +368,4 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
     fn defect(&self) -> Option<f64> {
         self.defect
     }
-}
-
-/// `dst = src` element by element (slices of a few numbers: no call to memmove).
-#[inline(always)]
-fn copy(dst: &mut [f64], src: &[f64]) {
-    dst.iter_mut().zip(src).for_each(|(d, s)| *d = *s);
 }

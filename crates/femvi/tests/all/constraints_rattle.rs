@@ -1,7 +1,8 @@
 //! Issue 33: constrained runs honour `SolverOptions::method`. Degree 1 with the trapezoid rule
 //! on a mechanical Lagrangian without forces takes RATTLE steps solved on the multipliers
 //! (`Method::Auto`, `Explicit`, `FixedPoint`); `Method::Newton` keeps the dense Newton step on
-//! (Q¹, λ̂); Explicit and FixedPoint where RATTLE does not fit are input errors.
+//! (Q¹, λ̂); Explicit where RATTLE does not fit is an input error (FixedPoint takes the
+//! SHAKE-style steps of other elements, `constraints_shake.rs`).
 //!
 //! References: the dense Newton path on the same problem (node by node, one step at a time and
 //! over 10⁴ steps), the hand-written RATTLE loop of `common::rattle`, and the bits the dense
@@ -24,14 +25,14 @@ fn trapezoid() -> Element {
     Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap()
 }
 
-fn options(h: f64, method: Method) -> SolveOptions {
+pub(crate) fn options(h: f64, method: Method) -> SolveOptions {
     let mut o = SolveOptions::step(h);
     o.solver.method = method;
     o
 }
 
 /// Largest difference of q, p, v and the node multipliers over all kept nodes.
-fn max_difference(a: &ConstrainedSolution, b: &ConstrainedSolution) -> f64 {
+pub(crate) fn max_difference(a: &ConstrainedSolution, b: &ConstrainedSolution) -> f64 {
     let (sa, sb) = (&a.solution, &b.solution);
     assert_eq!(sa.q.len(), sb.q.len());
     let diff = |x: &[f64], y: &[f64]| x.iter().zip(y).fold(0.0f64, |m, (u, w)| m.max((u - w).abs()));
@@ -41,7 +42,7 @@ fn max_difference(a: &ConstrainedSolution, b: &ConstrainedSolution) -> f64 {
         .max(diff(&a.multipliers, &b.multipliers))
 }
 
-fn sphere_problem(
+pub(crate) fn sphere_problem(
     t_end: f64,
 ) -> (
     Problem<impl femvi::Lagrangian + Clone>,
@@ -56,7 +57,7 @@ fn sphere_problem(
 }
 
 /// The planar double pendulum in Cartesian coordinates (n = 4, two rod constraints).
-fn double_pendulum(
+pub(crate) fn double_pendulum(
     t_end: f64,
 ) -> (
     Problem<impl femvi::Lagrangian + Clone>,
@@ -277,17 +278,27 @@ fn invalid_method(e: Error) -> String {
 #[test]
 fn explicit_methods_where_rattle_does_not_fit_are_input_errors() {
     let (problem, sphere) = sphere_problem(0.1);
-    // Degree 2: the RATTLE step does not fit; Auto and Newton take dense Newton.
+    // Degree 2: the RATTLE step does not fit Explicit; Auto and FixedPoint take the
+    // SHAKE-style fixed point (`constraints_shake.rs`), Newton dense Newton.
     let degree2 = Element::with_order(4).unwrap();
-    for method in [Method::Explicit, Method::FixedPoint] {
-        let e = solve_constrained(&problem, &sphere, &degree2, &options(0.01, method)).unwrap_err();
-        let text = invalid_method(e);
-        assert!(text.contains("degree 1 with the trapezoid rule"), "{text}");
-    }
-    for method in [Method::Auto, Method::Newton] {
+    let e = solve_constrained(&problem, &sphere, &degree2, &options(0.01, Method::Explicit)).unwrap_err();
+    let text = invalid_method(e);
+    assert!(text.contains("degree 1 with the trapezoid rule"), "{text}");
+    for method in [Method::Auto, Method::FixedPoint, Method::Newton] {
         let run = solve_constrained(&problem, &sphere, &degree2, &options(0.01, method)).unwrap();
         assert!(run.solution.error.is_none());
     }
+    // Constraints enforced at the interior nodes: no fixed-point form.
+    let degree3 = Element::with_order(6).unwrap();
+    let e = solve_constrained_with(
+        &problem,
+        &sphere,
+        &degree3,
+        &options(0.01, Method::FixedPoint),
+        Enforcement::Nodes,
+    )
+    .unwrap_err();
+    assert!(invalid_method(e).contains("not at the nodes"));
     // Gauss quadrature at degree 1 (the midpoint rule): not RATTLE either.
     let midpoint = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Midpoint).unwrap();
     let e = solve_constrained(&problem, &sphere, &midpoint, &options(0.01, Method::Explicit)).unwrap_err();

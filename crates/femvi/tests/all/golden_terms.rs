@@ -22,6 +22,10 @@
 //!   `Ends`, `Nodes` with Gauss and with Lobatto elements, `Points`), degree 4 Gauss, the
 //!   planar double pendulum (two constraints), `every`: with the multipliers, the
 //!   residuals ‖g‖ and ‖G v‖ of the last node, the largest residual and the start projection;
+//!   these by dense Newton (`Method::Newton`, pinned when `Method::Auto` began to take the
+//!   fixed point of `constraints/shake/mod.rs` on degrees ≥ 2: their bits did not change), and
+//!   the weak degree-2, degree-4 Gauss and double-pendulum runs again by that fixed point
+//!   (`Method::Auto`, entries "…, fixed point", added with it);
 //! - forced and constrained (`constraints::solve_constrained_forced`): friction with a drive
 //!   (degree 2, `Weak`) and friction alone (degree 3, `Nodes`), with W and the balance;
 //! - adaptive steps (`solve_adaptive`, Kepler e = 0.9, three periods): degree 2 with full
@@ -30,7 +34,8 @@
 //!   the fictitious and physical clocks (s, t), E₀, the saved states and the events;
 //! - chaos indicators (`chaos`): Hénon–Heiles in its chaotic sea (spectrum, series),
 //!   Kepler in the energy mode, `forced_indicators` (driven Duffing),
-//!   `constrained_indicators` (spherical pendulum), `forced_constrained_indicators`, and the
+//!   `constrained_indicators` (spherical pendulum; dense Newton, and the fixed point as
+//!   "…, fixed point"), `forced_constrained_indicators`, and the
 //!   whole-run sensitivities `forced_sensitivity` and `constrained_sensitivity`: MEGNO,
 //!   ⟨Y⟩, FLI, λ at the end, the spectrum, the recorded series and the final node;
 //! - boundary value problems, both stacks: `forces::solve_forced_bvp` (the plain stack with a
@@ -361,16 +366,37 @@ fn constrained_runs(out: &mut Runs) {
         ("constrained: nodes lobatto degree 3", lobatto, Enforcement::Nodes),
         ("constrained: points degree 3", order(6), Enforcement::Points),
     ];
+    // The dense Newton path, pinned by `Method::Newton` since `Method::Auto` takes the
+    // fixed-point steps of `constraints/shake/mod.rs` on these elements (pinned below).
+    let newton = |h| with_method(SolveOptions::step(h), Method::Newton);
     for (name, el, enforcement) in cases {
-        let run = solve_constrained_with(&sph(4.0), &sphere, &el, &SolveOptions::step(0.04), enforcement).unwrap();
+        let run = solve_constrained_with(&sph(4.0), &sphere, &el, &newton(0.04), enforcement).unwrap();
         out.push((name, b.constrained(&run).done()));
     }
+    let every = SolveOptions {
+        every: 9,
+        ..newton(0.05)
+    };
+    let run = solve_constrained_with(&sph(5.0), &sphere, &order(8), &every, Enforcement::Weak).unwrap();
+    out.push(("constrained: degree 4 gauss every 9", b.constrained(&run).done()));
+    let run = solve_constrained_with(
+        &sph(4.0),
+        &sphere,
+        &order(4),
+        &SolveOptions::step(0.04),
+        Enforcement::Weak,
+    )
+    .unwrap();
+    out.push(("constrained: weak degree 2, fixed point", b.constrained(&run).done()));
     let every = SolveOptions {
         every: 9,
         ..SolveOptions::step(0.05)
     };
     let run = solve_constrained_with(&sph(5.0), &sphere, &order(8), &every, Enforcement::Weak).unwrap();
-    out.push(("constrained: degree 4 gauss every 9", b.constrained(&run).done()));
+    out.push((
+        "constrained: degree 4 gauss every 9, fixed point",
+        b.constrained(&run).done(),
+    ));
 
     let (lag2, rods) = models::chain(2, 2, 1.0, G, 1.0).unwrap();
     let (a, c): (f64, f64) = (0.5, 1.2);
@@ -378,15 +404,14 @@ fn constrained_runs(out: &mut Runs) {
         q: vec![a.sin(), -a.cos(), a.sin() + c.sin(), -a.cos() - c.cos()],
         v: vec![0.0; 4],
     };
-    let run = solve_constrained_with(
-        &Problem::new(lag2, start, 0.0, 3.0),
-        &rods,
-        &order(4),
-        &SolveOptions::step(0.02),
-        Enforcement::Weak,
-    )
-    .unwrap();
+    let double = Problem::new(lag2, start, 0.0, 3.0);
+    let run = solve_constrained_with(&double, &rods, &order(4), &newton(0.02), Enforcement::Weak).unwrap();
     out.push(("constrained: double pendulum weak degree 2", b.constrained(&run).done()));
+    let run = solve_constrained_with(&double, &rods, &order(4), &SolveOptions::step(0.02), Enforcement::Weak).unwrap();
+    out.push((
+        "constrained: double pendulum weak degree 2, fixed point",
+        b.constrained(&run).done(),
+    ));
 
     let forced = |run: &ForcedConstrainedSolution, b: &mut Bits| {
         b.constrained(&run.constrained);
@@ -530,6 +555,14 @@ fn chaos_runs(out: &mut Runs) {
         };
         Problem::new(lag.clone(), start, 0.0, t_end)
     };
+    // Dense Newton steps pinned (`Method::Auto` takes the fixed point of
+    // `constraints/shake/mod.rs`, pinned after).
+    let newton = with_method(SolveOptions::step(0.1), Method::Newton);
+    let r = constrained_indicators(&sph(50.0), &sphere, &order(4), &newton, Enforcement::Weak, &forced_opts).unwrap();
+    out.push((
+        "chaos: constrained spherical pendulum degree 2 spectrum",
+        b.chaos(&r).done(),
+    ));
     let r = constrained_indicators(
         &sph(50.0),
         &sphere,
@@ -540,7 +573,7 @@ fn chaos_runs(out: &mut Runs) {
     )
     .unwrap();
     out.push((
-        "chaos: constrained spherical pendulum degree 2 spectrum",
+        "chaos: constrained spherical pendulum degree 2 spectrum, fixed point",
         b.chaos(&r).done(),
     ));
     let r = forced_constrained_indicators(
@@ -563,14 +596,7 @@ fn chaos_runs(out: &mut Runs) {
         "chaos: forced sensitivity duffing degree 2",
         b.fs(&m).node(&node).done(),
     ));
-    let (m, node) = constrained_sensitivity(
-        &sph(2.0),
-        &sphere,
-        &order(4),
-        &SolveOptions::step(0.1),
-        Enforcement::Weak,
-    )
-    .unwrap();
+    let (m, node) = constrained_sensitivity(&sph(2.0), &sphere, &order(4), &newton, Enforcement::Weak).unwrap();
     out.push((
         "chaos: constrained sensitivity spherical pendulum degree 2",
         b.fs(&m).node(&node).done(),
@@ -660,7 +686,7 @@ fn bvp_runs(out: &mut Runs) {
         &Problem::new(lag.clone(), start, 0.0, 1.0),
         &sphere,
         &order(8),
-        &SolveOptions::step(0.025),
+        &with_method(SolveOptions::step(0.025), Method::Newton),
         Enforcement::Weak,
     )
     .unwrap();

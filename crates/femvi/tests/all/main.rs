@@ -26,6 +26,7 @@ mod constraint_jacobian;
 mod constraints;
 mod constraints_forced;
 mod constraints_rattle;
+mod constraints_shake;
 mod convergence;
 mod energy;
 mod explicit_blocked;

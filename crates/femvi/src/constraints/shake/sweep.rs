@@ -1,0 +1,166 @@
+//! One sweep of the fixed-point step (`super`): the starting points, the forces and jets at
+//! the current points, the parts of the points without the multipliers, and the new points
+//! from the solved multipliers.
+
+use super::super::small::mass_solve;
+use super::super::Constraints;
+use super::{all_finite, ShakeStep};
+use crate::lagrangian::{Lagrangian, MassMatrix};
+
+impl ShakeStep {
+    /// h a_l, h² B_l· (and h α_s, h² β_s·) for the step h (kept while h repeats).
+    pub(super) fn scale_tables(&mut self, h: f64) {
+        if h == self.h_tables {
+            return;
+        }
+        let h2 = h * h;
+        let w = self.r + 1;
+        for (hrow, row) in self.htab.chunks_exact_mut(w).zip(self.tab.chunks_exact(w)) {
+            hrow[0] = h * row[0];
+            for (x, &y) in hrow[1..].iter_mut().zip(&row[1..]) {
+                *x = h2 * y;
+            }
+        }
+        self.h_tables = h;
+    }
+    /// The starting points: the last element's polynomial extrapolated, or the straight line
+    /// with velocity `v` on the first step.
+    pub(super) fn guess(&mut self, h: f64, v: &[f64]) {
+        let (n, s, r) = (self.n, self.s, self.r);
+        if !self.have_last {
+            for (l, row) in self.pts.chunks_exact_mut(n).enumerate() {
+                let c = if l < r { self.c[l] } else { 1.0 };
+                for (y, &vc) in row.iter_mut().zip(v) {
+                    *y = c * h * vc;
+                }
+            }
+            return;
+        }
+        let rho = h / self.last_h;
+        let (w, end) = (s + 1, s * n);
+        if rho != self.rho {
+            for l in 0..=r {
+                let tau = 1.0 + rho * if l < r { self.c[l] } else { 1.0 };
+                self.lagrange.values_in_place(tau, &mut self.extrap[l * w..(l + 1) * w]);
+            }
+            self.rho = rho;
+        }
+        let last_end = &self.last[end..];
+        for (row, basis) in self.pts.chunks_exact_mut(n).zip(self.extrap.chunks_exact(w)) {
+            for (a, o) in row.iter_mut().enumerate() {
+                *o = basis
+                    .iter()
+                    .zip(self.last.chunks_exact(n))
+                    .map(|(bj, node)| bj * (node[a] - last_end[a]))
+                    .sum();
+            }
+        }
+    }
+    /// Forces, jets and W at the current points and the end jet at the node to be committed;
+    /// false if anything is not finite.
+    pub(super) fn evaluate<L: Lagrangian, C: Constraints>(
+        &mut self,
+        (lag, mass, con): (&L, &MassMatrix, &C),
+        (t, h): (f64, f64),
+        q: &[f64],
+        comp: &[f64],
+    ) -> bool {
+        let (n, m, r) = (self.n, self.m, self.r);
+        let mut finite = true;
+        let stages = self
+            .pts
+            .chunks_exact(n)
+            .zip(self.f.chunks_exact_mut(n))
+            .zip(self.mf.chunks_exact_mut(n));
+        for (l, ((y, f), mf)) in stages.enumerate() {
+            for ((x, &qa), &ya) in self.pos.iter_mut().zip(q).zip(y) {
+                *x = qa + ya;
+            }
+            lag.force(t + self.c[l] * h, &self.pos, f);
+            mass_solve(mass, f, mf);
+            finite &= f.iter().all(|x| x.is_finite());
+            if self.points {
+                let jet = &mut self.jets[l];
+                jet.eval(con, &self.pos, false);
+                finite &= all_finite(jet);
+                let wl = &mut self.w[l * m * n..(l + 1) * m * n];
+                for (row, g) in wl.chunks_exact_mut(n).zip(jet.jac.chunks_exact(n)) {
+                    mass_solve(mass, g, row);
+                }
+            }
+        }
+        let dqs = &self.pts[r * n..];
+        for (((x, &qa), &d), &c) in self.pos.iter_mut().zip(q).zip(dqs).zip(comp) {
+            *x = qa + (d + c);
+        }
+        let end = &mut self.jets[r];
+        end.eval(con, &self.pos, false);
+        finite && all_finite(end)
+    }
+    /// The parts of Y_l and ΔQ^s without the multipliers: h a_l u + h² Σ_i B_li M⁻¹f_i.
+    pub(super) fn free_parts(&mut self) {
+        let (n, w) = (self.n, self.r + 1);
+        for (out, coefs) in self.free.chunks_exact_mut(n).zip(self.htab.chunks_exact(w)) {
+            for (o, &u) in out.iter_mut().zip(&self.u) {
+                *o = coefs[0] * u;
+            }
+            for (&bi, mf) in coefs[1..].iter().zip(self.mf.chunks_exact(n)) {
+                for (o, &x) in out.iter_mut().zip(mf) {
+                    *o += bi * x;
+                }
+            }
+        }
+    }
+    /// The new points from the solved unknowns: Y_l = free_l − a_l W(q_k)u₀ − Σ_i B_li κ_i W_i Λ_i
+    /// (and ΔQ^s with α_s, β_s·); returns the largest change.
+    pub(super) fn update(&mut self) -> f64 {
+        let (n, m, r, sites) = (self.n, self.m, self.r, self.sites);
+        let w = r + 1;
+        // W(q_k) u₀ into row r of `wl`, κ_i W_i Λ_i into row i.
+        let wk = &self.w[r * m * n..];
+        let row = &mut self.wl[r * n..];
+        row.iter_mut().for_each(|x| *x = 0.0);
+        for (col, &z) in wk.chunks_exact(n).zip(&self.z[..m]) {
+            for (x, &c) in row.iter_mut().zip(col) {
+                *x += z * c;
+            }
+        }
+        if self.points {
+            for i in 0..r {
+                for e in 0..m {
+                    let psi = &self.psi[i * sites..(i + 1) * sites];
+                    self.lam[i * m + e] = psi.iter().enumerate().map(|(c, p)| p * self.z[m + c * m + e]).sum();
+                }
+                let row = &mut self.wl[i * n..(i + 1) * n];
+                row.iter_mut().for_each(|x| *x = 0.0);
+                let cols = &self.w[i * m * n..(i + 1) * m * n];
+                for (col, &lam) in cols.chunks_exact(n).zip(&self.lam[i * m..(i + 1) * m]) {
+                    let f = self.kappa[i] * lam;
+                    for (x, &c) in row.iter_mut().zip(col) {
+                        *x += f * c;
+                    }
+                }
+            }
+        }
+        let mut change = 0.0f64;
+        let rows = self
+            .pts
+            .chunks_exact_mut(n)
+            .zip(self.free.chunks_exact(n))
+            .zip(self.tab.chunks_exact(w));
+        for ((out, fr), coefs) in rows {
+            let wku = &self.wl[r * n..];
+            for (a, (o, &x0)) in out.iter_mut().zip(fr).enumerate() {
+                let mut x = x0 - coefs[0] * wku[a];
+                if self.points {
+                    for (&bi, fi) in coefs[1..].iter().zip(self.wl.chunks_exact(n)) {
+                        x -= bi * fi[a];
+                    }
+                }
+                change = change.max((x - *o).abs());
+                *o = x;
+            }
+        }
+        change
+    }
+}
