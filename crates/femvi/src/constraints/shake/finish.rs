@@ -54,6 +54,8 @@ impl ShakeStep {
         for (pt, &pk) in self.ptilde.iter_mut().zip(p) {
             *pt += pk;
         }
+        std::mem::swap(&mut self.last, &mut self.last2);
+        (self.last_h2, self.have_last2) = (self.last_h, self.have_last);
         self.last[..n].iter_mut().for_each(|v| *v = 0.0);
         copy(&mut self.last[n..], &x[..s * n]);
         self.last_h = h;

@@ -124,6 +124,16 @@ pub(crate) struct ShakeStep {
     last: Vec<f64>,
     last_h: f64,
     have_last: bool,
+    /// The same of the step before it: the start extrapolates the two (`sweep.rs`).
+    last2: Vec<f64>,
+    last_h2: f64,
+    have_last2: bool,
+    /// ℓ_p(c_l) on the 2s + 1 nodes of the last two elements, for the step ratios `rho2`,
+    /// (r + 1) × (2s + 1); the nodes' times (in steps h from t_k) and values (scratch).
+    extrap2: Vec<f64>,
+    rho2: (f64, f64),
+    xs: Vec<f64>,
+    vals: Vec<f64>,
     /// ℓ_j(1 + ρ c_l) for the step ratio ρ of the last extrapolation, (r + 1) × (s + 1).
     extrap: Vec<f64>,
     rho: f64,
@@ -213,15 +223,25 @@ impl ShakeStep {
             last: vec![0.0; (s + 1) * n],
             last_h: f64::NAN,
             have_last: false,
+            last2: vec![0.0; (s + 1) * n],
+            last_h2: f64::NAN,
+            have_last2: false,
+            extrap2: vec![0.0; w * (2 * s + 1)],
+            rho2: (f64::NAN, f64::NAN),
+            xs: vec![0.0; 2 * s + 1],
+            vals: vec![0.0; 2 * s + 1],
             extrap: vec![0.0; w * (s + 1)],
             rho: f64::NAN,
         })
     }
-    /// What the next step reads of this one, into a checkpoint: its starting polynomial.
+    /// What the next step reads of this one, into a checkpoint: its starting polynomials.
     pub fn save(&self, w: &mut Words) {
         w.fs(&self.last);
         w.f(self.last_h);
         w.b(self.have_last);
+        w.fs(&self.last2);
+        w.f(self.last_h2);
+        w.b(self.have_last2);
     }
     /// Reads what [`ShakeStep::save`] wrote.
     ///
@@ -231,6 +251,9 @@ impl ShakeStep {
         r.fs(&mut self.last)?;
         self.last_h = r.f()?;
         self.have_last = r.b()?;
+        r.fs(&mut self.last2)?;
+        self.last_h2 = r.f()?;
+        self.have_last2 = r.b()?;
         Ok(())
     }
     /// Solves the step from (t, q_k, p_k) with velocity `v` (the first step's guess) and step

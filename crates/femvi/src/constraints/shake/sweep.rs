@@ -5,6 +5,9 @@
 use super::super::small::mass_solve;
 use super::super::Constraints;
 use super::{all_finite, ShakeStep};
+
+/// Whether the start extrapolates the last two elements (else the last one).
+const TWO_ELEMENT_START: bool = true;
 use crate::lagrangian::{Lagrangian, MassMatrix};
 
 impl ShakeStep {
@@ -36,6 +39,10 @@ impl ShakeStep {
             }
             return;
         }
+        if self.have_last2 && TWO_ELEMENT_START {
+            self.guess_from_two(h);
+            return;
+        }
         let rho = h / self.last_h;
         let (w, end) = (s + 1, s * n);
         if rho != self.rho {
@@ -53,6 +60,48 @@ impl ShakeStep {
                     .zip(self.last.chunks_exact(n))
                     .map(|(bj, node)| bj * (node[a] - last_end[a]))
                     .sum();
+            }
+        }
+    }
+
+    /// The start from the polynomial through the 2s + 1 nodes of the last two elements (times
+    /// in steps h from t_k: ρ₁(τ_j − 1) for the last, −ρ₁ + ρ₂(τ_j − 1) for the one before,
+    /// ρ = their step over h), evaluated at the stages and the end.
+    fn guess_from_two(&mut self, h: f64) {
+        let (n, s, r) = (self.n, self.s, self.r);
+        let rho = (self.last_h / h, self.last_h2 / h);
+        let np = 2 * s + 1;
+        if rho != self.rho2 {
+            let tau = &self.lagrange.nodes;
+            for j in 0..s {
+                self.xs[j] = -rho.0 + rho.1 * (tau[j] - 1.0);
+            }
+            for j in 0..=s {
+                self.xs[s + j] = rho.0 * (tau[j] - 1.0);
+            }
+            for l in 0..=r {
+                let x = if l < r { self.c[l] } else { 1.0 };
+                for p in 0..np {
+                    let xp = self.xs[p];
+                    self.extrap2[l * np + p] = (0..np)
+                        .filter(|&q| q != p)
+                        .map(|q| (x - self.xs[q]) / (xp - self.xs[q]))
+                        .product();
+                }
+            }
+            self.rho2 = rho;
+        }
+        let end = s * n;
+        for a in 0..n {
+            let (e1, e2) = (self.last[end + a], self.last2[end + a]);
+            for j in 0..s {
+                self.vals[j] = (self.last2[j * n + a] - e2) - e1;
+            }
+            for j in 0..=s {
+                self.vals[s + j] = self.last[j * n + a] - e1;
+            }
+            for (l, basis) in self.extrap2.chunks_exact(np).enumerate() {
+                self.pts[l * n + a] = basis.iter().zip(&self.vals).map(|(b, v)| b * v).sum();
             }
         }
     }
