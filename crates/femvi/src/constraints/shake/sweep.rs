@@ -148,15 +148,16 @@ impl ShakeStep {
     }
     /// The parts of Y_l and ΔQ^s without the multipliers: h a_l u + h² Σ_i B_li M⁻¹f_i.
     pub(super) fn free_parts(&mut self) {
-        let (n, w) = (self.n, self.r + 1);
-        for (out, coefs) in self.free.chunks_exact_mut(n).zip(self.htab.chunks_exact(w)) {
-            for (o, &u) in out.iter_mut().zip(&self.u) {
-                *o = coefs[0] * u;
-            }
-            for (&bi, mf) in coefs[1..].iter().zip(self.mf.chunks_exact(n)) {
-                for (o, &x) in out.iter_mut().zip(mf) {
-                    *o += bi * x;
+        let (n, r) = (self.n, self.r);
+        let w = r + 1;
+        for l in 0..w {
+            let (row, out) = (l * w, l * n);
+            for c in 0..n {
+                let mut x = self.htab[row] * self.u[c];
+                for i in 0..r {
+                    x += self.htab[row + 1 + i] * self.mf[i * n + c];
                 }
+                self.free[out + c] = x;
             }
         }
     }
@@ -166,13 +167,13 @@ impl ShakeStep {
         let (n, m, r, sites) = (self.n, self.m, self.r, self.sites);
         let w = r + 1;
         // W(q_k) u₀ into row r of `wl`, κ_i W_i Λ_i into row i.
-        let wk = &self.w[r * m * n..];
-        let row = &mut self.wl[r * n..];
-        row.iter_mut().for_each(|x| *x = 0.0);
-        for (col, &z) in wk.chunks_exact(n).zip(&self.z[..m]) {
-            for (x, &c) in row.iter_mut().zip(col) {
-                *x += z * c;
+        let wk = r * m * n;
+        for c in 0..n {
+            let mut x = 0.0;
+            for e in 0..m {
+                x += self.z[e] * self.w[wk + e * n + c];
             }
+            self.wl[r * n + c] = x;
         }
         if self.points {
             for i in 0..r {
@@ -180,34 +181,28 @@ impl ShakeStep {
                     let psi = &self.psi[i * sites..(i + 1) * sites];
                     self.lam[i * m + e] = psi.iter().enumerate().map(|(c, p)| p * self.z[m + c * m + e]).sum();
                 }
-                let row = &mut self.wl[i * n..(i + 1) * n];
-                row.iter_mut().for_each(|x| *x = 0.0);
-                let cols = &self.w[i * m * n..(i + 1) * m * n];
-                for (col, &lam) in cols.chunks_exact(n).zip(&self.lam[i * m..(i + 1) * m]) {
-                    let f = self.kappa[i] * lam;
-                    for (x, &c) in row.iter_mut().zip(col) {
-                        *x += f * c;
+                for c in 0..n {
+                    let mut x = 0.0;
+                    for e in 0..m {
+                        x += (self.kappa[i] * self.lam[i * m + e]) * self.w[(i * m + e) * n + c];
                     }
+                    self.wl[i * n + c] = x;
                 }
             }
         }
         let mut change = 0.0f64;
-        let rows = self
-            .pts
-            .chunks_exact_mut(n)
-            .zip(self.free.chunks_exact(n))
-            .zip(self.tab.chunks_exact(w));
-        for ((out, fr), coefs) in rows {
-            let wku = &self.wl[r * n..];
-            for (a, (o, &x0)) in out.iter_mut().zip(fr).enumerate() {
-                let mut x = x0 - coefs[0] * wku[a];
+        for l in 0..w {
+            let row = l * w;
+            for a in 0..n {
+                let mut x = self.free[l * n + a] - self.tab[row] * self.wl[r * n + a];
                 if self.points {
-                    for (&bi, fi) in coefs[1..].iter().zip(self.wl.chunks_exact(n)) {
-                        x -= bi * fi[a];
+                    for i in 0..r {
+                        x -= self.tab[row + 1 + i] * self.wl[i * n + a];
                     }
                 }
-                change = change.max((x - *o).abs());
-                *o = x;
+                let old = &mut self.pts[l * n + a];
+                change = change.max((x - *old).abs());
+                *old = x;
             }
         }
         change
