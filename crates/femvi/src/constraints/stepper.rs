@@ -183,22 +183,11 @@ impl Stepper {
                 }
             },
         );
-        let report = solved.map_err(|f| {
-            if f.failure == StepFailure::Singular && self.sys.start.conditioning() <= RANK_TOLERANCE {
-                singular(k, t, &self.sys.start)
-            } else {
-                step_error(k, t, f)
-            }
-        })?;
+        let report = solved.map_err(|f| failed(k, t, &self.sys.start, f))?;
         self.iterations = report.iterations;
         // q_{k+1} = q_k + ΔQ^s with compensated summation (into q_prev, swapped below).
         let (q1, p1) = (&mut self.q_prev, &mut self.p_prev);
-        for c in 0..n {
-            let y = x[(s - 1) * n + c] + self.comp[c];
-            let sum = q[c] + y;
-            self.comp[c] = y - (sum - q[c]);
-            q1[c] = sum;
-        }
+        commit(q, &x[(s - 1) * n..s * n], &mut self.comp, q1);
         self.sys.momentum_by_sums(element, p, h);
         let p_tilde = self.sys.summed_momentum();
         if self.sys.end.conditioning() <= RANK_TOLERANCE {
@@ -246,12 +235,7 @@ impl Stepper {
             return Err(invalid("solver method", "RATTLE steps need a mechanical Lagrangian"));
         };
         let (n, m) = (q.len(), self.mu.len());
-        if reuse {
-            copy(&mut self.sys.start.g, &self.sys.end.g);
-            copy(&mut self.sys.start.jac, &self.sys.end.jac);
-        } else {
-            self.sys.start.eval(con, q, false);
-        }
+        start_jet(&mut self.sys, con, q, reuse);
         let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
         let (dq, u) = self.x.split_at_mut(n);
         let solved = rattle.solve(
@@ -262,25 +246,14 @@ impl Stepper {
             (dq, &mut u[..m]),
             (self.tol, self.max_iterations, scale),
         );
-        self.iterations = solved.map_err(|f| {
-            if f.failure == StepFailure::Singular && self.sys.start.conditioning() <= RANK_TOLERANCE {
-                singular(k, t, &self.sys.start)
-            } else {
-                step_error(k, t, f)
-            }
-        })?;
+        self.iterations = solved.map_err(|f| failed(k, t, &self.sys.start, f))?;
         let lambda = &mut self.sys.mult[..m];
         for (l, &ul) in lambda.iter_mut().zip(&u[..m]) {
             *l = ul / h;
         }
         rattle.momentum(lag, element, &self.sys.start, (t, h), &self.sys.mult[..m]);
         let (q1, p1) = (&mut self.q_prev, &mut self.p_prev);
-        for c in 0..n {
-            let y = dq[c] + self.comp[c];
-            let sum = q[c] + y;
-            self.comp[c] = y - (sum - q[c]);
-            q1[c] = sum;
-        }
+        commit(q, dq, &mut self.comp, q1);
         // `end` was evaluated at q1 itself (`RattleStep::solve`).
         let end = &self.sys.end;
         if conditioning(&end.jac, m, n, &mut self.scratch) <= RANK_TOLERANCE {
@@ -317,12 +290,7 @@ impl Stepper {
             ));
         };
         let (n, m) = (q.len(), self.mu.len());
-        if reuse {
-            copy(&mut self.sys.start.g, &self.sys.end.g);
-            copy(&mut self.sys.start.jac, &self.sys.end.jac);
-        } else {
-            self.sys.start.eval(con, q, false);
-        }
+        start_jet(&mut self.sys, con, q, reuse);
         let scale = q.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
         let solved = shake.solve(
             (lag, mass, con),
@@ -331,25 +299,14 @@ impl Stepper {
             (q, p, v, &self.comp),
             (self.tol, self.max_iterations, scale),
         );
-        self.iterations = solved.map_err(|f| {
-            if f.failure == StepFailure::Singular && self.sys.start.conditioning() <= RANK_TOLERANCE {
-                singular(k, t, &self.sys.start)
-            } else {
-                step_error(k, t, f)
-            }
-        })?;
+        self.iterations = solved.map_err(|f| failed(k, t, &self.sys.start, f))?;
         shake.finish(&self.sys.start, (h, p), &mut self.x);
         let s = self.sys.s;
         for (l, &xl) in self.sys.mult.iter_mut().zip(&self.x[s * n..]) {
             *l = xl / h;
         }
         let (q1, p1) = (&mut self.q_prev, &mut self.p_prev);
-        for c in 0..n {
-            let y = self.x[(s - 1) * n + c] + self.comp[c];
-            let sum = q[c] + y;
-            self.comp[c] = y - (sum - q[c]);
-            q1[c] = sum;
-        }
+        commit(q, &self.x[(s - 1) * n..s * n], &mut self.comp, q1);
         // The end jet was evaluated at q1 itself (`ShakeStep::solve`).
         let end = &mut self.sys.end;
         copy(&mut end.g, &shake.end_jet().g);
@@ -449,5 +406,37 @@ impl Stepper {
             mu: &self.mu,
         };
         step_map(lag, con, &self.sys, &ends)
+    }
+}
+
+/// A failed step solve as the run reports it: a singular matrix at a node where G itself is
+/// rank deficient names the constraints ([`singular`]), anything else is a step error.
+fn failed(k: usize, t: f64, start: &super::jet::ConstraintJet, f: crate::solve::NewtonFailure) -> Error {
+    if f.failure == StepFailure::Singular && start.conditioning() <= RANK_TOLERANCE {
+        singular(k, t, start)
+    } else {
+        step_error(k, t, f)
+    }
+}
+
+/// g and G at q_k into `sys.start` (without second derivatives): with `reuse`, the last
+/// step's end jet, evaluated at this very node (the same bits as evaluating them again).
+fn start_jet<C: Constraints>(sys: &mut StepSystem, con: &C, q: &[f64], reuse: bool) {
+    if reuse {
+        copy(&mut sys.start.g, &sys.end.g);
+        copy(&mut sys.start.jac, &sys.end.jac);
+    } else {
+        sys.start.eval(con, q, false);
+    }
+}
+
+/// q_{k+1} = q_k + Δq by compensated summation into `q1`, carrying the compensation `comp`
+/// (the one commit of every constrained step).
+fn commit(q: &[f64], dq: &[f64], comp: &mut [f64], q1: &mut [f64]) {
+    for c in 0..q.len() {
+        let y = dq[c] + comp[c];
+        let sum = q[c] + y;
+        comp[c] = y - (sum - q[c]);
+        q1[c] = sum;
     }
 }
