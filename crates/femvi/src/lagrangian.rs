@@ -118,8 +118,10 @@ pub trait Lagrangian {
     /// If L = ½vᵀMv + A(t, q)·v − V(t, q) with a constant positive definite mass matrix M
     /// (gyroscopic: magnetic fields, rotating frames), that matrix; then `Method::Auto` solves
     /// the steps by fixed-point iteration on [`Lagrangian::gyroscopic_terms`]
-    /// (`step/gyroscopic.rs`) instead of Newton. Default: None. A Lagrangian that returns M
-    /// here must have exactly this form (the solver never looks at [`Lagrangian::value`]).
+    /// (`step/gyroscopic/`) instead of Newton. Default: None. A Lagrangian that returns M
+    /// here must have exactly this form (the solver never looks at [`Lagrangian::value`]),
+    /// or ∂L/∂v = Mv/d + A(t, q, v) with the divisor d of
+    /// [`Lagrangian::gyroscopic_divisor`] and A weakly dependent on v over a step.
     ///
     /// # Example
     ///
@@ -154,25 +156,37 @@ pub trait Lagrangian {
     /// Default: from [`Lagrangian::first_derivatives`] (A = ∂L/∂v − Mv); override it with
     /// hand-coded parts for speed.
     fn gyroscopic_terms(&self, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
-        let n = self.dim();
-        if n == 0 {
-            return;
-        }
-        let mut d = PointDerivatives::new(n);
-        let mut mv = vec![0.0; n];
-        let points = q.chunks_exact(n).zip(v.chunks_exact(n));
-        for ((&ti, (qi, vi)), oi) in t.iter().zip(points).zip(out.chunks_exact_mut(2 * n)) {
-            self.first_derivatives(ti, qi, vi, false, &mut d);
-            match self.gyroscopic_mass() {
-                Some(m) => m.apply(vi, &mut mv),
-                None => mv.iter_mut().for_each(|x| *x = 0.0),
-            }
-            let (a, g) = oi.split_at_mut(n);
-            a.iter_mut()
-                .zip(d.l_v())
-                .zip(&mv)
-                .for_each(|((a, lv), mv)| *a = lv - mv);
-            g.copy_from_slice(d.l_q());
+        terms_by_derivatives(self, 1.0, t, q, v, out);
+    }
+
+    /// The divisor d > 0 of the gyroscopic mass for the step that starts at (t, q): the
+    /// gyroscopic fixed point takes the momentum as ∂L/∂v = Mv/d + A(t, q, v), with M from
+    /// [`Lagrangian::gyroscopic_mass`] and d frozen over the step, and A from
+    /// [`Lagrangian::gyroscopic_terms_divided`]. The iteration contracts when A depends
+    /// weakly on v over a step. Default 1 (the gyroscopic form, A independent of v). The
+    /// time-transformed Lagrangian of adaptive steps, ∂L_g/∂q' = Mq'/g(q), returns g(q) here
+    /// (`adaptive/lagrangian.rs`).
+    ///
+    /// ```
+    /// use femvi::adaptive::{KeplerMonitor, TimeTransformed};
+    /// use femvi::{models, Lagrangian};
+    /// assert_eq!(models::kepler(1.0)?.gyroscopic_divisor(0.0, &[4.0, 0.0]), 1.0);
+    /// let lg = TimeTransformed::new(models::kepler(1.0)?, KeplerMonitor, -0.5)?;
+    /// assert_eq!(lg.gyroscopic_divisor(0.0, &[4.0, 0.0]), 8.0); // |q|^{3/2}
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    fn gyroscopic_divisor(&self, _t: f64, _q: &[f64]) -> f64 {
+        1.0
+    }
+
+    /// [`Lagrangian::gyroscopic_terms`] for the divisor d of
+    /// [`Lagrangian::gyroscopic_divisor`]: A = ∂L/∂v − Mv/d and ∂L/∂q by point. Default: the
+    /// gyroscopic terms for d = 1, otherwise from [`Lagrangian::first_derivatives`].
+    fn gyroscopic_terms_divided(&self, d: f64, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+        if d == 1.0 {
+            self.gyroscopic_terms(t, q, v, out);
+        } else {
+            terms_by_derivatives(self, d, t, q, v, out);
         }
     }
 
@@ -267,6 +281,32 @@ pub trait Potential {
                 out[j * n + i] = h;
             }
         }
+    }
+}
+
+/// The gyroscopic terms of `lag` by point from its first derivatives: A = ∂L/∂v − Mv/d (M
+/// from [`Lagrangian::gyroscopic_mass`], zero without one; the division by d = 1 is exact)
+/// and ∂L/∂q.
+fn terms_by_derivatives<L: Lagrangian + ?Sized>(lag: &L, d: f64, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+    let n = lag.dim();
+    if n == 0 {
+        return;
+    }
+    let mut pd = PointDerivatives::new(n);
+    let mut mv = vec![0.0; n];
+    let points = q.chunks_exact(n).zip(v.chunks_exact(n));
+    for ((&ti, (qi, vi)), oi) in t.iter().zip(points).zip(out.chunks_exact_mut(2 * n)) {
+        lag.first_derivatives(ti, qi, vi, false, &mut pd);
+        match lag.gyroscopic_mass() {
+            Some(m) => m.apply(vi, &mut mv),
+            None => mv.iter_mut().for_each(|x| *x = 0.0),
+        }
+        let (a, g) = oi.split_at_mut(n);
+        a.iter_mut()
+            .zip(pd.l_v())
+            .zip(&mv)
+            .for_each(|((a, lv), mv)| *a = lv - mv / d);
+        g.copy_from_slice(pd.l_q());
     }
 }
 

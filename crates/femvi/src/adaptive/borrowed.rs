@@ -29,6 +29,21 @@ impl<L: Lagrangian> Lagrangian for Borrowed<'_, L> {
     fn mass_matrix(&self) -> Option<&MassMatrix> {
         self.0.mass_matrix()
     }
+    fn potential_value(&self, t: f64, q: &[f64]) -> Option<f64> {
+        self.0.potential_value(t, q)
+    }
+    fn gyroscopic_mass(&self) -> Option<&MassMatrix> {
+        self.0.gyroscopic_mass()
+    }
+    fn gyroscopic_terms(&self, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+        self.0.gyroscopic_terms(t, q, v, out)
+    }
+    fn gyroscopic_divisor(&self, t: f64, q: &[f64]) -> f64 {
+        self.0.gyroscopic_divisor(t, q)
+    }
+    fn gyroscopic_terms_divided(&self, d: f64, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+        self.0.gyroscopic_terms_divided(d, t, q, v, out)
+    }
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
         self.0.force(t, q, out)
     }

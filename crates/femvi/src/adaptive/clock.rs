@@ -18,14 +18,23 @@ pub(crate) struct Clock {
     l: Vec<f64>,
     dl: Vec<f64>,
     q: Vec<f64>,
+    /// The basis at the rule's points (row i: ℓ_j(c_i)), for the whole element's step (the
+    /// same numbers `values_in_place` gives, computed once).
+    at_points: Vec<f64>,
 }
 
 impl Clock {
     pub(crate) fn new(element: &Element, n: usize) -> Self {
+        let w = element.nodes();
+        let mut at_points = vec![0.0; element.points() * w];
+        for (row, &c) in at_points.chunks_exact_mut(w.max(1)).zip(&element.rule.nodes) {
+            element.basis.values_in_place(c, row);
+        }
         Self {
-            l: vec![0.0; element.nodes()],
-            dl: vec![0.0; element.nodes()],
+            l: vec![0.0; w],
+            dl: vec![0.0; w],
             q: vec![0.0; n],
+            at_points,
         }
     }
 
@@ -40,12 +49,7 @@ impl Clock {
     ) {
         let n = el.base.len();
         element.basis.values_in_place(tau, &mut self.l);
-        q.copy_from_slice(el.base);
-        for (j, &lj) in self.l.iter().enumerate() {
-            for (c, qc) in q.iter_mut().enumerate() {
-                *qc += lj * el.incr[j * n + c];
-            }
-        }
+        combine(el, &self.l, q);
         if let Some(qs) = qs {
             element.basis.derivatives_in_place(tau, &mut self.dl);
             qs.iter_mut().for_each(|x| *x = 0.0);
@@ -75,8 +79,18 @@ impl Clock {
         sigma: f64,
     ) -> f64 {
         let mut sum = 0.0;
-        for (&c, &b) in element.rule.nodes.iter().zip(&element.rule.weights) {
-            sum += b * self.g_at(element, monitor, el, sigma * c);
+        if sigma == 1.0 {
+            let w = element.nodes().max(1);
+            let mut q = std::mem::take(&mut self.q);
+            for (l, &b) in self.at_points.chunks_exact(w).zip(&element.rule.weights) {
+                combine(el, l, &mut q);
+                sum += b * monitor.value(&q);
+            }
+            self.q = q;
+        } else {
+            for (&c, &b) in element.rule.nodes.iter().zip(&element.rule.weights) {
+                sum += b * self.g_at(element, monitor, el, sigma * c);
+            }
         }
         sigma * el.h * sum
     }
@@ -116,5 +130,16 @@ impl Clock {
             sigma = next;
         }
         sigma
+    }
+}
+
+/// q = base + Σ_j l_j X^j: the element's interpolant from basis values `l`.
+fn combine(el: &ElementNodes<'_>, l: &[f64], q: &mut [f64]) {
+    let n = el.base.len();
+    q.copy_from_slice(el.base);
+    for (j, &lj) in l.iter().enumerate() {
+        for (c, qc) in q.iter_mut().enumerate() {
+            *qc += lj * el.incr[j * n + c];
+        }
     }
 }

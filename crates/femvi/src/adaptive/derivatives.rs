@@ -132,6 +132,57 @@ pub(super) fn first<L: Lagrangian, G: Monitor>(
     });
 }
 
+/// The gyroscopic terms of L_g (mechanical L) for the divisor d, by point
+/// ([`Lagrangian::gyroscopic_terms_divided`]): A = u/g − u/d with u = Mq', and ∂L_g/∂q as in
+/// [`first`]. With d = g(q_k) the momentum u/g is Mq'/d + A, A of the size of the change of g
+/// over the step, so the gyroscopic fixed point contracts like the step.
+pub(super) fn gyroscopic_terms<L: Lagrangian, G: Monitor>(
+    lg: &TimeTransformed<L, G>,
+    d: f64,
+    t: &[f64],
+    q: &[f64],
+    v: &[f64],
+    out: &mut [f64],
+) {
+    let n = lg.dim();
+    let Some(mass) = lg.inner().mass_matrix() else {
+        out.iter_mut().for_each(|x| *x = f64::NAN);
+        return;
+    };
+    if n == 0 {
+        return;
+    }
+    let (inv_d, identity) = (1.0 / d, mass.is_identity());
+    scratch(4 * n, 0.0, |buf| {
+        let (force, rest) = buf.split_at_mut(n);
+        let (dg, rest) = rest.split_at_mut(n);
+        let (u, zeros) = rest.split_at_mut(n);
+        let points = q.chunks_exact(n).zip(v.chunks_exact(n));
+        for ((&ti, (qi, vi)), oi) in t.iter().zip(points).zip(out.chunks_exact_mut(2 * n)) {
+            let g = lg.monitor().derivatives(qi, dg, None);
+            lg.inner().force(ti, qi, force);
+            let v_pot = match lg.inner().potential_value(ti, qi) {
+                Some(v) => v,
+                None => -lg.inner().value(ti, qi, zeros),
+            };
+            let phi = v_pot - lg.e0();
+            if identity {
+                u.copy_from_slice(vi);
+            } else {
+                mass.apply(vi, u);
+            }
+            let t2: f64 = u.iter().zip(vi).map(|(a, b)| a * b).sum();
+            let c = -0.5 * t2 / (g * g) - phi;
+            let w = 1.0 / g - inv_d;
+            let (a, lq) = oi.split_at_mut(n);
+            for k in 0..n {
+                a[k] = u[k] * w;
+                lq[k] = c * dg[k] + g * force[k];
+            }
+        }
+    });
+}
+
 /// Value, gradient and Hessian of L_g (mechanical L) into `out`.
 pub(super) fn second<L: Lagrangian, G: Monitor>(
     lg: &TimeTransformed<L, G>,

@@ -12,12 +12,15 @@
 //! For a mechanical L = ½vᵀMv − V(q), L_g = ½q'ᵀMq'/g − g(V − E₀) has the position-dependent
 //! mass matrix M/g, so the step goes through Newton; `derivatives.rs` gives it hand-coded
 //! first and second derivatives from V's force and force Jacobian and g's derivatives, in
-//! place of automatic differentiation of the whole of L_g.
+//! place of automatic differentiation of the whole of L_g. Asked for, the gyroscopic fixed
+//! point solves it without Hessians: L_g declares M as its gyroscopic mass with the divisor
+//! g ([`Lagrangian::gyroscopic_divisor`]), the momentum Mq'/g split as Mq'/d + A
+//! (`step/gyroscopic/divided.rs`).
 
 use super::derivatives;
 use super::monitor::Monitor;
 use crate::error::{check_len, invalid, Result};
-use crate::lagrangian::{Lagrangian, PointDerivatives, Scalar};
+use crate::lagrangian::{Lagrangian, MassMatrix, PointDerivatives, Scalar};
 
 /// L_g(q, q') = g(q)·(L(q, q'/g(q)) + E₀) for an autonomous L (the module documentation).
 ///
@@ -133,6 +136,24 @@ impl<L: Lagrangian, G: Monitor> Lagrangian for TimeTransformed<L, G> {
             *wi = vi * inv;
         }
         g * (self.lag.value(t, q, w) + self.e0)
+    }
+
+    /// With hand-coded derivatives (a mechanical L), M: the steps take the gyroscopic fixed
+    /// point with the divisor g(q_k) ([`Lagrangian::gyroscopic_divisor`]).
+    fn gyroscopic_mass(&self) -> Option<&MassMatrix> {
+        if self.fast {
+            self.lag.mass_matrix()
+        } else {
+            None
+        }
+    }
+
+    fn gyroscopic_divisor(&self, _t: f64, q: &[f64]) -> f64 {
+        self.monitor.value(q)
+    }
+
+    fn gyroscopic_terms_divided(&self, d: f64, t: &[f64], q: &[f64], v: &[f64], out: &mut [f64]) {
+        derivatives::gyroscopic_terms(self, d, t, q, v, out);
     }
 
     fn first_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {

@@ -54,7 +54,10 @@ pub struct AdaptiveOptions {
     /// Tolerance, iteration cap and method of the step solver (Newton: L_g has a
     /// position-dependent mass matrix). `Method::Auto` is full Newton (`Method::FullNewton`),
     /// whose energy drifts least; `Method::Newton` takes the simplified iteration (0.85× the
-    /// time per step on adaptive Kepler).
+    /// time per step on adaptive Kepler); `Method::FixedPoint`, for a mechanical L, the
+    /// fixed point with the divisor g (`step/gyroscopic/divided.rs`: about a third of full
+    /// Newton's time per step, but its angular momentum and energy drift about ten times as
+    /// fast; `docs/src/adaptive.md`).
     pub solver: SolverOptions,
     /// Keep every `every`-th node (the first and the last always); 0 keeps only those two.
     pub every: usize,

@@ -167,7 +167,10 @@ pub fn setup<'l, L: Lagrangian, G: Monitor>(
     let grid = TimeGrid::uniform(0.0, ds, s_end)?;
     // Auto is full Newton here: on the e = 0.9 Kepler orbit (order 8, ds 0.3) the simplified
     // iteration's energy slope over 10⁴ periods was −1.2e-16 per period against full Newton's
-    // −2e-17 (measured, `examples/adaptive_drift`), for 0.85× the time per step.
+    // −2e-17 (measured, `examples/adaptive_drift`), for 0.85× the time per step. The fixed
+    // point (`Method::FixedPoint`, mechanical L: `step/gyroscopic/divided.rs`) is 3× cheaper
+    // per step but its angular momentum and energy drift about ten times as fast
+    // (`tests/all/adaptive_drift.rs`), so it is asked for, not the default.
     let mut solver = options.solver;
     if solver.method == Method::Auto {
         solver.method = Method::FullNewton;

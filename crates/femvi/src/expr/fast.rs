@@ -4,7 +4,7 @@
 //! (L = ½vᵀMv − V(t, q) with constant M, found by [`structure::expand`]), the mass matrix and a
 //! tape of the force −∂V/∂q, so that the fixed-point and explicit solvers apply; when it is
 //! gyroscopic (L = ½vᵀMv + A(t, q)·v − V(t, q)), M and a tape of A and ∂L/∂q for the
-//! gyroscopic fixed point (step/gyroscopic.rs).
+//! gyroscopic fixed point (step/gyroscopic/mod.rs).
 //!
 //! Every part is optional: an expression whose graph outgrows the node budget, or whose
 //! Hessian would cost more than [`HESSIAN_WORK`] node visits to build, keeps automatic

@@ -18,7 +18,7 @@ use crate::lagrangian::Lagrangian;
 use serde::{Deserialize, Serialize};
 
 /// The format of [`Checkpoint::words`]; changed whenever their order changes.
-const FORMAT: u32 = 3;
+const FORMAT: u32 = 4;
 
 /// A run's state at a node, ready to be written (serde) and restored with
 /// [`Integrator::restore`].

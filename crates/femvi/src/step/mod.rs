@@ -15,8 +15,9 @@
 //! 5. `solver.rs`: `choose` resolves the method; `Solver` dispatches statically to one of
 //!    `explicit.rs` (Störmer–Verlet, with a fixed-size fast loop), `fixed_point_step.rs`
 //!    (iteration on forces, tables from [`fixed_point`], start from `start.rs`) or
-//!    `newton_step.rs` (any Lagrangian, starting values from `guess.rs`), or `gyroscopic.rs`
-//!    (L = ½vᵀMv + A·v − V, fixed point on the vector potential and ∂L/∂q). A solver owns only
+//!    `newton_step.rs` (any Lagrangian, starting values from `guess.rs`), or `gyroscopic/`
+//!    (L = ½vᵀMv + A·v − V, fixed point on the vector potential and ∂L/∂q; with a mass
+//!    divisor for the time-transformed L_g of adaptive steps). A solver owns only
 //!    its workspace and caches; it reads the state and the last element and writes the
 //!    solved element's increments (`Increments`).
 //! 6. `state.rs` again: the increments are committed to the node with compensated sums.
@@ -66,6 +67,7 @@ mod start;
 pub(crate) mod state;
 mod tangent;
 pub(crate) mod term;
+mod term_history;
 
 pub use checkpoint::Checkpoint;
 pub use drive::{drive, DriveReport, Observer};

@@ -7,6 +7,7 @@
 //! change of results: `FEMVI_GOLDEN_WRITE=1 cargo test -p femvi --test all -- golden::`, and say so in
 //! the commit message.
 
+use femvi::adaptive::{KeplerMonitor, TimeTransformed};
 use femvi::bvp::{line_guess, solve, BoundaryValues, BvpOptions};
 use femvi::expr::ExprLagrangian;
 use femvi::{
@@ -466,7 +467,18 @@ fn checkpoints_resume_bit_for_bit() {
         &[1, 2, 17, 59],
     );
     checked += resume(|| energy(&pend, &mid, pend_start(), 0.05, 5.0), &[1, 2, 3, 33, 90]);
-    assert!(checked >= 20, "{checked} resumed runs");
+    // Adaptive steps by the fixed point with a varying divisor: its divisor-free history of
+    // terms (`step/gyroscopic/divided.rs`) is in the checkpoint.
+    let lg = TimeTransformed::new(models::kepler(1.0).unwrap(), KeplerMonitor, -0.5).unwrap();
+    let ecc = || Start::Momentum {
+        q: vec![0.1, 0.0],
+        p: vec![0.0, 19f64.sqrt()],
+    };
+    checked += resume(
+        || new(&lg, &deg6, uni(0.1, 30.0), ecc(), opts(Method::FixedPoint)),
+        &[1, 2, 3, 100, 250],
+    );
+    assert!(checked >= 25, "{checked} resumed runs");
 }
 
 #[test]

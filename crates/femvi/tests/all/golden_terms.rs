@@ -28,7 +28,8 @@
 //!   (`Method::Auto`, entries "…, fixed point", added with it);
 //! - forced and constrained (`constraints::solve_constrained_forced`): friction with a drive
 //!   (degree 2, `Weak`) and friction alone (degree 3, `Nodes`), with W and the balance;
-//! - adaptive steps (`solve_adaptive`, Kepler e = 0.9, three periods): degree 2 with full
+//! - adaptive steps (`solve_adaptive`, Kepler e = 0.9, three periods): degree 2 by the fixed
+//!   point with a varying divisor (issue 39); degree 2 with full
 //!   Newton, `saveat` and pericentre/apocentre events; degree 1 with the simplified Newton;
 //!   an expression monitor with derivatives by automatic differentiation, degree 3: with
 //!   the fictitious and physical clocks (s, t), E₀, the saved states and the events;
@@ -474,6 +475,18 @@ fn adaptive_runs(out: &mut Runs) {
     let sol = solve_adaptive(&problem, KeplerMonitor, &order(2), &options).unwrap();
     out.push((
         "adaptive: kepler e 0.9 degree 1 simplified newton",
+        b.adaptive(&sol).done(),
+    ));
+    // The fixed point with the divisor g at the element's midpoint (issue 39).
+    let mut options = AdaptiveOptions {
+        every: 0,
+        saveat: vec![1.0, PI, 7.5, 15.0],
+        ..AdaptiveOptions::step(0.05)
+    };
+    options.solver.method = Method::FixedPoint;
+    let sol = solve_adaptive(&problem, KeplerMonitor, &order(4), &options).unwrap();
+    out.push((
+        "adaptive: kepler e 0.9 degree 2 fixed point, saveat",
         b.adaptive(&sol).done(),
     ));
     let monitor = ExprMonitor::new("(x^2 + y^2)^0.75", &names(&["x", "y"]), &[]).unwrap();

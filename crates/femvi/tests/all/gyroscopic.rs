@@ -1,5 +1,5 @@
 //! The gyroscopic fixed point (issue 15): L = ½vᵀMv + A(t, q)·v − V(t, q) solved without
-//! Hessians (step/gyroscopic.rs). Structure detection in expressions and the compiled A and
+//! Hessians (step/gyroscopic/mod.rs). Structure detection in expressions and the compiled A and
 //! ∂L/∂q against automatic differentiation; whole runs against Newton's method on the same
 //! equations (Arenstorf in the rotating frame, a charge in a uniform magnetic field), as
 //! expressions and as Rust Lagrangians; and the order 2s against the closed-form solution

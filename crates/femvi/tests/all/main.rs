@@ -11,6 +11,7 @@ mod common;
 mod adaptive;
 mod adaptive_drift;
 mod adaptive_events;
+mod adaptive_fixed_point;
 mod adaptive_kepler;
 mod advance_observed;
 mod auto_step;
