@@ -56,8 +56,8 @@ pub struct AdaptiveOptions {
     /// whose energy drifts least; `Method::Newton` takes the simplified iteration (0.85× the
     /// time per step on adaptive Kepler); `Method::FixedPoint`, for a mechanical L, the
     /// fixed point with the divisor g (`step/gyroscopic/divided.rs`: about a third of full
-    /// Newton's time per step, but its angular momentum and energy drift about ten times as
-    /// fast; `docs/src/adaptive.md`).
+    /// Newton's time per step; it contracts only for small enough ds and has no Newton
+    /// fallback; `docs/src/adaptive.md`).
     pub solver: SolverOptions,
     /// Keep every `every`-th node (the first and the last always); 0 keeps only those two.
     pub every: usize,

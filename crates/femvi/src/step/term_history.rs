@@ -11,7 +11,7 @@ use crate::error::Result;
 /// others from the last step. Measured on the Arenstorf expression (h = T/10⁴, medians of 7
 /// alternating runs): degree 2, 4.01 → 3.03 sweeps per step and 21 % less time; degree 4,
 /// 2.04 → 2.03 sweeps and 9 % more time (the 8-point extrapolation costs more than it saves).
-const TWO_STEP_POINTS: usize = 3;
+pub(crate) const TWO_STEP_POINTS: usize = 3;
 
 /// The last two steps' values by point (`width` numbers per point, r points per step).
 #[derive(Debug, Clone)]

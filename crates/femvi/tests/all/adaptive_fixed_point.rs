@@ -56,7 +56,7 @@ fn agree<L: Lagrangian, G: Monitor + Clone>(what: &str, problem: &Problem<L>, mo
             fp.steps, fp.mean_iterations, newton.mean_iterations
         );
         assert!(dq <= 1e-11 && dp <= 1e-10, "{what}, order {order}: {dq:e} {dp:e}");
-        // Auto keeps full Newton (the fixed point drifts more: `adaptive_drift.rs`); the
+        // Auto keeps full Newton (the fixed point is asked for: `adaptive/solve.rs`); the
         // fixed point is another solver (other bits).
         assert_eq!(auto.saved.q, newton.saved.q, "{what}, order {order}");
         assert_ne!(fp.saved.q, newton.saved.q, "{what}, order {order}");

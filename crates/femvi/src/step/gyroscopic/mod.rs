@@ -28,7 +28,7 @@ use super::fixed_point::affine;
 use super::guess::Guess;
 use super::solver::StepContext;
 use super::state::{Increments, LastElement, RunState};
-use super::term_history::TermHistory;
+use super::term_history::{TermHistory, TWO_STEP_POINTS};
 use crate::discrete::Element;
 use crate::error::{Error, Result, StepError, StepFailure};
 use crate::lagrangian::{Lagrangian, MassMatrix};
@@ -54,8 +54,8 @@ pub(crate) struct GyroscopicStep {
     /// The unknowns ΔQ^m, row-major s×n.
     x: Vec<f64>,
     /// Positions, velocities and times at the quadrature points (r×n, r×n, r).
-    stage_q: Vec<f64>,
-    stage_v: Vec<f64>,
+    /// (the positions, then the velocities: `stages`, 2r × n)
+    stages: Vec<f64>,
     stage_t: Vec<f64>,
     /// The predicted midpoint of the element (steps with a varying divisor).
     mid_q: Vec<f64>,
@@ -88,8 +88,7 @@ impl GyroscopicStep {
             u: vec![0.0; n],
             divisor: 1.0,
             x: vec![0.0; s * n],
-            stage_q: vec![0.0; r * n],
-            stage_v: vec![0.0; r * n],
+            stages: vec![0.0; 2 * r * n],
             stage_t: vec![0.0; r],
             mid_q: vec![0.0; n],
             terms: vec![0.0; 2 * r * n],
@@ -138,6 +137,11 @@ impl GyroscopicStep {
             self.divided_start(cx, state, last, h)?;
         }
         let iterations = self.iterate(cx, state)?;
+        let iterations = if self.divisor == 1.0 {
+            iterations
+        } else {
+            iterations + self.divided_finish(cx, state)?
+        };
         // The update from the last sweep's forces g_i (the ΔQ they gave is in x).
         out.incr[..n].iter_mut().for_each(|x| *x = 0.0);
         out.incr[n..(s + 1) * n].copy_from_slice(&self.x);
@@ -173,7 +177,8 @@ impl GyroscopicStep {
     pub(crate) fn accepted(&mut self) {
         if self.divisor == 1.0 {
             self.hist.push(&self.terms, self.cur_h);
-        } else {
+        } else if self.stage_t.len() <= TWO_STEP_POINTS {
+            // Only these start from the history (`divided.rs`).
             self.accepted_divided();
         }
     }
@@ -237,36 +242,39 @@ impl GyroscopicStep {
         Ok(iterations)
     }
 
+    /// Stage positions and velocities from the increments x, in one affine map (the same
+    /// operations per stage as two).
+    fn stages_from_x<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, state: &RunState) {
+        let (n, s, r) = (state.n, cx.element.degree(), cx.element.points());
+        let sc = &self.scaled;
+        affine(
+            2 * r,
+            n,
+            &sc.stage_a,
+            &state.q,
+            &sc.stage_tab,
+            s,
+            &self.x,
+            &mut self.stages,
+            false,
+        );
+    }
+
     /// One sweep: stage positions and velocities from x, the gyroscopic terms there, and x
     /// from them by [`affine`]. Returns (max |Δx|, max |x|), NaN if a value is not finite.
     fn sweep<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, state: &RunState) -> (f64, f64) {
         let (n, s, r) = (state.n, cx.element.degree(), cx.element.points());
-        let sc = &self.scaled;
-        affine(
-            r,
-            n,
-            &sc.ones,
-            &state.q,
-            &self.tab.pos,
-            s,
-            &self.x,
-            &mut self.stage_q,
-            false,
-        );
-        affine(r, n, &sc.zeros, &state.q, &sc.vel, s, &self.x, &mut self.stage_v, false);
-        cx.lag.gyroscopic_terms_divided(
-            self.divisor,
-            &self.stage_t,
-            &self.stage_q,
-            &self.stage_v,
-            &mut self.terms,
-        );
+        self.stages_from_x(cx, state);
+        let (stage_q, stage_v) = self.stages.split_at(self.stage_t.len() * n);
+        cx.lag
+            .gyroscopic_terms_divided(self.divisor, &self.stage_t, stage_q, stage_v, &mut self.terms);
         let Some(mass) = cx.lag.gyroscopic_mass() else {
             return (f64::NAN, f64::NAN);
         };
         // The right-hand side: rows (A_0, g_0, A_1, g_1, …) times M⁻¹.
         let rhs = mass_solved(mass, n, &self.terms, &mut self.weighted);
         // Steps with a varying divisor take the matrix times d (`divided.rs`).
+        let sc = &self.scaled;
         let mat = if self.divisor == 1.0 { &sc.mat } else { &self.mat_d };
         let (delta, xmax, probe) = affine(s, n, &sc.ha, &self.u, mat, 2 * r, rhs, &mut self.x, true);
         if probe.is_nan() {

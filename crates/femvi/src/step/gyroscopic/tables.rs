@@ -80,11 +80,12 @@ pub(super) struct Scaled {
     /// 2i + 1, so that the gyroscopic terms (A_i, g_i by point) are its right-hand side as
     /// they come.
     pub(super) mat: Vec<f64>,
-    /// ℓ_m'(c_l)/h, column-major as `Tables::vel`.
-    pub(super) vel: Vec<f64>,
-    /// Ones (the stage positions are q_k + Σ_m ℓ_m(c_l) ΔQ^m) and zeros (velocities).
-    pub(super) ones: Vec<f64>,
-    pub(super) zeros: Vec<f64>,
+    /// The stages from the increments in one map: column-major 2r × s (column m contiguous),
+    /// rows l < r the positions' ℓ_m(c_l) (`Tables::pos`), rows r + l the velocities'
+    /// ℓ_m'(c_l)/h; `stage_a` the coefficients of q_k, ones for positions and zeros for
+    /// velocities (the stage positions are q_k + Σ_m ℓ_m(c_l) ΔQ^m).
+    pub(super) stage_tab: Vec<f64>,
+    pub(super) stage_a: Vec<f64>,
     /// h b_i and its rounding error.
     pub(super) hw: Vec<f64>,
     pub(super) hw_lo: Vec<f64>,
@@ -97,9 +98,8 @@ impl Scaled {
             h_bits: f64::NAN.to_bits(),
             ha: vec![0.0; s],
             mat: vec![0.0; 2 * r * s],
-            vel: vec![0.0; r * s],
-            ones: vec![1.0; r],
-            zeros: vec![0.0; r],
+            stage_tab: vec![0.0; 2 * r * s],
+            stage_a: (0..2 * r).map(|l| if l < r { 1.0 } else { 0.0 }).collect(),
             hw: vec![0.0; r],
             hw_lo: vec![0.0; r],
         }
@@ -116,8 +116,16 @@ impl Scaled {
                 self.mat[(2 * i + 1) * s + m] = h2.mul(tab.beta[m * r + i]).round();
             }
         }
-        for (v, d) in self.vel.iter_mut().zip(&tab.vel) {
-            *v = d.divf(h).round();
+        for (col, (pos, vel)) in self
+            .stage_tab
+            .chunks_exact_mut(2 * r)
+            .zip(tab.pos.chunks_exact(r).zip(tab.vel.chunks_exact(r)))
+        {
+            let (p, v) = col.split_at_mut(r);
+            p.copy_from_slice(pos);
+            for (v, d) in v.iter_mut().zip(vel) {
+                *v = d.divf(h).round();
+            }
         }
         for (i, &b) in weights.iter().enumerate() {
             let x = Dd::two_prod(h, b);
