@@ -14,8 +14,15 @@ use std::process::ExitCode;
 use femvi_cli::{BAD_INPUT, NUMERICAL};
 
 fn main() -> ExitCode {
-    // No Rust panic message reaches the user: a panic is an internal error, reported as such.
+    // No Rust panic message reaches the user: a panic is an internal error, reported as such,
+    // except a closed standard output (`femvi run p.toml | head -1`): the reader has gone, so
+    // femvi stops quietly with the status of a process killed by SIGPIPE (128 + 13), as Unix
+    // tools do. Files are written before anything is printed about them.
     std::panic::set_hook(Box::new(|info| {
+        let text = info.to_string();
+        if text.contains("failed printing to stdout") && text.contains("Broken pipe") {
+            std::process::exit(141);
+        }
         eprintln!("error: internal error in femvi ({info}); please report it with the problem file");
     }));
     let cli = match Cli::try_parse() {

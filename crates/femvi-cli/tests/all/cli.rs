@@ -602,3 +602,26 @@ fn png_plots() {
         .unwrap();
     assert_eq!(bad.status.code(), Some(2));
 }
+
+#[test]
+fn a_closed_standard_output_stops_quietly_after_the_files_are_written() {
+    // `femvi run p.toml | head -0`: the reader is gone before femvi prints its summary line.
+    let out = tempfile::tempdir().unwrap();
+    let bin = assert_cmd::cargo::cargo_bin("femvi");
+    let mut child = std::process::Command::new(bin)
+        .arg("run")
+        .arg(examples().join("pendulum.toml"))
+        .arg("--out")
+        .arg(out.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let result = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(!err.contains("internal error"), "{err}");
+    assert_eq!(result.status.code(), Some(141), "{err}");
+    let summary = std::fs::read_to_string(out.path().join("summary.json")).unwrap();
+    assert!(summary.contains("\"status\": \"done\""), "{summary}");
+}
