@@ -26,18 +26,8 @@ fn rows(dir: &Path) -> (String, Vec<Vec<f64>>) {
 #[test]
 fn uniform_physical_times_land_on_the_closed_form() {
     // Ten periods of e = 0.99: after each period the orbit is back at pericentre (0.01, 0).
-    let out = tempfile::tempdir().unwrap();
     let period = 2.0 * std::f64::consts::PI;
-    femvi()
-        .args(["run", "--quiet", "--set"])
-        .arg(format!("time.end={:?}", 10.0 * period))
-        .arg("--set")
-        .arg(format!("time.output_step={:?}", period / 4.0))
-        .arg(examples().join("kepler-eccentric.toml"))
-        .arg("--out")
-        .arg(out.path())
-        .assert()
-        .success();
+    let out = eccentric_run(&[]);
     let (header, rows) = rows(out.path());
     assert_eq!(header, "row,t,x,y,p_x,p_y,energy");
     assert_eq!(rows.len(), 41);
@@ -317,6 +307,12 @@ end = 12.566370614359172
 /// Runs `kepler-eccentric.toml` for ten periods with rows every quarter period, with the
 /// extra overrides; returns the rows.
 fn eccentric_rows(extra: &[&str]) -> Vec<Vec<f64>> {
+    rows(eccentric_run(extra).path()).1
+}
+
+/// Runs `kepler-eccentric.toml` for ten periods with rows every quarter period, with the
+/// extra overrides; returns the output directory.
+fn eccentric_run(extra: &[&str]) -> tempfile::TempDir {
     let out = tempfile::tempdir().unwrap();
     let period = 2.0 * std::f64::consts::PI;
     femvi()
@@ -330,7 +326,7 @@ fn eccentric_rows(extra: &[&str]) -> Vec<Vec<f64>> {
         .arg(out.path())
         .assert()
         .success();
-    rows(out.path()).1
+    out
 }
 
 #[test]

@@ -41,13 +41,7 @@ impl GyroscopicStep {
         affine(1, n, &one, &state.q, &self.tab.mid, s, &self.x, &mut self.mid_q, false);
         let d = cx.lag.gyroscopic_divisor(state.t + 0.5 * h, &self.mid_q);
         if !(d.is_finite() && d > 0.0) {
-            return Err(Error::Step(StepError {
-                step: state.k,
-                t: state.t,
-                residual: d,
-                iterations: 0,
-                failure: StepFailure::NonFinite,
-            }));
+            return Err(non_finite(state, d));
         }
         self.divisor = d;
         self.u.iter_mut().for_each(|u| *u *= d);
@@ -101,13 +95,7 @@ impl GyroscopicStep {
     pub(super) fn divided_finish<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, state: &RunState) -> Result<usize> {
         let (delta, _) = self.sweep(cx, state);
         if !delta.is_finite() {
-            return Err(Error::Step(StepError {
-                step: state.k,
-                t: state.t,
-                residual: delta,
-                iterations: 0,
-                failure: StepFailure::NonFinite,
-            }));
+            return Err(non_finite(state, delta));
         }
         let n = state.n;
         self.stages_from_x(cx, state);
@@ -143,4 +131,16 @@ impl GyroscopicStep {
             }
         }
     }
+}
+
+/// The failure of a step whose divisor or finishing sweep is not finite (or the divisor not
+/// positive), with that value as its residual.
+fn non_finite(state: &RunState, residual: f64) -> Error {
+    Error::Step(StepError {
+        step: state.k,
+        t: state.t,
+        residual,
+        iterations: 0,
+        failure: StepFailure::NonFinite,
+    })
 }
