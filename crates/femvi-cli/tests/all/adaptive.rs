@@ -378,13 +378,10 @@ end = 3.0
 method = "fixed-point"
 "#;
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("p.toml");
-    std::fs::write(&file, text).unwrap();
     let out = femvi()
-        .args(["run", "--quiet"])
-        .arg(&file)
-        .arg("--out")
-        .arg(dir.path().join("out"))
+        .args(["run", "-", "--quiet", "--out"])
+        .arg(dir.path())
+        .write_stdin(text)
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));

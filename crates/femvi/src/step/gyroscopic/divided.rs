@@ -85,8 +85,9 @@ impl GyroscopicStep {
 
     /// After the iteration has stopped: one more sweep, then the terms at the stages of the
     /// final increments, from which the momentum update and the history are taken; returns
-    /// the sweeps added (1), or the failure of a sweep that is not finite. Without it the update took the terms of the iterate before the
-    /// last, and the last iterates approach the fixed point from one side, so the angular
+    /// the sweeps added (1), or the failure of a sweep that is not finite. Without it the
+    /// update took the terms of the iterate before the last, and the last iterates approach
+    /// the fixed point from one side, so the angular
     /// momentum and energy drifted ten times as fast as full Newton's (Kepler e = 0.9, order
     /// 8, ds = 0.3, 2 000 periods: L +2.4e-13, mean H +3.6e-12; with it +1.1e-13 and
     /// −7.9e-13 (−3.6e-13 in another build: a round-off draw); full Newton +4.3e-14 and
