@@ -122,6 +122,19 @@ pub enum Error {
         /// Time of the node (the physical time, also in adaptive runs).
         t: f64,
     },
+    /// An iteration stopped before it converged (the optimal control solver); the caller
+    /// keeps its best iterate.
+    #[error("{what} did not converge after {iterations} iterations (residual {residual:.3e}): {reason}")]
+    NotConverged {
+        /// What was iterated.
+        what: String,
+        /// Iterations made.
+        iterations: usize,
+        /// The largest residual at the best iterate.
+        residual: f64,
+        /// Why it stopped.
+        reason: String,
+    },
     /// A step failed.
     #[error(transparent)]
     Step(#[from] StepError),

@@ -27,6 +27,7 @@ pub mod fem;
 pub mod forces;
 pub mod lagrangian;
 pub mod models;
+pub mod optimize;
 pub mod solution;
 pub mod solve;
 pub mod step;

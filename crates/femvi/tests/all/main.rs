@@ -46,6 +46,7 @@ mod gyroscopic;
 mod hostile;
 mod legendre_regular;
 mod model_params;
+mod optimize;
 mod paper_formulas;
 mod rattle_exact;
 mod setup_scale;

@@ -1,0 +1,192 @@
+//! Optimal control (issue 36): the double integrator against its closed form, minimum time
+//! against T* = 2, and the solver's errors.
+
+use femvi::expr::ExprLagrangian;
+use femvi::optimize::{optimize, ControlProblem, ExprControls, FinalTime, OptimizeOptions, Optimum};
+use femvi::Element;
+
+fn s(v: &[&str]) -> Vec<String> {
+    v.iter().map(|x| x.to_string()).collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn double_integrator(
+    elements: usize,
+    order: usize,
+    t1: FinalTime,
+    bound: f64,
+    running: &str,
+    w: f64,
+    q0: f64,
+    q1: f64,
+) -> Optimum {
+    let lag = ExprLagrangian::new("0.5*x_dot^2", &s(&["x"]), &[]).unwrap();
+    let ctl = ExprControls::new(&s(&["x"]), &s(&["u"]), &s(&["u"]), running, &[]).unwrap();
+    let problem = ControlProblem {
+        t0: 0.0,
+        t1,
+        q0: vec![q0],
+        v0: vec![0.0],
+        q1: vec![q1],
+        v1: vec![0.0],
+        elements,
+        lower: vec![-bound],
+        upper: vec![bound],
+        time_weight: w,
+    };
+    let element = Element::with_order(order).unwrap();
+    optimize(&lag, &ctl, &element, &problem, &OptimizeOptions::default()).unwrap()
+}
+
+/// J* of the cart-pole from CasADi 3.8.2 + IPOPT, Radau collocation refined to N = 1600
+/// (benches/peers/casadi_cartpole.py; ±1e-10, three schemes agree): optimum A, one
+/// back-swing to θ = −0.88, reached from the straight-line guess.
+const CART_POLE_J: f64 = 225.55372407809;
+
+fn cart_pole(elements: usize, order: usize) -> Optimum {
+    let params = [
+        ("mc".to_string(), 2.0),
+        ("mp".to_string(), 0.5),
+        ("l".to_string(), 0.5),
+        ("g".to_string(), 9.81),
+    ];
+    let coords = s(&["x", "theta"]);
+    let lag = ExprLagrangian::new(
+        "0.5*(mc + mp)*x_dot^2 + mp*l*x_dot*theta_dot*cos(theta) + 0.5*mp*l^2*theta_dot^2 + mp*g*l*cos(theta)",
+        &coords,
+        &params,
+    )
+    .unwrap();
+    let ctl = ExprControls::new(&coords, &s(&["u"]), &s(&["u", "0"]), "u^2", &params).unwrap();
+    let problem = ControlProblem {
+        t0: 0.0,
+        t1: FinalTime::Fixed(2.0),
+        q0: vec![0.0, 0.0],
+        v0: vec![0.0, 0.0],
+        q1: vec![0.8, std::f64::consts::PI],
+        v1: vec![0.0, 0.0],
+        elements,
+        lower: vec![-100.0],
+        upper: vec![100.0],
+        time_weight: 0.0,
+    };
+    let element = Element::with_order(order).unwrap();
+    optimize(&lag, &ctl, &element, &problem, &OptimizeOptions::default()).unwrap()
+}
+
+/// Slope of log(err) against log(h) by least squares.
+fn fitted_order(n: &[usize], err: &[f64]) -> f64 {
+    let pts: Vec<(f64, f64)> = n
+        .iter()
+        .zip(err)
+        .map(|(&n, &e)| (-(n as f64).ln(), e.abs().ln()))
+        .collect();
+    let (mx, my) = pts.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
+        (a + x / pts.len() as f64, b + y / pts.len() as f64)
+    });
+    let sxy: f64 = pts.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = pts.iter().map(|(x, _)| (x - mx) * (x - mx)).sum();
+    sxy / sxx
+}
+
+fn control_error(o: &Optimum) -> f64 {
+    o.control_t
+        .iter()
+        .zip(&o.u)
+        .map(|(t, u)| (u - (6.0 - 12.0 * t)).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The double integrator x'' = u, rest to rest over unit distance in unit time, minimising
+/// the integral of u^2: u = 6 - 12t and J* = 12 in closed form. Degree 1 (midpoint) converges
+/// at order 2; from degree 2 the discrete optimum is the exact one at the nodes and points
+/// (the cubic path and linear control are reproduced), so only round-off remains.
+#[test]
+fn the_double_integrator_meets_its_closed_form() {
+    let meshes = [10, 20, 40, 80];
+    let runs: Vec<Optimum> = meshes
+        .iter()
+        .map(|&n| double_integrator(n, 2, FinalTime::Fixed(1.0), f64::INFINITY, "u^2", 0.0, 0.0, 1.0))
+        .collect();
+    assert!(runs.iter().all(|o| o.error.is_none() && o.violation < 1e-12));
+    let cost: Vec<f64> = runs.iter().map(|o| o.objective - 12.0).collect();
+    let control: Vec<f64> = runs.iter().map(control_error).collect();
+    let (pc, pu) = (fitted_order(&meshes, &cost), fitted_order(&meshes, &control));
+    assert!(
+        (pc - 2.0).abs() < 0.05 && (pu - 2.0).abs() < 0.1,
+        "orders {pc:.3} {pu:.3}: {cost:?} {control:?}"
+    );
+    for order in [4, 6, 8] {
+        for n in [5, 40] {
+            let o = double_integrator(n, order, FinalTime::Fixed(1.0), f64::INFINITY, "u^2", 0.0, 0.0, 1.0);
+            assert!(o.error.is_none());
+            assert!(
+                (o.objective - 12.0).abs() < 1e-10,
+                "order {order} N {n}: J - 12 = {:.3e}",
+                o.objective - 12.0
+            );
+            assert!(
+                control_error(&o) < 1e-10,
+                "order {order} N {n}: control error {:.3e}",
+                control_error(&o)
+            );
+        }
+    }
+}
+
+/// Minimum time with |u| <= 1 from (1, 0) to rest at 0: bang-bang, T* = 2.
+#[test]
+fn minimum_time_is_two() {
+    for n in [100, 200, 400] {
+        let o = double_integrator(
+            n,
+            2,
+            FinalTime::Free {
+                min: 0.5,
+                max: 5.0,
+                guess: 3.0,
+            },
+            1.0,
+            "0",
+            1.0,
+            1.0,
+            0.0,
+        );
+        assert!(o.error.is_none(), "{:?}", o.error);
+        assert!((o.t1 - 2.0).abs() < 1e-8, "N {n}: T - 2 = {:.3e}", o.t1 - 2.0);
+        assert!((o.objective - o.t1).abs() < 1e-15);
+        // Bang-bang: the control is at a bound but near the switch.
+        let near_bound = o.u.iter().filter(|u| (u.abs() - 1.0).abs() < 1e-6).count();
+        assert!(near_bound + 4 >= o.u.len(), "{near_bound} of {} at a bound", o.u.len());
+    }
+}
+
+/// The cart-pole swing-up against CasADi + IPOPT: degree s converges at order 2s in h, and
+/// degree 3 at 200 elements is within 1e-10 of the reference.
+#[test]
+fn the_cart_pole_converges_to_the_collocation_reference_at_order_2s() {
+    let meshes = [25, 50, 100];
+    for (order, lo, hi) in [(2, 1.9, 2.1), (4, 3.7, 4.1), (6, 5.7, 6.8)] {
+        let err: Vec<f64> = meshes
+            .iter()
+            .map(|&n| {
+                let o = cart_pole(n, order);
+                assert!(o.error.is_none(), "order {order} N {n}: {:?}", o.error);
+                let theta_min = o.q.chunks(2).map(|r| r[1]).fold(f64::INFINITY, f64::min);
+                assert!(
+                    (theta_min + 0.88).abs() < 0.01,
+                    "order {order} N {n}: another optimum, min theta {theta_min}"
+                );
+                o.objective / CART_POLE_J - 1.0
+            })
+            .collect();
+        let p = fitted_order(&meshes, &err);
+        assert!(p > lo && p < hi, "order {order}: fitted {p:.3} from {err:?}");
+    }
+    let o = cart_pole(200, 6);
+    assert!(
+        (o.objective / CART_POLE_J - 1.0).abs() < 1e-10,
+        "{:.3e}",
+        o.objective / CART_POLE_J - 1.0
+    );
+}
