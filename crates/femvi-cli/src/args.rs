@@ -140,6 +140,27 @@ pub enum Command {
         #[arg(long, default_value = "svg")]
         plot_format: String,
     },
+    /// Solve an optimal control problem ([boundary] with velocities, [controls], [objective])
+    /// by discrete mechanics; writes trajectory.csv, controls.csv and summary.json.
+    Optimize {
+        /// The problem file (TOML; - reads standard input).
+        problem: PathBuf,
+        /// Override a value of the problem file: key.path=value (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Output directory (default: the problem's output directory).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print nothing but errors.
+        #[arg(long)]
+        quiet: bool,
+        /// Draw coordinates and controls against t.
+        #[arg(long)]
+        plot: bool,
+        /// Image format of the plots: svg or png.
+        #[arg(long, default_value = "svg")]
+        plot_format: String,
+    },
     /// Print the problem-file reference: every table and key the loader accepts, with its
     /// type, default and meaning (the guide's docs/src/problem-file.md).
     Schema,

@@ -22,6 +22,7 @@ pub mod estimate;
 pub mod events;
 pub mod forced;
 pub mod models;
+pub mod optimize;
 pub mod outcome;
 pub mod plot;
 pub mod problem;

@@ -98,6 +98,17 @@ fn dispatch(cli: Cli) -> ExitCode {
             Ok(f) => cmd_bvp(&problem, &set, out, quiet, plot.then_some(f)),
             Err(code) => code,
         },
+        Command::Optimize {
+            problem,
+            set,
+            out,
+            quiet,
+            plot,
+            plot_format,
+        } => match plot_format_of(&plot_format) {
+            Ok(f) => cmd_optimize(&problem, &set, out, quiet, plot.then_some(f)),
+            Err(code) => code,
+        },
         Command::Chaos {
             problem,
             set,
@@ -171,6 +182,53 @@ fn dispatch(cli: Cli) -> ExitCode {
             }
             Err(code) => code,
         },
+    }
+}
+
+fn cmd_optimize(
+    path: &std::path::Path,
+    set: &[String],
+    out: Option<PathBuf>,
+    quiet: bool,
+    plot: Option<plot::Format>,
+) -> ExitCode {
+    let problem = match problem::load_optimize_with(path, set) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(BAD_INPUT);
+        }
+    };
+    let dir = out.unwrap_or_else(|| problem.directory.clone());
+    match femvi_cli::optimize::run(&problem, &dir, plot) {
+        Err((msg, code)) => {
+            eprintln!("error: {}: {msg}", path.display());
+            ExitCode::from(code)
+        }
+        Ok(s) if s.error.is_some() => {
+            eprintln!("error: {}", s.error.as_deref().unwrap_or(""));
+            eprintln!(
+                "the best iterate (objective {:.15e}, violation {:.2e}) is in {}",
+                s.objective,
+                s.violation,
+                dir.display()
+            );
+            eprintln!("hint: try a guess ([boundary] guess = \"trajectory.csv\" from a coarser solve or a simulation), more iterations ([solver] max_iterations), or check that the boundary data can be reached within the bounds");
+            ExitCode::from(NUMERICAL)
+        }
+        Ok(s) => {
+            if !quiet {
+                println!(
+                    "{}: {} elements ({}), objective {:.15e}, t1 {}, violation {:.2e}, optimality {:.2e}, {} iterations, {:.3} s",
+                    s.name, s.elements, s.scheme, s.objective, s.t1, s.violation, s.optimality, s.iterations, s.wall_seconds
+                );
+                println!(
+                    "wrote {}, controls.csv and summary.json",
+                    dir.join("trajectory.csv").display()
+                );
+            }
+            ExitCode::SUCCESS
+        }
     }
 }
 

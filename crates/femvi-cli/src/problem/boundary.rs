@@ -16,8 +16,16 @@ pub struct BoundaryTable {
     pub t0: f64,
     /// Positions at `t0`.
     pub q0: Vec<f64>,
-    /// End time.
-    pub t1: f64,
+    /// End time, or "free" (an optimal control problem's unknown, with t1_min and t1_max).
+    pub t1: EndTime,
+    /// Smallest free end time (`femvi optimize`).
+    pub t1_min: Option<f64>,
+    /// Largest free end time (`femvi optimize`).
+    pub t1_max: Option<f64>,
+    /// Velocities at `t0` (`femvi optimize`).
+    pub v0: Option<Vec<f64>>,
+    /// Velocities at `t1` (`femvi optimize`).
+    pub v1: Option<Vec<f64>>,
     /// Positions at `t1`.
     pub q1: Vec<f64>,
     /// Number of elements between `t0` and `t1`.
@@ -27,6 +35,16 @@ pub struct BoundaryTable {
     /// "fixed" (a uniform mesh) or "energy" (the interior element end times are unknowns).
     #[serde(default)]
     pub time_mode: Mode,
+}
+
+/// `t1`: a time or the word "free".
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum EndTime {
+    /// A given end time.
+    Time(f64),
+    /// A word; only "free" is accepted.
+    Word(String),
 }
 
 /// A checked `[boundary]` table.
@@ -48,10 +66,21 @@ impl BoundaryTable {
                 self.elements
             )));
         }
+        let t1 = match &self.t1 {
+            EndTime::Time(t) => *t,
+            EndTime::Word(_) => {
+                return Err(src.error("[boundary] t1 = \"free\" is for `femvi optimize`; `femvi bvp` needs a time"))
+            }
+        };
+        if self.v0.is_some() || self.v1.is_some() || self.t1_min.is_some() || self.t1_max.is_some() {
+            return Err(src.error(
+                "[boundary] v0, v1, t1_min and t1_max are for `femvi optimize` (with [controls]); `femvi bvp` takes positions only",
+            ));
+        }
         let values = BoundaryValues {
             t0: self.t0,
             q0: self.q0.clone(),
-            t1: self.t1,
+            t1,
             q1: self.q1.clone(),
             elements: self.elements,
         };
@@ -66,4 +95,79 @@ impl BoundaryTable {
             moving_mesh: self.time_mode == Mode::Energy,
         })
     }
+}
+
+impl BoundaryTable {
+    /// The boundary data of an optimal control problem (`femvi optimize`): positions and
+    /// velocities at both ends, t1 given or free within [t1_min, t1_max].
+    pub fn resolve_control(&self, n: usize, src: &Source) -> Result<ControlBoundary, InputError> {
+        if self.elements > 50_000_000 {
+            return Err(src.error(format!(
+                "[boundary] elements = {} is too many (at most 5e7)",
+                self.elements
+            )));
+        }
+        if self.time_mode != Mode::Fixed {
+            return Err(src.error("[boundary] time_mode: `femvi optimize` takes a uniform mesh (a free t1 scales it)"));
+        }
+        let need = |v: &Option<Vec<f64>>, what: &str| {
+            v.clone().ok_or_else(|| {
+                src.error(format!(
+                    "[boundary] {what} is needed by `femvi optimize` (the velocities at the ends)"
+                ))
+            })
+        };
+        let (v0, v1) = (need(&self.v0, "v0")?, need(&self.v1, "v1")?);
+        let t1 = match (&self.t1, self.t1_min, self.t1_max) {
+            (EndTime::Time(t), None, None) => femvi::optimize::FinalTime::Fixed(*t),
+            (EndTime::Time(_), ..) => return Err(src.error("[boundary] t1_min and t1_max go with t1 = \"free\"")),
+            (EndTime::Word(w), Some(min), Some(max)) if w == "free" => femvi::optimize::FinalTime::Free {
+                min,
+                max,
+                guess: 0.5 * (min + max),
+            },
+            (EndTime::Word(w), ..) if w == "free" => {
+                return Err(src.error("[boundary] t1 = \"free\" needs t1_min and t1_max"))
+            }
+            (EndTime::Word(w), ..) => {
+                return Err(src.error(format!("[boundary] t1 = \"{w}\": give a time or \"free\"")))
+            }
+        };
+        let guess = self
+            .guess
+            .as_ref()
+            .map(|g| src.path.parent().unwrap_or(Path::new(".")).join(g));
+        let _ = n;
+        Ok(ControlBoundary {
+            t0: self.t0,
+            t1,
+            q0: self.q0.clone(),
+            v0,
+            q1: self.q1.clone(),
+            v1,
+            elements: self.elements,
+            guess,
+        })
+    }
+}
+
+/// The checked boundary data of `femvi optimize`.
+#[derive(Debug, Clone)]
+pub struct ControlBoundary {
+    /// Start time.
+    pub t0: f64,
+    /// End time, given or free.
+    pub t1: femvi::optimize::FinalTime,
+    /// Positions at t0.
+    pub q0: Vec<f64>,
+    /// Velocities at t0.
+    pub v0: Vec<f64>,
+    /// Positions at t1.
+    pub q1: Vec<f64>,
+    /// Velocities at t1.
+    pub v1: Vec<f64>,
+    /// Number of elements.
+    pub elements: usize,
+    /// A guess file (columns t and the coordinates, optionally the controls).
+    pub guess: Option<PathBuf>,
 }

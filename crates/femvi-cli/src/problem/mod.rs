@@ -14,6 +14,7 @@
 mod boundary;
 pub mod capabilities;
 pub mod constraints;
+mod control;
 mod errors;
 pub mod events;
 pub mod forces;
@@ -72,6 +73,10 @@ pub struct ProblemFile {
     pub forces: Option<forces::ForcesTable>,
     /// `[constraints]`: holonomic constraints ([`Terms::constraints`]).
     pub constraints: Option<constraints::ConstraintsTable>,
+    /// `[controls]`: the controls of an optimal control problem (`femvi optimize`).
+    pub controls: Option<control::ControlsTable>,
+    /// `[objective]`: its running cost and the weight of t1.
+    pub objective: Option<control::ObjectiveTable>,
 }
 
 /// Everything a run needs, checked.
@@ -139,6 +144,48 @@ impl Problem {
     }
 }
 
+pub use boundary::ControlBoundary;
+pub use control::ControlSpec;
+
+/// An optimal control problem: a file with `[boundary]` and `[controls]` (`femvi optimize`).
+pub struct OptimizeProblem {
+    /// Its name.
+    pub name: String,
+    /// Coordinate names.
+    pub coordinates: Vec<String>,
+    /// The Lagrangian.
+    pub system: System,
+    /// The element.
+    pub element: Element,
+    /// The element, described.
+    pub scheme_label: String,
+    /// The optimiser's tolerance and iteration limit (`[solver] tolerance` and
+    /// `max_iterations`; defaults 1e-9 and 200).
+    pub options: femvi::optimize::OptimizeOptions,
+    /// The default output directory.
+    pub directory: PathBuf,
+    /// The ends and the mesh.
+    pub boundary: ControlBoundary,
+    /// The controls and the objective.
+    pub control: ControlSpec,
+    /// `[forces]`: the system's own force, added to the controls' force.
+    pub force: Option<forces::ProblemForce>,
+    /// The problem file's text.
+    pub source: String,
+}
+
+/// Reads and checks an optimal control problem (for `optimize`), with overrides.
+pub fn load_optimize_with(path: &Path, overrides: &[String]) -> Result<OptimizeProblem, InputError> {
+    let text = read_text(path)?;
+    match loaded(path, &text, overrides, true)? {
+        Loaded::Optimize(p) => Ok(*p),
+        _ => Err(bad(format!(
+            "{}: `femvi optimize` needs [boundary] and [controls] (the controls, their force and bounds) and optionally [objective]",
+            label(path).display()
+        ))),
+    }
+}
+
 /// A boundary value problem read from a file with a `[boundary]` table.
 pub struct BvpProblem {
     /// The problem's name.
@@ -188,6 +235,10 @@ pub fn load_bvp_with(path: &Path, overrides: &[String]) -> Result<BvpProblem, In
     let text = read_text(path)?;
     match loaded(path, &text, overrides, true)? {
         Loaded::Bvp(p) => Ok(*p),
+        Loaded::Optimize(_) => Err(bad(format!(
+            "{}: [controls] make this an optimal control problem: solve it with `femvi optimize`",
+            label(path).display()
+        ))),
         Loaded::Ivp(_) => Err(bad(format!(
             "{}: expected a boundary value problem",
             label(path).display()
@@ -200,7 +251,7 @@ pub fn load_bvp_with(path: &Path, overrides: &[String]) -> Result<BvpProblem, In
 pub fn load_text(path: &Path, text: &str, overrides: &[String]) -> Result<Problem, InputError> {
     match loaded(path, text, overrides, false)? {
         Loaded::Ivp(p) => Ok(*p),
-        Loaded::Bvp(_) => Err(bad(format!(
+        Loaded::Bvp(_) | Loaded::Optimize(_) => Err(bad(format!(
             "{}: expected an initial value problem",
             label(path).display()
         ))),
@@ -277,6 +328,7 @@ fn parse(src: &Source) -> Result<ProblemFile, InputError> {
 enum Loaded {
     Ivp(Box<Problem>),
     Bvp(Box<BvpProblem>),
+    Optimize(Box<OptimizeProblem>),
 }
 
 /// What initial and boundary value problems share, checked.
@@ -341,10 +393,59 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
         parameters,
         source: src.text.to_string(),
     };
+    if want_bvp && file.controls.is_some() {
+        return build_optimize(src, &file, common).map(|p| Loaded::Optimize(Box::new(p)));
+    }
+    if file.controls.is_some() || file.objective.is_some() {
+        return Err(
+            src.error("[controls] and [objective] describe an optimal control problem: solve it with `femvi optimize`")
+        );
+    }
     if want_bvp {
         return build_bvp(src, &file, common).map(|p| Loaded::Bvp(Box::new(p)));
     }
     build_ivp(src, &file, common, every, symmetries).map(|p| Loaded::Ivp(Box::new(p)))
+}
+
+/// `[boundary]` and `[controls]` (and neither `[initial]`, `[time]` nor events).
+fn build_optimize(src: &Source, file: &ProblemFile, c: Common) -> Result<OptimizeProblem, InputError> {
+    if file.initial.is_some() || file.time.is_some() || !file.events.is_empty() {
+        return Err(src
+            .error("an optimal control problem takes [boundary] and [controls], not [initial], [time] or [[events]]"));
+    }
+    if c.terms.constraints.is_some() {
+        return Err(src.error(
+            "`femvi optimize` does not take [constraints]: their multipliers are not in its KKT system (issue 36 item 6 is open); write the system in coordinates that satisfy them",
+        ));
+    }
+    let b = file
+        .boundary
+        .as_ref()
+        .ok_or_else(|| src.error("`femvi optimize` needs a [boundary] table (t0, q0, v0, t1, q1, v1, elements)"))?;
+    let n = c.system.coordinates.len();
+    let boundary = b.resolve_control(n, src)?;
+    let control = file
+        .controls
+        .as_ref()
+        .ok_or_else(|| src.error("`femvi optimize` needs [controls]"))?
+        .resolve(file.objective.as_ref(), &c.system.coordinates, &c.parameters, src)?;
+    Ok(OptimizeProblem {
+        name: c.name,
+        coordinates: c.system.coordinates,
+        system: c.system.system,
+        element: c.element,
+        scheme_label: c.scheme_label,
+        options: femvi::optimize::OptimizeOptions {
+            tolerance: file.solver.tolerance.unwrap_or(1e-9),
+            max_iterations: file.solver.max_iterations.unwrap_or(200),
+            guess: None,
+        },
+        directory: c.directory,
+        boundary,
+        control,
+        force: c.terms.force,
+        source: c.source,
+    })
 }
 
 /// `[boundary]` (and neither `[initial]` nor `[time]`).

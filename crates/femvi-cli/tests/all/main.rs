@@ -22,6 +22,7 @@ mod forced_commands;
 mod forces;
 mod fuzz_problems;
 mod fuzz_terms;
+mod optimize;
 mod problem_input;
 mod problem_reference;
 mod resume;

@@ -1,0 +1,220 @@
+//! `femvi optimize`: optimal control by discrete mechanics (the library's
+//! [`femvi::optimize::optimize`]) for a problem file with `[boundary]` (positions and
+//! velocities at both ends, t1 given or free), `[controls]` and `[objective]`; the system's
+//! own `[forces]` act beside the controls. Writes trajectory.csv (the element end nodes: t,
+//! positions and discrete momenta), controls.csv (the quadrature points, where the controls
+//! live: t and a column per control) and summary.json; with plots, coordinates and controls
+//! against t.
+
+use crate::plot::{file, lines, Format, Series};
+use crate::problem::OptimizeProblem;
+use femvi::optimize::{optimize, ControlProblem, Controls, Guess, OptimizeOptions, Optimum, WithForce};
+use femvi::Lagrangian;
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// summary.json of `femvi optimize`.
+#[derive(Debug, Serialize)]
+pub struct OptimizeSummary {
+    /// The problem's name.
+    pub name: String,
+    /// The element.
+    pub scheme: String,
+    /// Number of elements.
+    pub elements: usize,
+    /// The objective at the returned iterate.
+    pub objective: f64,
+    /// The final time.
+    pub t1: f64,
+    /// Newton iterations.
+    pub iterations: usize,
+    /// The largest violation of the discrete equations.
+    pub violation: f64,
+    /// The optimality residual.
+    pub optimality: f64,
+    /// Wall-clock seconds.
+    pub wall_seconds: f64,
+    /// Why the iteration stopped short (the files then hold its best iterate), if it did.
+    pub error: Option<String>,
+    /// femvi's version.
+    pub femvi_version: String,
+    /// The command line.
+    pub command_line: Vec<String>,
+    /// The problem file's text.
+    pub problem: String,
+}
+
+/// Solves and writes; Ok with the summary (also when the iteration did not converge, with
+/// `error` set and the best iterate written), Err with a message and exit code for bad input
+/// or output that cannot be written.
+pub fn run(problem: &OptimizeProblem, dir: &Path, plot: Option<Format>) -> Result<OptimizeSummary, (String, u8)> {
+    crate::with_system!(&problem.system, l => match &problem.force {
+        Some(f) => run_with(l, &WithForce { controls: &problem.control.controls, force: f }, problem, dir, plot),
+        None => run_with(l, &problem.control.controls, problem, dir, plot),
+    })
+}
+
+fn run_with<L: Lagrangian, C: Controls>(
+    lag: &L,
+    controls: &C,
+    problem: &OptimizeProblem,
+    dir: &Path,
+    plot: Option<Format>,
+) -> Result<OptimizeSummary, (String, u8)> {
+    let clock = Instant::now();
+    let b = &problem.boundary;
+    let guess = match &b.guess {
+        None => None,
+        Some(file) => Some(read_guess(file, &problem.coordinates, &problem.control.names)?),
+    };
+    let data = ControlProblem {
+        t0: b.t0,
+        t1: b.t1,
+        q0: b.q0.clone(),
+        v0: b.v0.clone(),
+        q1: b.q1.clone(),
+        v1: b.v1.clone(),
+        elements: b.elements,
+        lower: problem.control.lower.clone(),
+        upper: problem.control.upper.clone(),
+        time_weight: problem.control.time_weight,
+    };
+    let options = OptimizeOptions {
+        guess,
+        ..problem.options.clone()
+    };
+    let best = optimize(lag, controls, &problem.element, &data, &options).map_err(|e| (e.to_string(), 2))?;
+    let io = |e: std::io::Error| (format!("cannot write the output in {}: {e}", dir.display()), 2);
+    std::fs::create_dir_all(dir).map_err(io)?;
+    write_files(problem, &best, dir)?;
+    if let Some(f) = plot {
+        let what = format!(
+            "{}: optimal control, {}, {} elements",
+            problem.name, problem.scheme_label, b.elements
+        );
+        plot_series(
+            &problem.coordinates,
+            dir,
+            f,
+            (&best.t, &best.q),
+            ("coordinates", "q", &what),
+        )?;
+        plot_series(
+            &problem.control.names,
+            dir,
+            f,
+            (&best.control_t, &best.u),
+            ("controls", "u", &what),
+        )?;
+    }
+    let summary = OptimizeSummary {
+        name: problem.name.clone(),
+        scheme: problem.scheme_label.clone(),
+        elements: b.elements,
+        objective: best.objective,
+        t1: best.t1,
+        iterations: best.iterations,
+        violation: best.violation,
+        optimality: best.optimality,
+        wall_seconds: clock.elapsed().as_secs_f64(),
+        error: best.error.as_ref().map(|e| e.to_string()),
+        femvi_version: env!("CARGO_PKG_VERSION").to_string(),
+        command_line: std::env::args().collect(),
+        problem: problem.source.clone(),
+    };
+    let text = serde_json::to_string_pretty(&summary).map_err(|e| (e.to_string(), 2))?;
+    std::fs::write(dir.join("summary.json"), text + "\n").map_err(io)?;
+    Ok(summary)
+}
+
+/// One line per column of row-major `values` against `times`, into `<stem>.<format>`.
+fn plot_series(
+    names: &[String],
+    dir: &Path,
+    f: Format,
+    (times, values): (&[f64], &[f64]),
+    (stem, axis, title): (&str, &str, &str),
+) -> Result<(), (String, u8)> {
+    let w = names.len();
+    let series: Vec<Series> = names
+        .iter()
+        .enumerate()
+        .map(|(c, name)| Series {
+            name: name.clone(),
+            points: times.iter().enumerate().map(|(k, t)| (*t, values[k * w + c])).collect(),
+        })
+        .collect();
+    lines(&file(dir, stem, f), f, title, "t", axis, &series).map_err(|e| (e, 2))
+}
+
+fn write_files(problem: &OptimizeProblem, best: &Optimum, dir: &Path) -> Result<(), (String, u8)> {
+    let err = |e: csv::Error| (format!("cannot write the output in {}: {e}", dir.display()), 2);
+    let n = problem.coordinates.len();
+    let mut csv = csv::Writer::from_path(dir.join("trajectory.csv")).map_err(err)?;
+    let mut header = vec!["step".to_string(), "t".to_string()];
+    header.extend(problem.coordinates.iter().cloned());
+    header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+    csv.write_record(&header).map_err(err)?;
+    for (k, t) in best.t.iter().enumerate() {
+        let mut row = vec![k.to_string(), format!("{t:?}")];
+        row.extend(
+            best.q[k * n..(k + 1) * n]
+                .iter()
+                .chain(&best.p[k * n..(k + 1) * n])
+                .map(|x| format!("{x:?}")),
+        );
+        csv.write_record(&row).map_err(err)?;
+    }
+    csv.flush().map_err(|e| (e.to_string(), 2))?;
+    let m = problem.control.names.len();
+    let mut csv = csv::Writer::from_path(dir.join("controls.csv")).map_err(err)?;
+    let mut header = vec!["t".to_string()];
+    header.extend(problem.control.names.iter().cloned());
+    csv.write_record(&header).map_err(err)?;
+    for (j, t) in best.control_t.iter().enumerate() {
+        let mut row = vec![format!("{t:?}")];
+        row.extend(best.u[j * m..(j + 1) * m].iter().map(|x| format!("{x:?}")));
+        csv.write_record(&row).map_err(err)?;
+    }
+    csv.flush().map_err(|e| (e.to_string(), 2))
+}
+
+/// A guess file: a CSV with a column t, one per coordinate and optionally one per control
+/// (named as in the problem; other columns are ignored), read within the CLI's size limit.
+fn read_guess(path: &Path, coordinates: &[String], controls: &[String]) -> Result<Guess, (String, u8)> {
+    let bad = |m: String| (format!("guess file {}: {m}", path.display()), 2);
+    let source = crate::bounded::open(path, crate::bounded::Limits::CSV).map_err(|e| bad(e.to_string()))?;
+    let mut reader = csv::Reader::from_reader(source);
+    let header = reader.headers().map_err(|e| bad(e.to_string()))?.clone();
+    let col = |name: &str| header.iter().position(|h| h.trim() == name);
+    let t_col = col("t").ok_or_else(|| bad("no column t".into()))?;
+    let q_cols = coordinates
+        .iter()
+        .map(|c| col(c).ok_or_else(|| bad(format!("no column {c}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    let u_cols: Option<Vec<usize>> = controls.iter().map(|c| col(c)).collect();
+    let (mut t, mut q, mut u) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, rec) in reader.records().enumerate() {
+        let rec = rec.map_err(|e| bad(e.to_string()))?;
+        let num = |c: usize| -> Result<f64, (String, u8)> {
+            rec.get(c)
+                .and_then(|s| s.trim().parse::<f64>().ok())
+                .ok_or_else(|| bad(format!("row {}: not a number in column {}", i + 2, c + 1)))
+        };
+        t.push(num(t_col)?);
+        for &c in &q_cols {
+            q.push(num(c)?);
+        }
+        if let Some(cols) = &u_cols {
+            for &c in cols {
+                u.push(num(c)?);
+            }
+        }
+    }
+    Ok(Guess {
+        t,
+        q,
+        u: u_cols.map(|_| u),
+    })
+}

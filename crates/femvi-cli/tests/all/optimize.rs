@@ -1,0 +1,140 @@
+//! `femvi optimize` through the binary: the cart-pole example against the CasADi reference,
+//! minimum time from standard input, the best iterate written when the iteration stops
+//! short, and bad problems refused with exit code 2.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+fn femvi() -> Command {
+    Command::cargo_bin("femvi").unwrap()
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// J* from CasADi + IPOPT (benches/peers/casadi_cartpole_results.md, ±1e-10).
+const CART_POLE_J: f64 = 225.55372407809;
+
+const MIN_TIME: &str = r#"
+[system]
+coordinates = ["x"]
+lagrangian = "0.5*x_dot^2"
+[controls]
+names = ["u"]
+force = ["u"]
+lower = [-1.0]
+upper = [1.0]
+[objective]
+time = 1.0
+[boundary]
+t0 = 0.0
+t1 = "free"
+t1_min = 0.5
+t1_max = 5.0
+q0 = [1.0]
+v0 = [0.0]
+q1 = [0.0]
+v1 = [0.0]
+elements = 100
+[scheme]
+degree = 1
+"#;
+
+#[test]
+fn the_cart_pole_example_reaches_the_collocation_optimum() {
+    let dir = tempfile::tempdir().unwrap();
+    femvi()
+        .args([
+            "optimize",
+            examples().join("cart-pole-optimize.toml").to_str().unwrap(),
+            "--quiet",
+            "--plot",
+            "--out",
+        ])
+        .arg(dir.path())
+        .assert()
+        .success();
+    let s = summary(dir.path());
+    let j = s["objective"].as_f64().unwrap();
+    // Degree 2 at 100 elements: order 4 puts it 1.6e-6 above J* (the library's test).
+    assert!((j / CART_POLE_J - 1.0).abs() < 2e-6, "J = {j}");
+    assert!(s["error"].is_null() && s["violation"].as_f64().unwrap() < 1e-10);
+    let traj = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
+    assert!(traj.starts_with("step,t,x,theta,p_x,p_theta\n"));
+    assert_eq!(traj.lines().count(), 1 + 101);
+    let controls = std::fs::read_to_string(dir.path().join("controls.csv")).unwrap();
+    assert!(controls.starts_with("t,u\n"));
+    assert_eq!(controls.lines().count(), 1 + 100 * 2);
+    assert!(dir.path().join("controls.svg").exists() && dir.path().join("coordinates.svg").exists());
+}
+
+#[test]
+fn minimum_time_from_stdin_is_two() {
+    let dir = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["optimize", "-", "--quiet", "--out"])
+        .arg(dir.path())
+        .write_stdin(MIN_TIME)
+        .assert()
+        .success();
+    let t1 = summary(dir.path())["t1"].as_f64().unwrap();
+    assert!((t1 - 2.0).abs() < 1e-8, "t1 = {t1}");
+}
+
+#[test]
+fn a_run_that_stops_short_writes_its_best_iterate() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!("{MIN_TIME}[solver]\nmax_iterations = 2\n");
+    let out = femvi()
+        .args(["optimize", "-", "--out"])
+        .arg(dir.path())
+        .write_stdin(text)
+        .assert()
+        .code(1);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).into_owned();
+    assert!(err.contains("did not converge after 2 iterations"), "{err}");
+    let s = summary(dir.path());
+    assert!(s["error"].as_str().unwrap().contains("did not converge"));
+    assert!(dir.path().join("trajectory.csv").exists() && dir.path().join("controls.csv").exists());
+}
+
+#[test]
+fn bad_problems_are_refused() {
+    let cases = [
+        (MIN_TIME.replace("upper = [1.0]", "upper = [-2.0]"), "not below upper"),
+        (MIN_TIME.replace("t1_max = 5.0\n", ""), "needs t1_min and t1_max"),
+        (MIN_TIME.replace("v1 = [0.0]\n", ""), "v1 is needed"),
+        (
+            MIN_TIME.replace("force = [\"u\"]", "force = [\"u\", \"u\"]"),
+            "2 force expressions for 1 coordinates",
+        ),
+        (
+            MIN_TIME.replace("t1 = \"free\"", "t1 = \"soon\""),
+            "give a time or \"free\"",
+        ),
+        (
+            MIN_TIME.replace(
+                "[objective]\ntime = 1.0\n",
+                "[objective]\ntime = 1.0\nterminal = \"x\"\n",
+            ),
+            "unknown field",
+        ),
+    ];
+    for (text, why) in cases {
+        let out = femvi().args(["optimize", "-"]).write_stdin(text).assert().code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).into_owned();
+        assert!(err.contains(why), "expected '{why}' in: {err}");
+    }
+    let out = femvi().args(["bvp", "-"]).write_stdin(MIN_TIME).assert().code(2);
+    assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("femvi optimize"));
+    let out = femvi()
+        .args(["optimize", examples().join("bvp-pendulum.toml").to_str().unwrap()])
+        .assert()
+        .code(2);
+    assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("needs [boundary] and [controls]"));
+}
