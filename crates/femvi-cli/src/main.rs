@@ -200,7 +200,7 @@ fn cmd_optimize(
         }
     };
     let dir = out.unwrap_or_else(|| problem.directory.clone());
-    match femvi_cli::optimize::run(&problem, &dir, plot) {
+    match femvi_cli::optimize::run(&problem, &dir, plot).map(|(s, _)| s) {
         Err((msg, code)) => {
             eprintln!("error: {}: {msg}", path.display());
             ExitCode::from(code)

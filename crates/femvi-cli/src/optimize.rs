@@ -45,10 +45,14 @@ pub struct OptimizeSummary {
     pub problem: String,
 }
 
-/// Solves and writes; Ok with the summary (also when the iteration did not converge, with
-/// `error` set and the best iterate written), Err with a message and exit code for bad input
-/// or output that cannot be written.
-pub fn run(problem: &OptimizeProblem, dir: &Path, plot: Option<Format>) -> Result<OptimizeSummary, (String, u8)> {
+/// Solves and writes; Ok with the summary and the optimum (also when the iteration did not
+/// converge, with `error` set and the best iterate written), Err with a message and exit
+/// code for bad input or output that cannot be written.
+pub fn run(
+    problem: &OptimizeProblem,
+    dir: &Path,
+    plot: Option<Format>,
+) -> Result<(OptimizeSummary, Optimum), (String, u8)> {
     crate::with_system!(&problem.system, l => match &problem.force {
         Some(f) => run_with(l, &WithForce { controls: &problem.control.controls, force: f }, problem, dir, plot),
         None => run_with(l, &problem.control.controls, problem, dir, plot),
@@ -61,7 +65,7 @@ fn run_with<L: Lagrangian, C: Controls>(
     problem: &OptimizeProblem,
     dir: &Path,
     plot: Option<Format>,
-) -> Result<OptimizeSummary, (String, u8)> {
+) -> Result<(OptimizeSummary, Optimum), (String, u8)> {
     let clock = Instant::now();
     let b = &problem.boundary;
     let guess = match &b.guess {
@@ -125,7 +129,7 @@ fn run_with<L: Lagrangian, C: Controls>(
     };
     let text = serde_json::to_string_pretty(&summary).map_err(|e| (e.to_string(), 2))?;
     std::fs::write(dir.join("summary.json"), text + "\n").map_err(io)?;
-    Ok(summary)
+    Ok((summary, best))
 }
 
 /// One line per column of row-major `values` against `times`, into `<stem>.<format>`.

@@ -73,6 +73,29 @@ pub fn bvp_file(py: Python<'_>, path: PathBuf, dir: PathBuf) -> PyResult<String>
     .map_err(input_error)
 }
 
+/// `femvi optimize` on a problem file, with its output into `dir`: the summary's JSON text
+/// and the optimum's arrays (node times, positions and momenta; the quadrature points'
+/// times and controls).
+#[pyfunction]
+pub fn optimize_file<'py>(py: Python<'py>, path: PathBuf, dir: PathBuf) -> PyResult<(String, Bound<'py, PyDict>)> {
+    let (text, best, n, m) = py
+        .allow_threads(|| {
+            let p = problem::load_optimize_with(&path, &[]).map_err(|e| e.to_string())?;
+            let (s, best) =
+                femvi_cli::optimize::run(&p, &dir, None).map_err(|(msg, _)| format!("{}: {msg}", path.display()))?;
+            let text = serde_json::to_string(&s).map_err(|e| e.to_string())?;
+            Ok::<_, String>((text, best, p.coordinates.len(), p.control.names.len()))
+        })
+        .map_err(input_error)?;
+    let out = PyDict::new(py);
+    out.set_item("t", crate::arrays::vec1(py, best.t))?;
+    out.set_item("q", crate::arrays::rows(py, best.q, n)?)?;
+    out.set_item("p", crate::arrays::rows(py, best.p, n)?)?;
+    out.set_item("control_t", crate::arrays::vec1(py, best.control_t))?;
+    out.set_item("u", crate::arrays::rows(py, best.u, m)?)?;
+    Ok((text, out))
+}
+
 /// `femvi convergence` on a problem file (steps, `reference` as `--reference`, `l2` as
 /// `--l2`): its JSON report, as text.
 #[pyfunction]

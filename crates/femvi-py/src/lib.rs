@@ -41,6 +41,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(info::model_problem, m)?)?;
     m.add_function(wrap_pyfunction!(info::check_file, m)?)?;
     m.add_function(wrap_pyfunction!(info::bvp_file, m)?)?;
+    m.add_function(wrap_pyfunction!(info::optimize_file, m)?)?;
     m.add_function(wrap_pyfunction!(info::convergence_file, m)?)?;
     m.add_class::<solve::Dense>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -19,6 +19,7 @@ file :meth:`System.to_toml` prints.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import tempfile
@@ -38,6 +39,7 @@ __version__ = _core.__version__
 __all__ = [
     "System", "solve", "ensemble", "models", "model_problem", "check", "convergence", "bvp", "Solution",
     "EnsembleResult", "Event", "InputError", "NumericalError", "problem_text", "dumps", "expression",
+    "optimize", "Optimum",
 ]
 
 
@@ -331,6 +333,66 @@ def convergence(problem: Any, steps: Sequence[float], reference: Optional[str] =
                                                      None if reference is None else str(reference), l2))
         except InputError as e:
             raise _input_error(e, path, shown) from None
+
+
+@dataclasses.dataclass
+class Optimum:
+    """The result of :func:`optimize`: the optimum, or the best iterate with ``error`` set.
+
+    ``t``, ``q`` and ``p`` are the element end nodes (times, positions and discrete momenta,
+    one row per node); the controls live at the quadrature points: ``u`` has one row per
+    point, at the times ``control_t``. ``summary`` is ``femvi optimize``'s summary.json.
+
+    >>> import femvi
+    >>> push = femvi.System(["x"], "0.5*x_dot^2", name="push")
+    >>> best = femvi.optimize(push, controls={"names": ["u"], "force": ["u"]}, objective={"running": "u^2"},
+    ...                       boundary={"t0": 0.0, "t1": 1.0, "q0": [0.0], "v0": [0.0],
+    ...                                 "q1": [1.0], "v1": [0.0], "elements": 10})
+    >>> (best.q.shape, best.p.shape, best.u.shape, best.control_t.shape)
+    ((11, 1), (11, 1), (20, 1), (20,))
+    """
+
+    objective: float
+    t1: float
+    t: np.ndarray
+    q: np.ndarray
+    p: np.ndarray
+    control_t: np.ndarray
+    u: np.ndarray
+    error: Optional[str]
+    summary: Dict[str, Any]
+
+
+def optimize(problem: Any, directory: Optional[str] = None, overrides: Optional[Mapping[str, Any]] = None,
+             **kw: Any) -> Optimum:
+    """``femvi optimize``: optimal control by discrete mechanics, as an :class:`Optimum` of
+    NumPy arrays; its files go to ``directory`` (default: a temporary directory that is
+    removed). A run that stops short returns its best iterate with ``error`` set.
+
+    The double integrator x'' = u from rest at 0 to rest at 1 in unit time, minimising the
+    integral of u^2 (the optimum is u = 6 - 12 t, J = 12):
+
+    >>> import femvi
+    >>> cart = femvi.System(["x"], "0.5*x_dot^2", name="push")
+    >>> best = femvi.optimize(cart, controls={"names": ["u"], "force": ["u"]},
+    ...                       objective={"running": "u^2"},
+    ...                       boundary={"t0": 0.0, "t1": 1.0, "q0": [0.0], "v0": [0.0],
+    ...                                 "q1": [1.0], "v1": [0.0], "elements": 20})
+    >>> best.error is None and abs(best.objective - 12.0) < 1e-9
+    True
+    >>> bool(abs(best.u[:, 0] - (6.0 - 12.0 * best.control_t)).max() < 1e-9)
+    True
+    """
+    run = split_run(kw)
+    with problem_file(problem, _merge(overrides, kw), run) as (path, shown):
+        with tempfile.TemporaryDirectory(prefix="femvi-optimize-") as tmp:
+            try:
+                text, arrays = _core.optimize_file(str(path), str(directory or tmp))
+            except InputError as e:
+                raise _input_error(e, path, shown) from None
+    summary = json.loads(text)
+    return Optimum(objective=summary["objective"], t1=summary["t1"], error=summary["error"], summary=summary,
+                   **arrays)
 
 
 def bvp(problem: Any, directory: Optional[str] = None, overrides: Optional[Mapping[str, Any]] = None,

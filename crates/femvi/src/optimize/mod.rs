@@ -342,7 +342,12 @@ fn validate<L: Lagrangian + ?Sized, C: Controls>(
 }
 
 fn check_guess(g: &Guess, n: usize, m: usize) -> Result<()> {
-    if g.t.is_empty() || g.t.windows(2).any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater)) || g.t.iter().any(|x| !x.is_finite()) {
+    if g.t.is_empty()
+        || g.t
+            .windows(2)
+            .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        || g.t.iter().any(|x| !x.is_finite())
+    {
         return Err(invalid(
             "guess",
             "its times must be finite and increasing, at least one",
