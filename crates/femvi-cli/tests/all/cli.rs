@@ -28,8 +28,12 @@ fn every_example_runs() {
             continue;
         }
         let out = tempfile::tempdir().unwrap();
-        // Boundary value problems ([boundary]) are solved by `bvp`, the rest by `run`.
-        let command = if std::fs::read_to_string(&path).unwrap().contains("[boundary]") {
+        // Optimal control problems ([controls]) are solved by `optimize`, boundary value
+        // problems ([boundary]) by `bvp`, the rest by `run`.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let command = if text.contains("[controls]") {
+            "optimize"
+        } else if text.contains("[boundary]") {
             "bvp"
         } else {
             "run"
@@ -53,6 +57,11 @@ fn every_example_runs() {
         assert!(summary["error"].is_null());
         if command == "bvp" {
             assert!(summary["residual_norm"].as_f64().unwrap() < 1e-12);
+            count += 1;
+            continue;
+        }
+        if command == "optimize" {
+            assert!(summary["violation"].as_f64().unwrap() < 1e-10);
             count += 1;
             continue;
         }

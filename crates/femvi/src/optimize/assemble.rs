@@ -5,7 +5,7 @@
 //! Λ_0·p_0 − Λ_N·p_N(t1), the boundary momenta (DESIGN §5).
 
 use super::layout::Layout;
-use super::point::{point_hessian, point_residual, PointMap, PointTime};
+use super::point::{point_hessian, point_residual, PointMap, PointScratch, PointTime};
 use super::system::Controls;
 use crate::discrete::Element;
 use crate::error::Result;
@@ -142,10 +142,20 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
         (border.diag, border.grad) = (0.0, self.time_weight);
         let (mut y, mut gy, mut hy) = (vec![0.0; ny], vec![0.0; ny], vec![0.0; ny * ny]);
         let mut links = vec![Vec::new(); ny];
+        let mut scratch = PointScratch::new(map);
         for k in 0..self.layout.elements {
             for j in 0..self.layout.r {
                 self.point(x, t1, k, j, &mut y, &mut links);
-                point_hessian(self.lag, self.ctl, map, self.time(k, j, t1), &y, &mut gy, &mut hy);
+                point_hessian(
+                    self.lag,
+                    self.ctl,
+                    map,
+                    self.time(k, j, t1),
+                    &y,
+                    &mut scratch,
+                    &mut gy,
+                    &mut hy,
+                );
                 scatter(&links, &gy, &hy, band, grad, border)?;
             }
         }

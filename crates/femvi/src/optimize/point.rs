@@ -17,7 +17,7 @@
 //! linear in (λ, μ̂), so pairs of two multiplier variables are zero and not evaluated.
 
 use super::system::Controls;
-use crate::lagrangian::{Lagrangian, Scalar};
+use crate::lagrangian::{Lagrangian, PointDerivatives, Scalar};
 use num_dual::{Dual, Dual64, HyperDual64};
 
 /// Where the point variables sit in y, and the point's time data.
@@ -92,13 +92,48 @@ where
     (ctl.running_cost(t, q, &v, u) + along + work) * h * time.weight
 }
 
+/// Reused buffers of [`point_hessian`].
+pub(super) struct PointScratch {
+    /// Derivatives of L in (t, q, v).
+    pd: PointDerivatives,
+    /// F and its Jacobian in z = (t, q, v, u), row-major n × (1 + 2n + m).
+    f: Vec<f64>,
+    fz: Vec<f64>,
+    zd: Vec<Dual64>,
+    fd: Vec<Dual64>,
+    yd: Vec<HyperDual64>,
+}
+
+impl PointScratch {
+    pub(super) fn new(map: PointMap) -> Self {
+        let (n, m) = (map.n, map.m);
+        let nz = 1 + 2 * n + m;
+        Self {
+            pd: PointDerivatives::new(n),
+            f: vec![0.0; n],
+            fz: vec![0.0; n * nz],
+            zd: vec![Dual64::from(0.0); nz],
+            fd: vec![Dual64::from(0.0); n],
+            yd: vec![HyperDual64::from(0.0); map.len()],
+        }
+    }
+}
+
 /// Gradient (len y) and Hessian (row-major, len y squared) of Ψ at `y`.
+///
+/// Ψ is linear in the multipliers, so its rows there are first derivatives of the
+/// constraint terms: ∂Ψ/∂λ_i = h b (∂L/∂q_i + F_i) and ∂Ψ/∂μ̂_i = b ∂L/∂v_i, whose
+/// derivatives in the primal variables come from the Hessian of L in (t, q, v) (the
+/// Lagrangian's own, symbolic for expressions) and the Jacobian of F by dual numbers, with
+/// v = v̂/h and t = t0 + σh. Only the primal block, where third derivatives of L meet the
+/// multipliers, takes hyper-dual passes of Ψ, one per pair.
 pub(super) fn point_hessian<L, C>(
     lag: &L,
     ctl: &C,
     map: PointMap,
     time: PointTime,
     y: &[f64],
+    scratch: &mut PointScratch,
     grad: &mut [f64],
     hess: &mut [f64],
 ) where
@@ -108,12 +143,13 @@ pub(super) fn point_hessian<L, C>(
     let ny = map.len();
     let np = map.primal();
     hess.iter_mut().for_each(|x| *x = 0.0);
-    let mut yd: Vec<HyperDual64> = y.iter().map(|&x| HyperDual64::from(x)).collect();
+    let yd = &mut scratch.yd;
+    yd.iter_mut().zip(y).for_each(|(d, &x)| *d = HyperDual64::from(x));
     for a in 0..np {
-        for b in a..ny {
+        for b in a..np {
             yd[a].eps1 = 1.0;
             yd[b].eps2 = 1.0;
-            let r = psi(lag, ctl, map, time, &yd);
+            let r = psi(lag, ctl, map, time, yd);
             yd[a].eps1 = 0.0;
             yd[b].eps2 = 0.0;
             hess[a * ny + b] = r.eps1eps2;
@@ -121,6 +157,88 @@ pub(super) fn point_hessian<L, C>(
             if a == 0 {
                 grad[b] = r.eps2;
             }
+        }
+    }
+    multiplier_rows(lag, ctl, map, time, y, scratch, grad, hess);
+}
+
+/// The multiplier rows and columns of Ψ's gradient and Hessian (see [`point_hessian`]).
+#[allow(clippy::too_many_arguments)]
+fn multiplier_rows<L, C>(
+    lag: &L,
+    ctl: &C,
+    map: PointMap,
+    time: PointTime,
+    y: &[f64],
+    sc: &mut PointScratch,
+    grad: &mut [f64],
+    hess: &mut [f64],
+) where
+    L: Lagrangian + ?Sized,
+    C: Controls,
+{
+    let (n, m, ny) = (map.n, map.m, map.len());
+    let nz = 1 + 2 * n + m;
+    let h = if map.free { y[map.h_index()] } else { time.h };
+    let t = time.t0 + time.sigma * h;
+    let b = time.weight;
+    let q = &y[..n];
+    let v: Vec<f64> = y[n..2 * n].iter().map(|x| x / h).collect();
+    let u = &y[2 * n..2 * n + m];
+    lag.second_derivatives(t, q, &v, map.free, &mut sc.pd);
+    // F and its Jacobian in z = (t, q, v, u), one dual pass per direction.
+    for (k, z) in std::iter::once(t)
+        .chain(q.iter().copied())
+        .chain(v.iter().copied())
+        .chain(u.iter().copied())
+        .enumerate()
+    {
+        sc.zd[k] = Dual64::from(z);
+    }
+    for k in 0..nz {
+        sc.zd[k].eps = 1.0;
+        let (zt, rest) = sc.zd.split_at(1);
+        let (zq, rest) = rest.split_at(n);
+        let (zv, zu) = rest.split_at(n);
+        ctl.force(zt[0], zq, zv, zu, &mut sc.fd);
+        sc.zd[k].eps = 0.0;
+        for i in 0..n {
+            sc.fz[i * nz + k] = sc.fd[i].eps;
+            sc.f[i] = sc.fd[i].re;
+        }
+    }
+    let (pd, fz, f) = (&sc.pd, &sc.fz, &sc.f);
+    let w = 2 * n + 1;
+    let lh = |r: usize, c: usize| pd.hess[r * w + c];
+    let mut put = |r: usize, c: usize, x: f64| {
+        hess[r * ny + c] = x;
+        hess[c * ny + r] = x;
+    };
+    for i in 0..n {
+        let (li, mi) = (map.lambda() + i, map.lambda() + n + i);
+        let (lqi, lvi) = (1 + i, 1 + n + i);
+        grad[li] = h * b * (pd.grad[lqi] + f[i]);
+        grad[mi] = b * pd.grad[lvi];
+        let fzi = &fz[i * nz..(i + 1) * nz];
+        for j in 0..n {
+            put(li, j, h * b * (lh(lqi, 1 + j) + fzi[1 + j]));
+            put(li, n + j, b * (lh(lqi, 1 + n + j) + fzi[1 + n + j]));
+            put(mi, j, b * lh(lvi, 1 + j));
+            put(mi, n + j, b * lh(lvi, 1 + n + j) / h);
+        }
+        for c in 0..m {
+            put(li, 2 * n + c, h * b * fzi[1 + 2 * n + c]);
+        }
+        if map.free {
+            let hi = map.h_index();
+            let dv_l: f64 = (0..n).map(|j| (lh(lqi, 1 + n + j) + fzi[1 + n + j]) * v[j]).sum();
+            let dv_m: f64 = (0..n).map(|j| lh(lvi, 1 + n + j) * v[j]).sum();
+            put(
+                li,
+                hi,
+                b * (pd.grad[lqi] + f[i]) + h * b * time.sigma * (lh(lqi, 0) + fzi[0]) - b * dv_l,
+            );
+            put(mi, hi, b * (time.sigma * lh(lvi, 0) - dv_m / h));
         }
     }
 }
