@@ -127,6 +127,7 @@ impl PointScratch {
 /// Lagrangian's own, symbolic for expressions) and the Jacobian of F by dual numbers, with
 /// v = v̂/h and t = t0 + σh. Only the primal block, where third derivatives of L meet the
 /// multipliers, takes hyper-dual passes of Ψ, one per pair.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn point_hessian<L, C>(
     lag: &L,
     ctl: &C,
