@@ -44,6 +44,10 @@ fn double_integrator(
 const CART_POLE_J: f64 = 225.55372407809;
 
 fn cart_pole(elements: usize, order: usize) -> Optimum {
+    cart_pole_with(elements, order, &OptimizeOptions::default())
+}
+
+fn cart_pole_with(elements: usize, order: usize, options: &OptimizeOptions) -> Optimum {
     let params = [
         ("mc".to_string(), 2.0),
         ("mp".to_string(), 0.5),
@@ -71,7 +75,7 @@ fn cart_pole(elements: usize, order: usize) -> Optimum {
         time_weight: 0.0,
     };
     let element = Element::with_order(order).unwrap();
-    optimize(&lag, &ctl, &element, &problem, &OptimizeOptions::default()).unwrap()
+    optimize(&lag, &ctl, &element, &problem, options).unwrap()
 }
 
 /// Slope of log(err) against log(h) by least squares.
@@ -189,4 +193,95 @@ fn the_cart_pole_converges_to_the_collocation_reference_at_order_2s() {
         "{:.3e}",
         o.objective / CART_POLE_J - 1.0
     );
+}
+
+/// On finer meshes the iteration stops at the round-off floor of its residuals (the
+/// optimality residual over h grows like 1/h there) only where the optimum is reached: the
+/// midpoint rule's cost error keeps its order-2 ratio of 4 per halving up to 1000 elements,
+/// which a stop short of the optimum would break (a normwise round-off test once stopped at
+/// 10^4 elements 19x off the optimum's cost error; the componentwise test replaced it).
+#[test]
+fn fine_meshes_stop_at_the_optimum() {
+    let err: Vec<f64> = [250, 500, 1000]
+        .iter()
+        .map(|&n| {
+            let o = cart_pole(n, 2);
+            assert!(o.error.is_none(), "N {n}: {:?}", o.error);
+            o.objective / CART_POLE_J - 1.0
+        })
+        .collect();
+    for w in err.windows(2) {
+        assert!((w[0] / w[1] / 4.0 - 1.0).abs() < 0.01, "ratios of {err:?}");
+    }
+}
+
+/// A run stopped by its iteration limit returns its best iterate with the error set.
+#[test]
+fn a_short_run_returns_its_best_iterate() {
+    let options = OptimizeOptions {
+        max_iterations: 3,
+        ..OptimizeOptions::default()
+    };
+    let o = cart_pole_with(50, 4, &options);
+    let e = o.error.expect("three iterations do not reach the optimum");
+    assert!(e.to_string().contains("did not converge after 3 iterations"), "{e}");
+    assert_eq!(o.iterations, 3);
+    assert!(o.objective.is_finite() && o.q.len() == 51 * 2 && o.u.len() == 50 * 2);
+}
+
+/// Inconsistent data is a typed error before any work.
+#[test]
+fn bad_data_is_refused() {
+    let lag = ExprLagrangian::new("0.5*x_dot^2", &s(&["x"]), &[]).unwrap();
+    let ctl = ExprControls::new(&s(&["x"]), &s(&["u"]), &s(&["u"]), "u^2", &[]).unwrap();
+    let good = ControlProblem {
+        t0: 0.0,
+        t1: FinalTime::Fixed(1.0),
+        q0: vec![0.0],
+        v0: vec![0.0],
+        q1: vec![1.0],
+        v1: vec![0.0],
+        elements: 10,
+        lower: vec![-1.0],
+        upper: vec![1.0],
+        time_weight: 0.0,
+    };
+    let element = Element::with_order(2).unwrap();
+    let bad = [
+        ControlProblem {
+            lower: vec![1.0],
+            ..good.clone()
+        },
+        ControlProblem {
+            q1: vec![1.0, 2.0],
+            ..good.clone()
+        },
+        ControlProblem {
+            t1: FinalTime::Fixed(-1.0),
+            ..good.clone()
+        },
+        ControlProblem {
+            t1: FinalTime::Free {
+                min: 2.0,
+                max: 1.0,
+                guess: 1.5,
+            },
+            ..good.clone()
+        },
+        ControlProblem {
+            elements: 0,
+            ..good.clone()
+        },
+        ControlProblem {
+            v0: vec![f64::NAN],
+            ..good.clone()
+        },
+    ];
+    for p in bad {
+        assert!(
+            optimize(&lag, &ctl, &element, &p, &OptimizeOptions::default()).is_err(),
+            "{p:?}"
+        );
+    }
+    assert!(optimize(&lag, &ctl, &element, &good, &OptimizeOptions::default()).is_ok());
 }
