@@ -109,7 +109,7 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
         model.assemble(&it.x, it.t1, &mut band, &mut grad, &mut border)?;
         let res = residuals(model, &it, bounds, &grad, border.grad, &lambda_rows, 0.0);
         let err = res.error();
-        let (eta, c_noise) = backward_error(&band, bw, &it, &border, &grad, &lambda_rows);
+        let (eta, c_noise) = backward_error(&band, bw, &it, bounds, &border, &grad, &lambda_rows);
         if !err.is_finite() {
             reason = Some("the residuals are not finite".to_string());
             break;
@@ -302,17 +302,26 @@ fn moved(it: &Iterate, dx: &[f64], dt: f64, alpha: f64, _lambda: &[usize]) -> It
     next
 }
 
-/// ω = max_i |g_i| / d_i with d_i = (|K||x|)_i (the border included), floored at 1e-8 of the
-/// largest d so that rows whose terms all vanish are held to the largest row's scale; and
-/// the rounding of ‖c‖₁, 10 ε Σ d_i over the multiplier rows.
+/// ω = max_i |g_i| / d_i with g the gradient of the barrier problem (∇ℒ − z_l + z_u: at a
+/// barrier's solution ∇ℒ itself is μ/(x − l) on bounded rows, not round-off) and
+/// d_i = (|K||x|)_i (the border included), floored at 1e-8 of the largest d so that rows
+/// whose terms all vanish are held to the largest row's scale; and the rounding of ‖c‖₁,
+/// 10 ε Σ d_i over the multiplier rows.
 fn backward_error(
     band: &BandMatrix,
     bw: usize,
     it: &Iterate,
+    bounds: &[Bound],
     border: &Border,
     grad: &[f64],
     lambda_rows: &[usize],
 ) -> (f64, f64) {
+    let mut grad = grad.to_vec();
+    for (k, b) in bounds.iter().enumerate() {
+        if let Some(i) = b.var {
+            grad[i] += it.zu[k] - it.zl[k];
+        }
+    }
     let size = band.size();
     let scale: Vec<f64> = (0..size)
         .map(|i| {
