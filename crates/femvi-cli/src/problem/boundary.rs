@@ -100,7 +100,7 @@ impl BoundaryTable {
 impl BoundaryTable {
     /// The boundary data of an optimal control problem (`femvi optimize`): positions and
     /// velocities at both ends, t1 given or free within [t1_min, t1_max].
-    pub fn resolve_control(&self, n: usize, src: &Source) -> Result<ControlBoundary, InputError> {
+    pub fn resolve_control(&self, src: &Source) -> Result<ControlBoundary, InputError> {
         if self.elements > 50_000_000 {
             return Err(src.error(format!(
                 "[boundary] elements = {} is too many (at most 5e7)",
@@ -137,7 +137,6 @@ impl BoundaryTable {
             .guess
             .as_ref()
             .map(|g| src.path.parent().unwrap_or(Path::new(".")).join(g));
-        let _ = n;
         Ok(ControlBoundary {
             t0: self.t0,
             t1,

@@ -422,8 +422,7 @@ fn build_optimize(src: &Source, file: &ProblemFile, c: Common) -> Result<Optimiz
         .boundary
         .as_ref()
         .ok_or_else(|| src.error("`femvi optimize` needs a [boundary] table (t0, q0, v0, t1, q1, v1, elements)"))?;
-    let n = c.system.coordinates.len();
-    let boundary = b.resolve_control(n, src)?;
+    let boundary = b.resolve_control(src)?;
     let control = file
         .controls
         .as_ref()

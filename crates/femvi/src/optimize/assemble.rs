@@ -159,11 +159,12 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
                 scatter(&links, &gy, &hy, band, grad, border)?;
             }
         }
-        self.boundary(x, t1, grad, band, border)
+        self.boundary(x, t1, grad, border);
+        Ok(())
     }
 
     /// The ends' terms Λ_0·p_0 − Λ_N·p_N(t1) in the gradient and Hessian.
-    fn boundary(&self, x: &[f64], t1: f64, grad: &mut [f64], band: &mut BandMatrix, border: &mut Border) -> Result<()> {
+    fn boundary(&self, x: &[f64], t1: f64, grad: &mut [f64], border: &mut Border) {
         let (l, n) = (self.layout, self.layout.n);
         let (first, last) = (l.lambda(0), l.lambda(l.nodes() - 1));
         for i in 0..n {
@@ -178,8 +179,6 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
                 border.diag -= x[last + i] * ddp1[i];
             }
         }
-        let _ = band;
-        Ok(())
     }
 
     /// p_N = ∂L/∂v(t1, q1, v1) and its first and second derivatives in t1.

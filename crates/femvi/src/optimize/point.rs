@@ -62,8 +62,49 @@ pub(super) struct PointTime {
     pub(super) h: f64,
 }
 
+/// Configuration spaces up to this dimension evaluate Ψ in stack buffers (no allocation in
+/// the point loop); larger ones allocate them per call.
+const STACK_DIM: usize = 16;
+
 /// Ψ(y) (module docs), generic so that hyper-dual y give its derivatives.
 pub(super) fn psi<D, L, C>(lag: &L, ctl: &C, map: PointMap, time: PointTime, y: &[D]) -> D
+where
+    D: Scalar,
+    Dual<D>: Scalar,
+    L: Lagrangian + ?Sized,
+    C: Controls,
+{
+    let n = map.n;
+    let zero = D::from(0.0);
+    if n <= STACK_DIM {
+        let (mut v, mut f) = ([zero; STACK_DIM], [zero; STACK_DIM]);
+        let (mut qd, mut vd) = ([Dual::from_re(zero); STACK_DIM], [Dual::from_re(zero); STACK_DIM]);
+        psi_in(
+            lag,
+            ctl,
+            map,
+            time,
+            y,
+            (&mut v[..n], &mut f[..n]),
+            (&mut qd[..n], &mut vd[..n]),
+        )
+    } else {
+        let (mut v, mut f) = (vec![zero; n], vec![zero; n]);
+        let (mut qd, mut vd) = (vec![Dual::from_re(zero); n], vec![Dual::from_re(zero); n]);
+        psi_in(lag, ctl, map, time, y, (&mut v, &mut f), (&mut qd, &mut vd))
+    }
+}
+
+/// [`psi`] with its buffers: v and F (n each), and q and v as outer dual numbers.
+fn psi_in<D, L, C>(
+    lag: &L,
+    ctl: &C,
+    map: PointMap,
+    time: PointTime,
+    y: &[D],
+    (v, f): (&mut [D], &mut [D]),
+    (qd, vd): (&mut [Dual<D>], &mut [Dual<D>]),
+) -> D
 where
     D: Scalar,
     Dual<D>: Scalar,
@@ -77,19 +118,18 @@ where
     let q = &y[..n];
     let u = &y[2 * n..2 * n + map.m];
     let lam = &y[map.lambda()..map.lambda() + n];
-    let v: Vec<D> = y[n..2 * n].iter().map(|&x| x * inv_h).collect();
-    // ∂L/∂q·λ + ∂L/∂v·μ̂/h as the derivative of L along (λ, μ̂/h).
-    let qd: Vec<Dual<D>> = q.iter().zip(lam).map(|(&a, &b)| Dual::new(a, b)).collect();
-    let vd: Vec<Dual<D>> = v
-        .iter()
-        .zip(&y[map.lambda() + n..map.lambda() + 2 * n])
-        .map(|(&a, &b)| Dual::new(a, b * inv_h))
-        .collect();
-    let along = lag.value(Dual::new(t, D::from(0.0)), &qd, &vd).eps;
-    let mut f = vec![D::from(0.0); n];
-    ctl.force(t, q, &v, u, &mut f);
+    let mu = &y[map.lambda() + n..map.lambda() + 2 * n];
+    for i in 0..n {
+        v[i] = y[n + i] * inv_h;
+        // ∂L/∂q·λ + ∂L/∂v·μ̂/h as the derivative of L along (λ, μ̂/h).
+        qd[i] = Dual::new(q[i], lam[i]);
+        vd[i] = Dual::new(v[i], mu[i] * inv_h);
+    }
+    let along = lag.value(Dual::new(t, D::from(0.0)), qd, vd).eps;
+    f.iter_mut().for_each(|x| *x = D::from(0.0));
+    ctl.force(t, q, v, u, f);
     let work = f.iter().zip(lam).fold(D::from(0.0), |s, (&a, &b)| s + a * b);
-    (ctl.running_cost(t, q, &v, u) + along + work) * h * time.weight
+    (ctl.running_cost(t, q, v, u) + along + work) * h * time.weight
 }
 
 /// Reused buffers of [`point_hessian`].

@@ -192,7 +192,7 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
         let vals = model.values(&it.x, it.t1);
         let c1: f64 = lambda_rows.iter().map(|&i| vals.c[i].abs()).sum();
         let phi0 = vals.objective + barrier(&it, bounds, mu) + nu * c1;
-        let gbar = barrier_gradient(model, &it, bounds, &grad, border.grad, &lambda_rows, mu, &dx, dt);
+        let gbar = barrier_gradient(&it, bounds, &grad, border.grad, &lambda_rows, mu, &dx, dt);
         let slope = gbar - nu * c1 + lambda_rows.iter().map(|&i| it.x[i] * vals.c[i]).sum::<f64>();
         let merit = |trial: &Iterate| {
             let tv = model.values(&trial.x, trial.t1);
@@ -207,7 +207,7 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
             |phi: f64, alpha: f64| phi.is_finite() && (slope >= 0.0 || phi <= phi0 + 1e-4 * alpha * slope + noise);
         let mut accepted = None;
         for _ in 0..40 {
-            let trial = moved(&it, &dx, dt, alpha, &lambda_rows);
+            let trial = moved(&it, &dx, dt, alpha);
             let (phi, c) = merit(&trial);
             if armijo(phi, alpha) {
                 accepted = Some(trial);
@@ -295,7 +295,7 @@ fn lambda_mask<L: Lagrangian + ?Sized, C: Controls>(model: &Model<'_, L, C>) -> 
 }
 
 /// The step from `it` by α (multipliers too).
-fn moved(it: &Iterate, dx: &[f64], dt: f64, alpha: f64, _lambda: &[usize]) -> Iterate {
+fn moved(it: &Iterate, dx: &[f64], dt: f64, alpha: f64) -> Iterate {
     let mut next = it.clone();
     next.x.iter_mut().zip(dx).for_each(|(x, d)| *x += alpha * d);
     next.t1 += alpha * dt;
@@ -406,8 +406,7 @@ fn residuals<L: Lagrangian + ?Sized, C: Controls>(
 /// ∇J_μ·d less the multiplier part: g_μ·dx where g_μ is the barrier gradient of the KKT
 /// Lagrangian (the Λ·c term is added by the caller).
 #[allow(clippy::too_many_arguments)]
-fn barrier_gradient<L: Lagrangian + ?Sized, C: Controls>(
-    _model: &Model<'_, L, C>,
+fn barrier_gradient(
     it: &Iterate,
     bounds: &[Bound],
     grad: &[f64],

@@ -70,7 +70,7 @@ impl ExprControls {
     /// let c = ExprControls::new(&names(&["x"]), &names(&["u"]), &names(&["u - 0.1*x_dot"]), "u^2", &[])?;
     /// let mut f = [0.0];
     /// c.force(0.0, &[0.0], &[1.0], &[2.0], &mut f);
-    /// assert!((f[0] - 1.9).abs() < 1e-15);
+    /// assert!((f[0] - 1.9_f64).abs() < 1e-15);
     /// assert!(ExprControls::new(&names(&["x"]), &names(&["x"]), &names(&["x"]), "x^2", &[]).is_err());
     /// # Ok::<(), femvi::expr::ExprError>(())
     /// ```
