@@ -475,10 +475,13 @@ fn newton_step<L: Lagrangian + ?Sized, C: Controls>(
             }
         }
     }
+    // The assembled matrix is kept for the retries; the first try factors `band` as it is.
     let base = band.clone();
     let mut tries = 0;
     loop {
-        *band = base.clone();
+        if tries > 0 {
+            band.clone_from(&base);
+        }
         for i in (0..size).filter(|&i| !is_lambda[i]) {
             band.add(i, i, sigma[i] + *delta)?;
         }
