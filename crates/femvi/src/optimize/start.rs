@@ -1,0 +1,206 @@
+//! The optimiser's input checks and its first iterate: the data of a [`ControlProblem`] and
+//! a [`Guess`] validated (dimensions, finite values, ordered bounds), the guess interpolated
+//! linearly onto the nodes and quadrature points and moved strictly inside the bounds, and the
+//! barrier's duals started at μ/(distance to the bound).
+
+use super::assemble::Model;
+use super::solver::{Bound, Iterate};
+use super::system::Controls;
+use super::{ControlProblem, FinalTime, Guess, OptimizeOptions};
+use crate::error::{check_len, invalid, Result};
+use crate::lagrangian::Lagrangian;
+
+pub(super) fn validate<L: Lagrangian + ?Sized, C: Controls>(
+    lag: &L,
+    controls: &C,
+    p: &ControlProblem,
+    o: &OptimizeOptions,
+) -> Result<()> {
+    let (n, m) = (lag.dim(), controls.controls());
+    if n == 0 || controls.dim() != n {
+        return Err(invalid(
+            "controls",
+            format!(
+                "the controls are for {} coordinates, the Lagrangian has {n}",
+                controls.dim()
+            ),
+        ));
+    }
+    for (what, v) in [("q0", &p.q0), ("v0", &p.v0), ("q1", &p.q1), ("v1", &p.v1)] {
+        check_len(&format!("boundary {what}"), n, v.len())?;
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(invalid(&format!("boundary {what}"), "all values must be finite"));
+        }
+    }
+    check_len("lower bounds", m, p.lower.len())?;
+    check_len("upper bounds", m, p.upper.len())?;
+    for (c, (lo, up)) in p.lower.iter().zip(&p.upper).enumerate() {
+        if lo.is_nan() || up.is_nan() || lo >= up || *lo == f64::INFINITY || *up == f64::NEG_INFINITY {
+            return Err(invalid(
+                "control bounds",
+                format!("control {c}: lower {lo} must be below upper {up}"),
+            ));
+        }
+    }
+    if p.elements == 0 {
+        return Err(invalid("elements", "at least one element is needed"));
+    }
+    if !p.t0.is_finite() || !p.time_weight.is_finite() {
+        return Err(invalid("t0 and the time weight", "must be finite"));
+    }
+    match p.t1 {
+        FinalTime::Fixed(t1) if !(t1.is_finite() && t1 > p.t0) => {
+            return Err(invalid(
+                "t1",
+                format!("t1 = {t1} is not a finite time after t0 = {}", p.t0),
+            ));
+        }
+        FinalTime::Free { min, max, guess } if !(min > p.t0 && min < guess && guess < max && min.is_finite()) => {
+            return Err(invalid(
+                "free t1",
+                format!("need t0 = {} < t1_min = {min} < guess = {guess} < t1_max = {max}", p.t0),
+            ));
+        }
+        _ => {}
+    }
+    if o.tolerance.is_nan() || o.tolerance <= 0.0 || o.max_iterations == 0 {
+        return Err(invalid(
+            "options",
+            "the tolerance must be positive and the iteration limit at least 1",
+        ));
+    }
+    if let Some(g) = &o.guess {
+        check_guess(g, n, m)?;
+    }
+    Ok(())
+}
+
+fn check_guess(g: &Guess, n: usize, m: usize) -> Result<()> {
+    if g.t.is_empty()
+        || g.t
+            .windows(2)
+            .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        || g.t.iter().any(|x| !x.is_finite())
+    {
+        return Err(invalid(
+            "guess",
+            "its times must be finite and increasing, at least one",
+        ));
+    }
+    check_len("guess positions", g.t.len() * n, g.q.len())?;
+    if let Some(u) = &g.u {
+        check_len("guess controls", g.t.len() * m, u.len())?;
+    }
+    if g.q.iter().chain(g.u.iter().flatten()).any(|x| !x.is_finite()) {
+        return Err(invalid("guess", "all values must be finite"));
+    }
+    Ok(())
+}
+
+/// Linear interpolation of row-major `rows` (width w) at t, ends held.
+fn interpolate(times: &[f64], rows: &[f64], w: usize, t: f64, out: &mut [f64]) {
+    let k = times.partition_point(|&s| s <= t);
+    let (i, j, a) = if k == 0 {
+        (0, 0, 0.0)
+    } else if k >= times.len() {
+        (times.len() - 1, times.len() - 1, 0.0)
+    } else {
+        (k - 1, k, (t - times[k - 1]) / (times[k] - times[k - 1]))
+    };
+    for c in 0..w {
+        out[c] = (1.0 - a) * rows[i * w + c] + a * rows[j * w + c];
+    }
+}
+
+/// The first iterate and the bounded unknowns.
+pub(super) fn start<L: Lagrangian + ?Sized, C: Controls>(
+    model: &Model<'_, L, C>,
+    problem: &ControlProblem,
+    guess: Option<&Guess>,
+    t1: f64,
+) -> Result<(Iterate, Vec<Bound>)> {
+    let l = model.layout;
+    let (n, m) = (l.n, l.m);
+    let mut x = vec![0.0; l.size()];
+    let h = (t1 - problem.t0) / l.elements as f64;
+    let line = Guess {
+        t: vec![problem.t0, t1],
+        q: problem.q0.iter().chain(&problem.q1).copied().collect(),
+        u: None,
+    };
+    let g = guess.unwrap_or(&line);
+    let mut row = vec![0.0; n.max(m)];
+    for node in 0..l.nodes() {
+        if let Some(i) = l.q(node) {
+            let (k, a) = (node / l.s, node % l.s);
+            let tau = model.element.basis.nodes.get(a).copied().unwrap_or(0.0);
+            interpolate(&g.t, &g.q, n, problem.t0 + (k as f64 + tau) * h, &mut row);
+            x[i..i + n].copy_from_slice(&row[..n]);
+        }
+    }
+    let mut bounds = Vec::new();
+    for k in 0..l.elements {
+        for j in 0..l.r {
+            let t = problem.t0 + (k as f64 + model.element.rule.nodes[j]) * h;
+            row.iter_mut().for_each(|v| *v = 0.0);
+            if let Some(u) = &g.u {
+                interpolate(&g.t, u, m, t, &mut row);
+            }
+            for c in 0..m {
+                let (lo, up) = (problem.lower[c], problem.upper[c]);
+                x[l.u(k, j) + c] = inside(row[c], lo, up);
+                if lo.is_finite() || up.is_finite() {
+                    bounds.push(Bound {
+                        var: Some(l.u(k, j) + c),
+                        lo,
+                        up,
+                    });
+                }
+            }
+        }
+    }
+    if let FinalTime::Free { min, max, .. } = problem.t1 {
+        bounds.push(Bound {
+            var: None,
+            lo: min,
+            up: max,
+        });
+    }
+    let mu = 0.1;
+    let zl = bounds
+        .iter()
+        .map(|b| {
+            if b.lo.is_finite() {
+                mu / (value(&x, t1, b) - b.lo)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let zu = bounds
+        .iter()
+        .map(|b| {
+            if b.up.is_finite() {
+                mu / (b.up - value(&x, t1, b))
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    Ok((Iterate { x, t1, zl, zu }, bounds))
+}
+
+fn value(x: &[f64], t1: f64, b: &Bound) -> f64 {
+    b.var.map_or(t1, |i| x[i])
+}
+
+/// x moved strictly inside [lo, up] (by 1% of the width, or of max(1, |bound|) for one bound).
+fn inside(x: f64, lo: f64, up: f64) -> f64 {
+    let width = up - lo;
+    let (lo_in, up_in) = if width.is_finite() {
+        (lo + 0.01 * width, up - 0.01 * width)
+    } else {
+        (lo + 0.01 * lo.abs().max(1.0), up - 0.01 * up.abs().max(1.0))
+    };
+    x.max(lo_in).min(up_in)
+}

@@ -1,0 +1,98 @@
+//! The optimiser's Hessian against differences of its gradient.
+
+use super::assemble::{Border, Model};
+use super::layout::Layout;
+use super::{Element, ExprControls};
+use crate::expr::ExprLagrangian;
+use crate::solve::BandMatrix;
+
+/// The assembled Hessian is the derivative of the assembled gradient (central
+/// differences), free final time included.
+#[test]
+fn hessian_matches_differences_of_the_gradient() {
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let coords = names(&["x", "th"]);
+    let lag = ExprLagrangian::new(
+        "0.5*2.5*x_dot^2 + 0.25*x_dot*th_dot*cos(th) + 0.0625*th_dot^2 + 2.4*cos(th) + t*x",
+        &coords,
+        &[],
+    )
+    .unwrap();
+    let ctl = ExprControls::new(
+        &coords,
+        &names(&["u"]),
+        &names(&["u*(1+0.1*x)", "0.2*u*th_dot"]),
+        "u^2 + x*th_dot^2 + t*u",
+        &[],
+    )
+    .unwrap();
+    for (order, free) in [(2, false), (4, false), (6, true)] {
+        let element = Element::with_order(order).unwrap();
+        let layout = Layout {
+            n: 2,
+            m: 1,
+            s: element.degree(),
+            r: element.points(),
+            elements: 3,
+        };
+        let model = Model {
+            lag: &lag,
+            ctl: &ctl,
+            element: &element,
+            layout,
+            t0: 0.1,
+            free,
+            q0: vec![0.1, 0.2],
+            q1: vec![0.8, 3.0],
+            v1: vec![0.3, -0.2],
+            p0: vec![0.5, 0.1],
+            time_weight: 0.7,
+        };
+        let size = layout.size();
+        let x: Vec<f64> = (0..size).map(|i| ((i * 7919) % 97) as f64 / 97.0 - 0.5).collect();
+        let t1 = 2.0;
+        let bw = layout.bandwidth();
+        let mut band = BandMatrix::zeros(size, bw, bw).unwrap();
+        let mut grad = vec![0.0; size];
+        let mut border = Border {
+            col: vec![0.0; size],
+            diag: 0.0,
+            grad: 0.0,
+        };
+        model.assemble(&x, t1, &mut band, &mut grad, &mut border).unwrap();
+        let eps = 1e-6;
+        let grad_at = |x: &[f64], t1: f64| {
+            let mut b = BandMatrix::zeros(size, bw, bw).unwrap();
+            let mut g = vec![0.0; size];
+            let mut bd = Border {
+                col: vec![0.0; size],
+                diag: 0.0,
+                grad: 0.0,
+            };
+            model.assemble(x, t1, &mut b, &mut g, &mut bd).unwrap();
+            (g, bd.grad)
+        };
+        let mut worst = 0.0f64;
+        for j in 0..size {
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[j] += eps;
+            xm[j] -= eps;
+            let ((gp, tp), (gm, tm)) = (grad_at(&xp, t1), grad_at(&xm, t1));
+            for i in 0..size {
+                let fd = (gp[i] - gm[i]) / (2.0 * eps);
+                worst = worst.max((fd - band.get(i, j)).abs() / (1.0 + fd.abs()));
+            }
+            if free {
+                worst = worst.max(((tp - tm) / (2.0 * eps) - border.col[j]).abs());
+            }
+        }
+        if free {
+            let ((gp, tp), (gm, tm)) = (grad_at(&x, t1 + eps), grad_at(&x, t1 - eps));
+            for i in 0..size {
+                worst = worst.max(((gp[i] - gm[i]) / (2.0 * eps) - border.col[i]).abs());
+            }
+            worst = worst.max(((tp - tm) / (2.0 * eps) - border.diag).abs() / (1.0 + border.diag.abs()));
+        }
+        assert!(worst < 1e-6, "order {order}: worst relative difference {worst:.3e}");
+    }
+}
