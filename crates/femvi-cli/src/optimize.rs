@@ -4,7 +4,7 @@
 //! own `[forces]` act beside the controls. Writes trajectory.csv (the element end nodes: t,
 //! positions and discrete momenta), controls.csv (the quadrature points, where the controls
 //! live: t and a column per control) and summary.json; with plots, coordinates and controls
-//! against t.
+//! against t and a phase portrait (q, p) per coordinate, as `femvi run` draws them.
 
 use crate::plot::{file, lines, Format, Series};
 use crate::problem::OptimizeProblem;
@@ -27,6 +27,8 @@ pub struct OptimizeSummary {
     pub objective: f64,
     /// The final time.
     pub t1: f64,
+    /// The end velocity (given, or the optimiser's where `[boundary] v1` is "free").
+    pub v1: Vec<f64>,
     /// Newton iterations.
     pub iterations: usize,
     /// The largest violation of the discrete equations.
@@ -82,6 +84,8 @@ fn run_with<L: Lagrangian, C: Controls>(
         elements: b.elements,
         lower: problem.control.lower.clone(),
         upper: problem.control.upper.clone(),
+        q_lower: problem.coordinate_bounds.0.clone(),
+        q_upper: problem.coordinate_bounds.1.clone(),
         time_weight: problem.control.time_weight,
     };
     let options = OptimizeOptions {
@@ -111,6 +115,7 @@ fn run_with<L: Lagrangian, C: Controls>(
             (&best.control_t, &best.u),
             ("controls", "u", &what),
         )?;
+        plot_phase(problem, &best, dir, f)?;
     }
     let summary = OptimizeSummary {
         name: problem.name.clone(),
@@ -118,6 +123,7 @@ fn run_with<L: Lagrangian, C: Controls>(
         elements: b.elements,
         objective: best.objective,
         t1: best.t1,
+        v1: best.v1.clone(),
         iterations: best.iterations,
         violation: best.violation,
         optimality: best.optimality,
@@ -150,6 +156,30 @@ fn plot_series(
         })
         .collect();
     lines(&file(dir, stem, f), f, title, "t", axis, &series).map_err(|e| (e, 2))
+}
+
+/// A phase portrait (q, p) per coordinate at the element end nodes, into `phase_<name>`.
+fn plot_phase(problem: &OptimizeProblem, best: &Optimum, dir: &Path, f: Format) -> Result<(), (String, u8)> {
+    let n = problem.coordinates.len();
+    for (c, name) in problem.coordinates.iter().enumerate() {
+        let series = [Series {
+            name: name.clone(),
+            points: (0..best.t.len())
+                .map(|k| (best.q[k * n + c], best.p[k * n + c]))
+                .collect(),
+        }];
+        let title = format!("{}: phase portrait of {name} (optimal control)", problem.name);
+        lines(
+            &file(dir, &format!("phase_{name}"), f),
+            f,
+            &title,
+            name,
+            &format!("p_{name}"),
+            &series,
+        )
+        .map_err(|e| (e, 2))?;
+    }
+    Ok(())
 }
 
 fn write_files(problem: &OptimizeProblem, best: &Optimum, dir: &Path) -> Result<(), (String, u8)> {

@@ -24,10 +24,10 @@ pub struct BoundaryTable {
     pub t1_max: Option<f64>,
     /// Velocities at `t0` (`femvi optimize`).
     pub v0: Option<Vec<f64>>,
-    /// Velocities at `t1` (`femvi optimize`).
-    pub v1: Option<Vec<f64>>,
-    /// Positions at `t1`.
-    pub q1: Vec<f64>,
+    /// Velocities at `t1` (`femvi optimize`): numbers, each or all "free".
+    pub v1: Option<EndState>,
+    /// Positions at `t1`; for `femvi optimize` each or all may be "free".
+    pub q1: EndState,
     /// Number of elements between `t0` and `t1`.
     pub elements: usize,
     /// A trajectory.csv to interpolate as the initial guess (default: the straight line).
@@ -45,6 +45,54 @@ pub enum EndTime {
     Time(f64),
     /// A word; only "free" is accepted.
     Word(String),
+}
+
+/// `q1` or `v1`: numbers, some of them "free", or "free" for all.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum EndState {
+    /// One entry per coordinate.
+    Each(Vec<EndTime>),
+    /// A word for all; only "free" is accepted.
+    All(String),
+}
+
+impl EndState {
+    /// Per coordinate: the given value or `None` for "free" (n entries for "free" alone).
+    fn resolve(&self, what: &str, n: usize, src: &Source) -> Result<Vec<Option<f64>>, InputError> {
+        let word = |w: &str| {
+            if w == "free" {
+                Ok(None)
+            } else {
+                Err(src.error(format!("[boundary] {what}: \"{w}\" is neither a number nor \"free\"")))
+            }
+        };
+        match self {
+            EndState::All(w) => word(w).map(|_| vec![None; n]),
+            EndState::Each(v) => v
+                .iter()
+                .map(|x| match x {
+                    EndTime::Time(t) => Ok(Some(*t)),
+                    EndTime::Word(w) => word(w),
+                })
+                .collect(),
+        }
+    }
+
+    /// All numbers (`femvi bvp`).
+    fn numbers(&self, src: &Source) -> Result<Vec<f64>, InputError> {
+        let free = || src.error("[boundary] q1: a free end is for `femvi optimize`; `femvi bvp` needs positions");
+        match self {
+            EndState::All(_) => Err(free()),
+            EndState::Each(v) => v
+                .iter()
+                .map(|x| match x {
+                    EndTime::Time(t) => Ok(*t),
+                    EndTime::Word(_) => Err(free()),
+                })
+                .collect(),
+        }
+    }
 }
 
 /// A checked `[boundary]` table.
@@ -81,7 +129,7 @@ impl BoundaryTable {
             t0: self.t0,
             q0: self.q0.clone(),
             t1,
-            q1: self.q1.clone(),
+            q1: self.q1.numbers(src)?,
             elements: self.elements,
         };
         values.validate(n).map_err(|e| src.error(format!("[boundary]: {e}")))?;
@@ -100,7 +148,7 @@ impl BoundaryTable {
 impl BoundaryTable {
     /// The boundary data of an optimal control problem (`femvi optimize`): positions and
     /// velocities at both ends, t1 given or free within [t1_min, t1_max].
-    pub fn resolve_control(&self, src: &Source) -> Result<ControlBoundary, InputError> {
+    pub fn resolve_control(&self, n: usize, src: &Source) -> Result<ControlBoundary, InputError> {
         if self.elements > 50_000_000 {
             return Err(src.error(format!(
                 "[boundary] elements = {} is too many (at most 5e7)",
@@ -110,14 +158,13 @@ impl BoundaryTable {
         if self.time_mode != Mode::Fixed {
             return Err(src.error("[boundary] time_mode: `femvi optimize` takes a uniform mesh (a free t1 scales it)"));
         }
-        let need = |v: &Option<Vec<f64>>, what: &str| {
-            v.clone().ok_or_else(|| {
-                src.error(format!(
-                    "[boundary] {what} is needed by `femvi optimize` (the velocities at the ends)"
-                ))
-            })
+        let need = |what: &str| {
+            src.error(format!(
+                "[boundary] {what} is needed by `femvi optimize` (the velocities at the ends; v1 may be \"free\")"
+            ))
         };
-        let (v0, v1) = (need(&self.v0, "v0")?, need(&self.v1, "v1")?);
+        let v0 = self.v0.clone().ok_or_else(|| need("v0"))?;
+        let v1 = self.v1.as_ref().ok_or_else(|| need("v1"))?.resolve("v1", n, src)?;
         let t1 = match (&self.t1, self.t1_min, self.t1_max) {
             (EndTime::Time(t), None, None) => femvi::optimize::FinalTime::Fixed(*t),
             (EndTime::Time(_), ..) => return Err(src.error("[boundary] t1_min and t1_max go with t1 = \"free\"")),
@@ -142,7 +189,7 @@ impl BoundaryTable {
             t1,
             q0: self.q0.clone(),
             v0,
-            q1: self.q1.clone(),
+            q1: self.q1.resolve("q1", n, src)?,
             v1,
             elements: self.elements,
             guess,
@@ -161,10 +208,10 @@ pub struct ControlBoundary {
     pub q0: Vec<f64>,
     /// Velocities at t0.
     pub v0: Vec<f64>,
-    /// Positions at t1.
-    pub q1: Vec<f64>,
-    /// Velocities at t1.
-    pub v1: Vec<f64>,
+    /// Positions at t1 (`None`: free).
+    pub q1: Vec<Option<f64>>,
+    /// Velocities at t1 (`None`: free).
+    pub v1: Vec<Option<f64>>,
     /// Number of elements.
     pub elements: usize,
     /// A guess file (columns t and the coordinates, optionally the controls).

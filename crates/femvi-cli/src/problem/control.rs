@@ -1,7 +1,7 @@
 //! The `[controls]` and `[objective]` tables of an optimal control problem (`femvi optimize`):
 //! control names, the generalised force through which they act, their bounds, and the
-//! running cost and the weight of the final time. Checked and compiled into the library's
-//! [`ExprControls`].
+//! running and terminal costs and the weight of the final time, and the `[coordinate_bounds]`
+//! table. Checked and compiled into the library's [`ExprControls`].
 
 use super::errors::{InputError, Source};
 use femvi::optimize::ExprControls;
@@ -29,6 +29,44 @@ pub struct ObjectiveTable {
     pub running: Option<String>,
     /// The weight w of w·t1 (default 0; with a free t1 and no running cost, minimum time).
     pub time: Option<f64>,
+    /// The terminal cost Φ(t, q, v) in the end state (default none).
+    pub terminal: Option<String>,
+}
+
+/// `[coordinate_bounds]` as written: bounds held by the coordinates at every node.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoordinateBoundsTable {
+    /// Lower bounds, one per coordinate (`-inf` for none; default: none).
+    pub lower: Option<Vec<f64>>,
+    /// Upper bounds, one per coordinate (`inf` for none; default: none).
+    pub upper: Option<Vec<f64>>,
+}
+
+impl CoordinateBoundsTable {
+    /// The bounds for `coordinates`, checked (n entries each, lower below upper).
+    pub fn resolve(&self, coordinates: &[String], src: &Source) -> Result<(Vec<f64>, Vec<f64>), InputError> {
+        let n = coordinates.len();
+        let side = |b: &Option<Vec<f64>>, what: &str, default: f64| -> Result<Vec<f64>, InputError> {
+            match b {
+                None => Ok(vec![default; n]),
+                Some(v) if v.len() == n => Ok(v.clone()),
+                Some(v) => Err(src.error(format!(
+                    "[coordinate_bounds] {what} has {} entries for {n} coordinates",
+                    v.len()
+                ))),
+            }
+        };
+        let lower = side(&self.lower, "lower", f64::NEG_INFINITY)?;
+        let upper = side(&self.upper, "upper", f64::INFINITY)?;
+        if let Some(c) = (0..n).find(|&c| lower[c].is_nan() || upper[c].is_nan() || lower[c] >= upper[c]) {
+            return Err(src.error(format!(
+                "[coordinate_bounds] bounds of '{}': lower {} is not below upper {}",
+                coordinates[c], lower[c], upper[c]
+            )));
+        }
+        Ok((lower, upper))
+    }
 }
 
 /// The checked controls and objective.
@@ -81,8 +119,13 @@ impl ControlsTable {
         if !time_weight.is_finite() {
             return Err(src.error("[objective] time must be a finite number"));
         }
-        let controls = ExprControls::new(coordinates, &self.names, &self.force, &running, parameters)
+        let mut controls = ExprControls::new(coordinates, &self.names, &self.force, &running, parameters)
             .map_err(|e| src.error(format!("[controls]/[objective]: {e}")))?;
+        if let Some(terminal) = &objective.terminal {
+            controls = controls
+                .with_terminal(coordinates, terminal, parameters)
+                .map_err(|e| src.error(format!("[objective] terminal: {e}")))?;
+        }
         Ok(ControlSpec {
             names: self.names.clone(),
             controls,

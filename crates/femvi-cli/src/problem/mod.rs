@@ -75,8 +75,10 @@ pub struct ProblemFile {
     pub constraints: Option<constraints::ConstraintsTable>,
     /// `[controls]`: the controls of an optimal control problem (`femvi optimize`).
     pub controls: Option<control::ControlsTable>,
-    /// `[objective]`: its running cost and the weight of t1.
+    /// `[objective]`: its running and terminal costs and the weight of t1.
     pub objective: Option<control::ObjectiveTable>,
+    /// `[coordinate_bounds]`: bounds on the coordinates of an optimal control problem.
+    pub coordinate_bounds: Option<control::CoordinateBoundsTable>,
 }
 
 /// Everything a run needs, checked.
@@ -168,6 +170,8 @@ pub struct OptimizeProblem {
     pub boundary: ControlBoundary,
     /// The controls and the objective.
     pub control: ControlSpec,
+    /// `[coordinate_bounds]`: lower and upper bounds of the coordinates (empty: none).
+    pub coordinate_bounds: (Vec<f64>, Vec<f64>),
     /// `[forces]`: the system's own force, added to the controls' force.
     pub force: Option<forces::ProblemForce>,
     /// The problem file's text.
@@ -396,9 +400,9 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
     if want_bvp && file.controls.is_some() {
         return build_optimize(src, &file, common).map(|p| Loaded::Optimize(Box::new(p)));
     }
-    if file.controls.is_some() || file.objective.is_some() {
+    if file.controls.is_some() || file.objective.is_some() || file.coordinate_bounds.is_some() {
         return Err(
-            src.error("[controls] and [objective] describe an optimal control problem: solve it with `femvi optimize`")
+            src.error("[controls], [objective] and [coordinate_bounds] describe an optimal control problem: solve it with `femvi optimize`")
         );
     }
     if want_bvp {
@@ -422,7 +426,11 @@ fn build_optimize(src: &Source, file: &ProblemFile, c: Common) -> Result<Optimiz
         .boundary
         .as_ref()
         .ok_or_else(|| src.error("`femvi optimize` needs a [boundary] table (t0, q0, v0, t1, q1, v1, elements)"))?;
-    let boundary = b.resolve_control(src)?;
+    let boundary = b.resolve_control(c.system.coordinates.len(), src)?;
+    let coordinate_bounds = match &file.coordinate_bounds {
+        Some(t) => t.resolve(&c.system.coordinates, src)?,
+        None => (vec![], vec![]),
+    };
     let control = file
         .controls
         .as_ref()
@@ -442,6 +450,7 @@ fn build_optimize(src: &Source, file: &ProblemFile, c: Common) -> Result<Optimiz
         directory: c.directory,
         boundary,
         control,
+        coordinate_bounds,
         force: c.terms.force,
         source: c.source,
     })

@@ -120,9 +120,21 @@ fn bad_problems_are_refused() {
         (
             MIN_TIME.replace(
                 "[objective]\ntime = 1.0\n",
-                "[objective]\ntime = 1.0\nterminal = \"x\"\n",
+                "[objective]\ntime = 1.0\nterminal = \"u\"\n",
             ),
-            "unknown field",
+            "[objective] terminal",
+        ),
+        (
+            MIN_TIME.replace("q1 = [0.0]", "q1 = [\"loose\"]"),
+            "neither a number nor \"free\"",
+        ),
+        (
+            format!("{MIN_TIME}[coordinate_bounds]\nlower = [0.5]\n"),
+            "boundary position q1[0] = 0 is outside the bounds",
+        ),
+        (
+            format!("{MIN_TIME}[coordinate_bounds]\nupper = [1.0, 2.0]\n"),
+            "2 entries for 1 coordinates",
         ),
     ];
     for (text, why) in cases {
@@ -130,6 +142,22 @@ fn bad_problems_are_refused() {
         let err = String::from_utf8_lossy(&out.get_output().stderr).into_owned();
         assert!(err.contains(why), "expected '{why}' in: {err}");
     }
+    let free_end = examples().join("bvp-pendulum.toml");
+    let bvp = std::fs::read_to_string(&free_end).unwrap();
+    let q1 = bvp.lines().find(|l| l.starts_with("q1")).unwrap();
+    let out = femvi()
+        .args(["bvp", "-"])
+        .write_stdin(bvp.replace(q1, "q1 = \"free\""))
+        .assert()
+        .code(2);
+    assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("a free end is for `femvi optimize`"));
+    let pendulum = std::fs::read_to_string(examples().join("pendulum.toml")).unwrap();
+    let out = femvi()
+        .args(["run", "-"])
+        .write_stdin(format!("{pendulum}\n[coordinate_bounds]\nupper = [1.0]\n"))
+        .assert()
+        .code(2);
+    assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("[coordinate_bounds]"));
     let out = femvi().args(["bvp", "-"]).write_stdin(MIN_TIME).assert().code(2);
     assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("femvi optimize"));
     let out = femvi()
@@ -137,4 +165,102 @@ fn bad_problems_are_refused() {
         .assert()
         .code(2);
     assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("needs [boundary] and [controls]"));
+}
+
+/// A free end with a terminal cost, ∫u² + 3(x(1) − 1)² from rest: J* = 3/2, x(1) = 1/2,
+/// v(1) = 3/4 by Pontryagin's principle (the library's test derives it); degree 2
+/// reproduces the cubic path. With --plot, a phase portrait per coordinate.
+#[test]
+fn a_free_end_with_a_terminal_cost_from_a_file() {
+    let text = r#"
+[system]
+coordinates = ["x"]
+lagrangian = "0.5*x_dot^2"
+[controls]
+names = ["u"]
+force = ["u"]
+[objective]
+running = "u^2"
+terminal = "3*(x - 1)^2"
+[boundary]
+t0 = 0.0
+t1 = 1.0
+q0 = [0.0]
+v0 = [0.0]
+q1 = "free"
+v1 = ["free"]
+elements = 8
+[scheme]
+degree = 2
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["optimize", "-", "--quiet", "--plot", "--out"])
+        .arg(dir.path())
+        .write_stdin(text)
+        .assert()
+        .success();
+    let s = summary(dir.path());
+    let (j, v1) = (s["objective"].as_f64().unwrap(), s["v1"][0].as_f64().unwrap());
+    assert!(
+        (j - 1.5).abs() < 1e-11 && (v1 - 0.75).abs() < 1e-11,
+        "J = {j}, v1 = {v1}"
+    );
+    let traj = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
+    let last: Vec<f64> = traj
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!(
+        (last[2] - 0.5).abs() < 1e-11 && (last[3] - 0.75).abs() < 1e-11,
+        "{last:?}"
+    );
+    assert!(dir.path().join("phase_x.svg").exists());
+}
+
+/// Bryson and Ho's x <= 1/9 (J* = 8, the library's test derives it) from
+/// [coordinate_bounds]: degree 1 at 100 elements is 1.8e-3 above, and no node passes the bound.
+#[test]
+fn coordinate_bounds_from_a_file() {
+    let text = r#"
+[system]
+coordinates = ["x"]
+lagrangian = "0.5*x_dot^2"
+[controls]
+names = ["u"]
+force = ["u"]
+[objective]
+running = "u^2"
+[coordinate_bounds]
+upper = [0.1111111111111111]
+[boundary]
+t0 = 0.0
+t1 = 1.0
+q0 = [0.0]
+v0 = [1.0]
+q1 = [0.0]
+v1 = [-1.0]
+elements = 100
+[scheme]
+degree = 1
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["optimize", "-", "--quiet", "--out"])
+        .arg(dir.path())
+        .write_stdin(text)
+        .assert()
+        .success();
+    let j = summary(dir.path())["objective"].as_f64().unwrap();
+    assert!(j > 8.0 && j < 8.0 + 2.5e-3, "J = {j}");
+    let traj = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
+    let highest = traj
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap())
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(highest <= 1.0 / 9.0 && highest > 1.0 / 9.0 - 1e-6, "max x = {highest}");
 }

@@ -2,7 +2,9 @@
 //! objective and the constraint residuals, for the line search) and its gradient and banded
 //! Hessian (for the Newton step). Each quadrature point contributes Ψ (`point.rs`), carried to
 //! the unknowns by the element's basis values ℓ_a(c_j) and derivatives ℓ_a'(c_j); the ends add
-//! Λ_0·p_0 − Λ_N·p_N(t1), the boundary momenta (DESIGN §5).
+//! Λ_0·p_0 and the end term Φ(t1, q_N, v_N) − Λ_N·p(t1, q_N, v_N): the terminal cost and the
+//! boundary momentum (DESIGN §5), p = ∂L/∂v. Free components of q_N and of the end velocity
+//! v_N are unknowns (`layout.rs`); the given ones are constants.
 
 use super::layout::Layout;
 use super::point::{point_hessian, point_residual, PointMap, PointScratch, PointTime};
@@ -10,8 +12,9 @@ use super::system::Controls;
 use crate::discrete::Element;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
+use crate::lagrangian::Scalar;
 use crate::solve::BandMatrix;
-use num_dual::{Dual, HyperDual64};
+use num_dual::{Dual, Dual64, HyperDual64};
 
 /// Where a point variable's share goes: a banded unknown, the final time, or nowhere (a
 /// given end position).
@@ -31,8 +34,14 @@ pub(super) struct Model<'a, L: ?Sized, C> {
     pub(super) t0: f64,
     pub(super) free: bool,
     pub(super) q0: Vec<f64>,
+    /// The end position's given components (the free ones are placeholders).
     pub(super) q1: Vec<f64>,
+    /// The end velocity's given components (the free ones are placeholders).
     pub(super) v1: Vec<f64>,
+    /// Banded index of each free component of the end position.
+    pub(super) end_q: Vec<Option<usize>>,
+    /// Banded index of each free component of the end velocity.
+    pub(super) end_v: Vec<Option<usize>>,
     /// p_0 = ∂L/∂v(t0, q0, v0).
     pub(super) p0: Vec<f64>,
     /// The weight w of w·t1 in the objective.
@@ -80,14 +89,18 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
         }
     }
 
-    /// Position of node g: the given ends, else the unknowns.
-    fn node_q<'x>(&'x self, x: &'x [f64], g: usize) -> &'x [f64] {
-        let n = self.layout.n;
-        match self.layout.q(g) {
-            Some(i) => &x[i..i + n],
-            None if g == 0 => &self.q0,
-            None => &self.q1,
+    /// Component i of node g's position, and where its share goes.
+    fn node_q(&self, x: &[f64], g: usize, i: usize) -> (f64, Target) {
+        match (self.layout.q(g), g) {
+            (Some(b), _) => (x[b + i], Target::Band(b + i)),
+            (None, 0) => (self.q0[i], Target::Fixed),
+            (None, _) => self.end_q[i].map_or((self.q1[i], Target::Fixed), |b| (x[b], Target::Band(b))),
         }
+    }
+
+    /// Component i of the end velocity, and where its share goes.
+    pub(super) fn end_velocity(&self, x: &[f64], i: usize) -> (f64, Target) {
+        self.end_v[i].map_or((self.v1[i], Target::Fixed), |b| (x[b], Target::Band(b)))
     }
 
     /// Point variables y at point j of element k, and where each one's share goes.
@@ -99,13 +112,12 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
         for a in 0..=l.s {
             let g = k * l.s + a;
             let (phi, dphi) = (e.phi(j, a), e.dphi(j, a));
-            let q = self.node_q(x, g);
             let lam = &x[l.lambda(g)..l.lambda(g) + n];
             for i in 0..n {
-                let qt = l.q(g).map_or(Target::Fixed, |b| Target::Band(b + i));
+                let (q, qt) = self.node_q(x, g, i);
                 let lt = Target::Band(l.lambda(g) + i);
-                y[i] += phi * q[i];
-                y[n + i] += dphi * q[i];
+                y[i] += phi * q;
+                y[n + i] += dphi * q;
                 y[map.lambda() + i] += phi * lam[i];
                 y[map.lambda() + n + i] += dphi * lam[i];
                 links[i].push((qt, phi));
@@ -159,42 +171,81 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
                 scatter(&links, &gy, &hy, band, grad, border)?;
             }
         }
-        self.boundary(x, t1, grad, border);
-        Ok(())
+        self.boundary(x, t1, band, grad, border)
     }
 
-    /// The ends' terms Λ_0·p_0 − Λ_N·p_N(t1) in the gradient and Hessian.
-    fn boundary(&self, x: &[f64], t1: f64, grad: &mut [f64], border: &mut Border) {
+    /// The ends' terms in the gradient and Hessian: Λ_0·p_0, and the end term
+    /// Φ(t1, q_N, v_N) − Λ_N·p(t1, q_N, v_N) by hyper-dual passes over its variables
+    /// z = (t1, q_N, v_N, Λ_N), the given ones skipped.
+    fn boundary(&self, x: &[f64], t1: f64, band: &mut BandMatrix, grad: &mut [f64], border: &mut Border) -> Result<()> {
         let (l, n) = (self.layout, self.layout.n);
-        let (first, last) = (l.lambda(0), l.lambda(l.nodes() - 1));
+        let first = l.lambda(0);
         for i in 0..n {
             grad[first + i] += self.p0[i];
         }
-        let (p1, dp1, ddp1) = self.end_momentum(t1);
-        for i in 0..n {
-            grad[last + i] -= p1[i];
-            if self.free {
-                border.grad -= x[last + i] * dp1[i];
-                border.col[last + i] -= dp1[i];
-                border.diag -= x[last + i] * ddp1[i];
+        let (z, links) = self.end_variables(x, t1);
+        let nz = z.len();
+        let active: Vec<usize> = (0..nz).filter(|&a| links[a][0].0 != Target::Fixed).collect();
+        let (mut gz, mut hz) = (vec![0.0; nz], vec![0.0; nz * nz]);
+        let mut zd: Vec<HyperDual64> = z.iter().map(|&v| HyperDual64::from(v)).collect();
+        for (ia, &a) in active.iter().enumerate() {
+            for &b in &active[ia..] {
+                zd[a].eps1 = 1.0;
+                zd[b].eps2 = 1.0;
+                let r = self.end_term(&zd);
+                zd[a].eps1 = 0.0;
+                zd[b].eps2 = 0.0;
+                (hz[a * nz + b], hz[b * nz + a]) = (r.eps1eps2, r.eps1eps2);
+                if b == a {
+                    gz[a] = r.eps1;
+                }
             }
         }
+        scatter(&links, &gz, &hz, band, grad, border)
     }
 
-    /// p_N = ∂L/∂v(t1, q1, v1) and its first and second derivatives in t1.
-    pub(super) fn end_momentum(&self, t1: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    /// The end term's variables z = (t1, q_N, v_N, Λ_N) and where each one's share goes.
+    fn end_variables(&self, x: &[f64], t1: f64) -> (Vec<f64>, Vec<Vec<(Target, f64)>>) {
+        let (l, n) = (self.layout, self.layout.n);
+        let last = l.lambda(l.nodes() - 1);
+        let time = if self.free { Target::Time } else { Target::Fixed };
+        let mut z = vec![(t1, time)];
+        z.extend((0..n).map(|i| self.node_q(x, l.nodes() - 1, i)));
+        z.extend((0..n).map(|i| self.end_velocity(x, i)));
+        z.extend((0..n).map(|i| (x[last + i], Target::Band(last + i))));
+        z.into_iter().map(|(v, t)| (v, vec![(t, 1.0)])).unzip()
+    }
+
+    /// Φ(t, q, v) − Λ·∂L/∂v(t, q, v) at z = (t, q, v, Λ), generic so that hyper-dual z give
+    /// its derivatives.
+    fn end_term<D: Scalar>(&self, z: &[D]) -> D
+    where
+        Dual<D>: Scalar,
+    {
         let n = self.layout.n;
-        let (mut p, mut dp, mut ddp) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let t = Dual::new(HyperDual64::new(t1, 1.0, 1.0, 0.0), HyperDual64::from(0.0));
-        let q: Vec<Dual<HyperDual64>> = self.q1.iter().map(|&a| Dual::from_re(HyperDual64::from(a))).collect();
-        let mut v: Vec<Dual<HyperDual64>> = self.v1.iter().map(|&a| Dual::from_re(HyperDual64::from(a))).collect();
-        for i in 0..n {
-            v[i].eps = HyperDual64::from(1.0);
-            let r = self.lag.value(t, &q, &v).eps;
-            v[i].eps = HyperDual64::from(0.0);
-            (p[i], dp[i], ddp[i]) = (r.re, r.eps1, r.eps1eps2);
-        }
-        (p, dp, ddp)
+        let (t, q, v, lam) = (z[0], &z[1..=n], &z[1 + n..=2 * n], &z[1 + 2 * n..=3 * n]);
+        let qd: Vec<Dual<D>> = q.iter().map(|&a| Dual::from_re(a)).collect();
+        let vd: Vec<Dual<D>> = v.iter().zip(lam).map(|(&a, &b)| Dual::new(a, b)).collect();
+        let along = self.lag.value(Dual::from_re(t), &qd, &vd).eps;
+        self.ctl.terminal_cost(t, q, v) - along
+    }
+
+    /// The terminal cost Φ(t1, q_N, v_N) and the end momentum p(t1, q_N, v_N) at an iterate.
+    pub(super) fn end_state(&self, x: &[f64], t1: f64) -> (f64, Vec<f64>) {
+        let n = self.layout.n;
+        let (z, _) = self.end_variables(x, t1);
+        let (t, q, v) = (Dual64::from(z[0]), &z[1..=n], &z[1 + n..=2 * n]);
+        let qd: Vec<Dual64> = q.iter().map(|&a| Dual64::from(a)).collect();
+        let mut vd: Vec<Dual64> = v.iter().map(|&a| Dual64::from(a)).collect();
+        let p = (0..n)
+            .map(|i| {
+                vd[i].eps = 1.0;
+                let r = self.lag.value(t, &qd, &vd).eps;
+                vd[i].eps = 0.0;
+                r
+            })
+            .collect();
+        (self.ctl.terminal_cost(z[0], q, v), p)
     }
 
     /// The objective (with w·t1) and the constraint residuals c at an iterate.
@@ -219,7 +270,8 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
             }
         }
         let (first, last) = (l.lambda(0), l.lambda(l.nodes() - 1));
-        let p1 = self.end_momentum(t1).0;
+        let (terminal, p1) = self.end_state(x, t1);
+        objective += terminal;
         for i in 0..n {
             c[first + i] += self.p0[i];
             c[last + i] -= p1[i];
@@ -254,7 +306,7 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
     /// Positions at every node (N·s + 1 rows of n).
     pub(super) fn positions(&self, x: &[f64]) -> Vec<f64> {
         (0..self.layout.nodes())
-            .flat_map(|g| self.node_q(x, g).to_vec())
+            .flat_map(|g| (0..self.layout.n).map(move |i| self.node_q(x, g, i).0))
             .collect()
     }
 }

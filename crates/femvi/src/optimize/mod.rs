@@ -18,7 +18,18 @@
 //!   p_N = ∂L/∂v(t1, q1, v1) (the given velocities enter through their momenta);
 //! - and the positions at the ends are the given q0, q1.
 //!
-//! The objective is J = Σ_k h Σ_j b_j C(t_j, q_h, q̇_h, U_{k,j}) + w·t1.
+//! The objective is J = Σ_k h Σ_j b_j C(t_j, q_h, q̇_h, U_{k,j}) + Φ(t1, q_N, v_N) + w·t1
+//! (DESIGN §5), with Φ the terminal cost.
+//!
+//! **Free ends.** A component of q1 or v1 may be left free. A free component of q_N is an
+//! unknown; a free component of the end velocity v_N is one too, tied to the trajectory by
+//! the end equation ∂L_d/∂Q^s + f^s = p(t1, q_N, v_N), which then defines it (the Legendre
+//! map of a regular L is invertible). The end term of the KKT Lagrangian is
+//! Φ(t1, q_N, v_N) − Λ_N·p(t1, q_N, v_N); at the optimum its stationarity in a free
+//! component is the discrete transversality condition (e.g. Λ_N = ∂Φ/∂p for a free v_N when
+//! p = M v). Coordinate bounds l ≤ Q ≤ u hold at every node and enter the barrier as the
+//! control bounds do; for elements of degree s > 1 the polynomial between nodes may pass
+//! them by O(h^2) of the curvature.
 //!
 //! **KKT.** With multipliers Λ at every node, ℒ = J + Λ·c. Interpolating Λ with the same
 //! basis, Λ·c is a sum over quadrature points of h b_j [∂L/∂q·λ + ∂L/∂v·λ̇ + F·λ], so ℒ is a
@@ -72,27 +83,34 @@ pub enum FinalTime {
     },
 }
 
-/// An optimal control problem: boundary data, mesh, bounds on the controls, the weight of t1.
+/// An optimal control problem: boundary data, mesh, bounds on the controls and coordinates,
+/// the weight of t1.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControlProblem {
     /// Start time.
     pub t0: f64,
     /// Final time.
     pub t1: FinalTime,
-    /// Positions and velocities at t0.
+    /// Positions at t0.
     pub q0: Vec<f64>,
     /// Velocities at t0.
     pub v0: Vec<f64>,
-    /// Positions at t1.
-    pub q1: Vec<f64>,
-    /// Velocities at t1.
-    pub v1: Vec<f64>,
+    /// Positions at t1, per component given (`Some`) or free (`None`: the optimiser's, with
+    /// the terminal cost [`Controls::terminal_cost`] deciding).
+    pub q1: Vec<Option<f64>>,
+    /// Velocities at t1, per component given or free, as `q1`.
+    pub v1: Vec<Option<f64>>,
     /// Number of elements N.
     pub elements: usize,
     /// Lower bounds of the controls (m entries; −∞ for none).
     pub lower: Vec<f64>,
     /// Upper bounds of the controls (m entries; +∞ for none).
     pub upper: Vec<f64>,
+    /// Lower bounds of the coordinates, held at every node (n entries, −∞ for none; empty
+    /// for no bounds). The given end positions must satisfy them.
+    pub q_lower: Vec<f64>,
+    /// Upper bounds of the coordinates, as `q_lower`.
+    pub q_upper: Vec<f64>,
     /// The weight w of w·t1 in the objective.
     pub time_weight: f64,
 }
@@ -154,6 +172,8 @@ pub struct Optimum {
     pub control_t: Vec<f64>,
     /// Controls at the quadrature points, N·r rows of m.
     pub u: Vec<f64>,
+    /// The end velocity v_N: the given components, and the optimiser's for the free ones.
+    pub v1: Vec<f64>,
     /// Why the iteration stopped short, if it did; the fields above are its best iterate.
     pub error: Option<Error>,
 }
@@ -181,8 +201,9 @@ pub struct Optimum {
 /// let ctl = ExprControls::new(&s(&["x"]), &s(&["u"]), &s(&["u"]), "u^2", &[])?;
 /// let problem = ControlProblem {
 ///     t0: 0.0, t1: FinalTime::Fixed(1.0),
-///     q0: vec![0.0], v0: vec![0.0], q1: vec![1.0], v1: vec![0.0],
-///     elements: 20, lower: vec![f64::NEG_INFINITY], upper: vec![f64::INFINITY], time_weight: 0.0,
+///     q0: vec![0.0], v0: vec![0.0], q1: vec![Some(1.0)], v1: vec![Some(0.0)],
+///     elements: 20, lower: vec![f64::NEG_INFINITY], upper: vec![f64::INFINITY],
+///     q_lower: vec![], q_upper: vec![], time_weight: 0.0,
 /// };
 /// let element = femvi::Element::with_order(4)?;
 /// let best = optimize(&lag, &ctl, &element, &problem, &OptimizeOptions::default())?;
@@ -205,6 +226,19 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         s: element.degree(),
         r: element.points(),
         elements: problem.elements,
+        free_q: problem.q1.iter().filter(|x| x.is_none()).count(),
+        free_v: problem.v1.iter().filter(|x| x.is_none()).count(),
+    };
+    let slots = |end: &[Option<f64>], index: &dyn Fn(usize) -> usize| {
+        let mut slot = 0;
+        end.iter()
+            .map(|x| {
+                x.is_none().then(|| {
+                    slot += 1;
+                    index(slot - 1)
+                })
+            })
+            .collect::<Vec<_>>()
     };
     let (free, t1) = match problem.t1 {
         FinalTime::Fixed(t1) => (false, t1),
@@ -219,8 +253,10 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         t0: problem.t0,
         free,
         q0: problem.q0.clone(),
-        q1: problem.q1.clone(),
-        v1: problem.v1.clone(),
+        q1: problem.q1.iter().map(|x| x.unwrap_or(0.0)).collect(),
+        v1: problem.v1.iter().map(|x| x.unwrap_or(0.0)).collect(),
+        end_q: slots(&problem.q1, &|k| layout.end_q(k)),
+        end_v: slots(&problem.v1, &|k| layout.end_v(k)),
         p0,
         time_weight: problem.time_weight,
     };
@@ -249,7 +285,7 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         what: "optimal control".to_string(),
         iterations: out.iterations,
         residual: out.violation.max(out.optimality),
-        reason: out.reason.clone().unwrap_or_default(),
+        reason: stalled(out.reason.clone().unwrap_or_default(), out.violation, options.tolerance),
     });
     Ok(Optimum {
         objective: vals.objective,
@@ -262,8 +298,21 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         p: model.momenta(&it.x, it.t1),
         control_t,
         u,
+        v1: (0..n).map(|i| model.end_velocity(&it.x, i).0).collect(),
         error,
     })
+}
+
+/// The reason of a failed run, with the likely cause when the equations stay violated: no
+/// control within the bounds steers the system between the given ends (in the given time).
+fn stalled(reason: String, violation: f64, tolerance: f64) -> String {
+    if violation > 1e3 * tolerance.max(1e-9) {
+        format!(
+            "{reason}; the discrete equations are still violated by {violation:.2e}: the end data may be out of reach within the bounds and t1"
+        )
+    } else {
+        reason
+    }
 }
 
 fn momentum<L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[f64], v: &[f64]) -> Vec<f64> {

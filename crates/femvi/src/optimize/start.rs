@@ -26,20 +26,39 @@ pub(super) fn validate<L: Lagrangian + ?Sized, C: Controls>(
             ),
         ));
     }
-    for (what, v) in [("q0", &p.q0), ("v0", &p.v0), ("q1", &p.q1), ("v1", &p.v1)] {
-        check_len(&format!("boundary {what}"), n, v.len())?;
+    let q1: Vec<f64> = p.q1.iter().flatten().copied().collect();
+    let v1: Vec<f64> = p.v1.iter().flatten().copied().collect();
+    check_len("boundary q1", n, p.q1.len())?;
+    check_len("boundary v1", n, p.v1.len())?;
+    for (what, len, v) in [
+        ("q0", n, &p.q0),
+        ("v0", n, &p.v0),
+        ("q1", q1.len(), &q1),
+        ("v1", v1.len(), &v1),
+    ] {
+        check_len(&format!("boundary {what}"), len, v.len())?;
         if v.iter().any(|x| !x.is_finite()) {
             return Err(invalid(&format!("boundary {what}"), "all values must be finite"));
         }
     }
-    check_len("lower bounds", m, p.lower.len())?;
-    check_len("upper bounds", m, p.upper.len())?;
-    for (c, (lo, up)) in p.lower.iter().zip(&p.upper).enumerate() {
-        if lo.is_nan() || up.is_nan() || lo >= up || *lo == f64::INFINITY || *up == f64::NEG_INFINITY {
-            return Err(invalid(
-                "control bounds",
-                format!("control {c}: lower {lo} must be below upper {up}"),
-            ));
+    check_bounds("control", m, &p.lower, &p.upper)?;
+    if !(p.q_lower.is_empty() && p.q_upper.is_empty()) {
+        check_bounds("coordinate", n, &p.q_lower, &p.q_upper)?;
+        let ends =
+            p.q0.iter()
+                .map(|&x| ("q0", Some(x)))
+                .chain(p.q1.iter().map(|&x| ("q1", x)));
+        for (i, (what, x)) in ends.enumerate() {
+            let (c, lo, up) = (i % n, p.q_lower[i % n], p.q_upper[i % n]);
+            if x.is_some_and(|x| x < lo || x > up) {
+                return Err(invalid(
+                    "coordinate bounds",
+                    format!(
+                        "the boundary position {what}[{c}] = {} is outside the bounds [{lo}, {up}]: no path can start or end there",
+                        x.unwrap_or(f64::NAN)
+                    ),
+                ));
+            }
         }
     }
     if p.elements == 0 {
@@ -71,6 +90,21 @@ pub(super) fn validate<L: Lagrangian + ?Sized, C: Controls>(
     }
     if let Some(g) = &o.guess {
         check_guess(g, n, m)?;
+    }
+    Ok(())
+}
+
+/// `len` pairs of bounds, each lower below upper.
+fn check_bounds(what: &str, len: usize, lower: &[f64], upper: &[f64]) -> Result<()> {
+    check_len(&format!("{what} lower bounds"), len, lower.len())?;
+    check_len(&format!("{what} upper bounds"), len, upper.len())?;
+    for (c, (lo, up)) in lower.iter().zip(upper).enumerate() {
+        if lo.is_nan() || up.is_nan() || lo >= up || *lo == f64::INFINITY || *up == f64::NEG_INFINITY {
+            return Err(invalid(
+                &format!("{what} bounds"),
+                format!("{what} {c}: lower {lo} must be below upper {up}"),
+            ));
+        }
     }
     Ok(())
 }
@@ -123,19 +157,49 @@ pub(super) fn start<L: Lagrangian + ?Sized, C: Controls>(
     let (n, m) = (l.n, l.m);
     let mut x = vec![0.0; l.size()];
     let h = (t1 - problem.t0) / l.elements as f64;
+    // The straight line ends at the given q1, and stays level in a free component.
+    let end = problem.q1.iter().zip(&problem.q0).map(|(x, x0)| x.unwrap_or(*x0));
     let line = Guess {
         t: vec![problem.t0, t1],
-        q: problem.q0.iter().chain(&problem.q1).copied().collect(),
+        q: problem.q0.iter().copied().chain(end).collect(),
         u: None,
     };
     let g = guess.unwrap_or(&line);
     let mut row = vec![0.0; n.max(m)];
+    let (lower, upper) = coordinate_bounds(problem, n);
+    let position = |x: &mut [f64], i: usize, c: usize, value: f64, bounds: &mut Vec<Bound>| {
+        x[i] = inside(value, lower[c], upper[c]);
+        if lower[c].is_finite() || upper[c].is_finite() {
+            bounds.push(Bound {
+                var: Some(i),
+                lo: lower[c],
+                up: upper[c],
+            });
+        }
+    };
+    let mut coordinate_bounds = Vec::new();
     for node in 0..l.nodes() {
-        if let Some(i) = l.q(node) {
-            let (k, a) = (node / l.s, node % l.s);
-            let tau = model.element.basis.nodes.get(a).copied().unwrap_or(0.0);
-            interpolate(&g.t, &g.q, n, problem.t0 + (k as f64 + tau) * h, &mut row);
-            x[i..i + n].copy_from_slice(&row[..n]);
+        let (k, a) = (node / l.s, node % l.s);
+        let tau = model.element.basis.nodes.get(a).copied().unwrap_or(0.0);
+        interpolate(&g.t, &g.q, n, problem.t0 + (k as f64 + tau) * h, &mut row);
+        for c in 0..n {
+            let index = if node + 1 == l.nodes() {
+                model.end_q[c]
+            } else {
+                l.q(node).map(|i| i + c)
+            };
+            if let Some(i) = index {
+                position(&mut x, i, c, row[c], &mut coordinate_bounds);
+            }
+        }
+    }
+    // A free end velocity starts at the guess's slope over the last element.
+    let mut before = vec![0.0; n];
+    interpolate(&g.t, &g.q, n, t1 - h, &mut before);
+    interpolate(&g.t, &g.q, n, t1, &mut row);
+    for c in 0..n {
+        if let Some(i) = model.end_v[c] {
+            x[i] = (row[c] - before[c]) / h;
         }
     }
     let mut bounds = Vec::new();
@@ -159,6 +223,7 @@ pub(super) fn start<L: Lagrangian + ?Sized, C: Controls>(
             }
         }
     }
+    bounds.append(&mut coordinate_bounds);
     if let FinalTime::Free { min, max, .. } = problem.t1 {
         bounds.push(Bound {
             var: None,
@@ -188,6 +253,15 @@ pub(super) fn start<L: Lagrangian + ?Sized, C: Controls>(
         })
         .collect();
     Ok((Iterate { x, t1, zl, zu }, bounds))
+}
+
+/// The coordinates' bounds, infinite when none are given.
+fn coordinate_bounds(problem: &ControlProblem, n: usize) -> (Vec<f64>, Vec<f64>) {
+    if problem.q_lower.is_empty() {
+        (vec![f64::NEG_INFINITY; n], vec![f64::INFINITY; n])
+    } else {
+        (problem.q_lower.clone(), problem.q_upper.clone())
+    }
 }
 
 fn value(x: &[f64], t1: f64, b: &Bound) -> f64 {

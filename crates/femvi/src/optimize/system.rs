@@ -41,6 +41,11 @@ pub trait Controls {
     fn force<D: Scalar>(&self, t: D, q: &[D], v: &[D], u: &[D], out: &mut [D]);
     /// The running cost C(t, q, v, u), integrated over [t0, t1] by the element's quadrature.
     fn running_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D], u: &[D]) -> D;
+    /// The terminal cost Φ(t1, q_N, v_N) in the end state; none by default. It matters when
+    /// a component of the end state, or t1, is left free.
+    fn terminal_cost<D: Scalar>(&self, _t: D, _q: &[D], _v: &[D]) -> D {
+        D::from(0.0)
+    }
 }
 
 /// Controls from math expressions in t, the coordinates, their `_dot` velocities and the
@@ -51,6 +56,7 @@ pub struct ExprControls {
     m: usize,
     force: Vec<Program>,
     cost: Program,
+    terminal: Option<Program>,
 }
 
 impl ExprControls {
@@ -113,7 +119,44 @@ impl ExprControls {
             m: controls.len(),
             force,
             cost,
+            terminal: None,
         })
+    }
+
+    /// Adds the terminal cost Φ(t, q, q_dot) in the end state, an expression in t, the
+    /// coordinates and their `_dot` velocities (not the controls).
+    ///
+    /// # Errors
+    /// [`ExprError`] for an expression that does not compile or names a control.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::optimize::{Controls, ExprControls};
+    ///
+    /// let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    /// let x = names(&["x"]);
+    /// let c = ExprControls::new(&x, &names(&["u"]), &names(&["u"]), "u^2", &[])?
+    ///     .with_terminal(&x, "3*(x - 1)^2 + x_dot^2", &[])?;
+    /// assert_eq!(c.terminal_cost(0.0, &[2.0], &[1.0]), 4.0);
+    /// assert!(c.clone().with_terminal(&x, "u", &[]).is_err());
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
+    pub fn with_terminal(
+        mut self,
+        coordinates: &[String],
+        terminal: &str,
+        parameters: &[(String, f64)],
+    ) -> Result<Self, ExprError> {
+        if coordinates.len() != self.n {
+            let why = format!("{} coordinates for controls of {}", coordinates.len(), self.n);
+            return Err(ExprError::at(terminal, 0, why));
+        }
+        let mut vars = vec!["t".to_string()];
+        vars.extend(coordinates.iter().cloned());
+        vars.extend(coordinates.iter().map(|c| format!("{c}_dot")));
+        self.terminal = Some(Program::compile(terminal, &vars, parameters)?);
+        Ok(self)
     }
 
     fn var<D: Scalar>(&self, t: D, q: &[D], v: &[D], u: &[D], i: usize) -> D {
@@ -148,6 +191,12 @@ impl Controls for ExprControls {
 
     fn running_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D], u: &[D]) -> D {
         self.cost.eval(|i| self.var(t, q, v, u, i))
+    }
+
+    fn terminal_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
+        self.terminal
+            .as_ref()
+            .map_or(D::from(0.0), |p| p.eval(|i| self.var(t, q, v, &[], i)))
     }
 }
 
@@ -200,5 +249,9 @@ impl<C: Controls, F: crate::forces::Force> Controls for WithForce<'_, C, F> {
 
     fn running_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D], u: &[D]) -> D {
         self.controls.running_cost(t, q, v, u)
+    }
+
+    fn terminal_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
+        self.controls.terminal_cost(t, q, v)
     }
 }

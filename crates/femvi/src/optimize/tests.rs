@@ -7,7 +7,7 @@ use crate::expr::ExprLagrangian;
 use crate::solve::BandMatrix;
 
 /// The assembled Hessian is the derivative of the assembled gradient (central
-/// differences), free final time included.
+/// differences), free final time, free end components and a terminal cost included.
 #[test]
 fn hessian_matches_differences_of_the_gradient() {
     let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
@@ -25,8 +25,11 @@ fn hessian_matches_differences_of_the_gradient() {
         "u^2 + x*th_dot^2 + t*u",
         &[],
     )
+    .unwrap()
+    .with_terminal(&coords, "x*th_dot^2 + t*th + x_dot^2*cos(x)", &[])
     .unwrap();
-    for (order, free) in [(2, false), (4, false), (6, true)] {
+    // (order, free t1, free end position components, free end velocity components)
+    for (order, free, fq, fv) in [(2, false, 0, 0), (4, false, 1, 2), (6, true, 2, 1), (2, true, 1, 1)] {
         let element = Element::with_order(order).unwrap();
         let layout = Layout {
             n: 2,
@@ -34,7 +37,14 @@ fn hessian_matches_differences_of_the_gradient() {
             s: element.degree(),
             r: element.points(),
             elements: 3,
+            free_q: fq,
+            free_v: fv,
         };
+        // The last `fq` position and first `fv` velocity components are free.
+        let end_q = (0..2)
+            .map(|i| (i + fq >= 2).then(|| layout.end_q(i + fq - 2)))
+            .collect();
+        let end_v = (0..2).map(|i| (i < fv).then(|| layout.end_v(i))).collect();
         let model = Model {
             lag: &lag,
             ctl: &ctl,
@@ -45,6 +55,8 @@ fn hessian_matches_differences_of_the_gradient() {
             q0: vec![0.1, 0.2],
             q1: vec![0.8, 3.0],
             v1: vec![0.3, -0.2],
+            end_q,
+            end_v,
             p0: vec![0.5, 0.1],
             time_weight: 0.7,
         };

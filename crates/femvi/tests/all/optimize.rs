@@ -27,11 +27,13 @@ fn double_integrator(
         t1,
         q0: vec![q0],
         v0: vec![0.0],
-        q1: vec![q1],
-        v1: vec![0.0],
+        q1: vec![Some(q1)],
+        v1: vec![Some(0.0)],
         elements,
         lower: vec![-bound],
         upper: vec![bound],
+        q_lower: vec![],
+        q_upper: vec![],
         time_weight: w,
     };
     let element = Element::with_order(order).unwrap();
@@ -67,11 +69,13 @@ fn cart_pole_with(elements: usize, order: usize, options: &OptimizeOptions) -> O
         t1: FinalTime::Fixed(2.0),
         q0: vec![0.0, 0.0],
         v0: vec![0.0, 0.0],
-        q1: vec![0.8, std::f64::consts::PI],
-        v1: vec![0.0, 0.0],
+        q1: vec![Some(0.8), Some(std::f64::consts::PI)],
+        v1: vec![Some(0.0), Some(0.0)],
         elements,
         lower: vec![-100.0],
         upper: vec![100.0],
+        q_lower: vec![],
+        q_upper: vec![],
         time_weight: 0.0,
     };
     let element = Element::with_order(order).unwrap();
@@ -239,11 +243,13 @@ fn bad_data_is_refused() {
         t1: FinalTime::Fixed(1.0),
         q0: vec![0.0],
         v0: vec![0.0],
-        q1: vec![1.0],
-        v1: vec![0.0],
+        q1: vec![Some(1.0)],
+        v1: vec![Some(0.0)],
         elements: 10,
         lower: vec![-1.0],
         upper: vec![1.0],
+        q_lower: vec![],
+        q_upper: vec![],
         time_weight: 0.0,
     };
     let element = Element::with_order(2).unwrap();
@@ -253,7 +259,7 @@ fn bad_data_is_refused() {
             ..good.clone()
         },
         ControlProblem {
-            q1: vec![1.0, 2.0],
+            q1: vec![Some(1.0), Some(2.0)],
             ..good.clone()
         },
         ControlProblem {
@@ -274,6 +280,30 @@ fn bad_data_is_refused() {
         },
         ControlProblem {
             v0: vec![f64::NAN],
+            ..good.clone()
+        },
+        ControlProblem {
+            v1: vec![Some(f64::INFINITY)],
+            ..good.clone()
+        },
+        ControlProblem {
+            q_lower: vec![0.5],
+            q_upper: vec![2.0],
+            ..good.clone()
+        },
+        ControlProblem {
+            q_lower: vec![-1.0],
+            q_upper: vec![0.5],
+            ..good.clone()
+        },
+        ControlProblem {
+            q_lower: vec![-1.0],
+            q_upper: vec![-2.0],
+            ..good.clone()
+        },
+        ControlProblem {
+            q_lower: vec![-1.0, -1.0],
+            q_upper: vec![2.0, 2.0],
             ..good.clone()
         },
     ];
