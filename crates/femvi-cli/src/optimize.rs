@@ -8,7 +8,9 @@
 
 use crate::plot::{file, lines, Format, Series};
 use crate::problem::OptimizeProblem;
-use femvi::optimize::{optimize, ControlProblem, Controls, Guess, OptimizeOptions, Optimum, WithForce};
+use femvi::optimize::{
+    optimize, ControlProblem, Controls, Guess, OptimizeOptions, Optimum, WithConstraints, WithForce,
+};
 use femvi::Lagrangian;
 use serde::Serialize;
 use std::path::Path;
@@ -55,9 +57,15 @@ pub fn run(
     dir: &Path,
     plot: Option<Format>,
 ) -> Result<(OptimizeSummary, Optimum), (String, u8)> {
-    crate::with_system!(&problem.system, l => match &problem.force {
-        Some(f) => run_with(l, &WithForce { controls: &problem.control.controls, force: f }, problem, dir, plot),
-        None => run_with(l, &problem.control.controls, problem, dir, plot),
+    let ctl = &problem.control.controls;
+    crate::with_system!(&problem.system, l => match (&problem.force, &problem.constraints) {
+        (Some(f), None) => run_with(l, &WithForce { controls: ctl, force: f }, problem, dir, plot),
+        (None, None) => run_with(l, ctl, problem, dir, plot),
+        (Some(f), Some(k)) => {
+            let forced = WithForce { controls: ctl, force: f };
+            run_with(l, &WithConstraints { controls: &forced, constraints: k }, problem, dir, plot)
+        }
+        (None, Some(k)) => run_with(l, &WithConstraints { controls: ctl, constraints: k }, problem, dir, plot),
     })
 }
 

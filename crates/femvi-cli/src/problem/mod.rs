@@ -172,6 +172,8 @@ pub struct OptimizeProblem {
     pub control: ControlSpec,
     /// `[coordinate_bounds]`: lower and upper bounds of the coordinates (empty: none).
     pub coordinate_bounds: (Vec<f64>, Vec<f64>),
+    /// `[constraints]`, held at every node.
+    pub constraints: Option<femvi::constraints::ExprConstraints>,
     /// `[forces]`: the system's own force, added to the controls' force.
     pub force: Option<forces::ProblemForce>,
     /// The problem file's text.
@@ -417,11 +419,19 @@ fn build_optimize(src: &Source, file: &ProblemFile, c: Common) -> Result<Optimiz
         return Err(src
             .error("an optimal control problem takes [boundary] and [controls], not [initial], [time] or [[events]]"));
     }
-    if c.terms.constraints.is_some() {
-        return Err(src.error(
-            "`femvi optimize` does not take [constraints]: their multipliers are not in its KKT system (issue 36 item 6 is open); write the system in coordinates that satisfy them",
-        ));
-    }
+    // The optimiser holds the constraints at every node; the initial value problem's default
+    // (weak) is taken to mean that, and the modes coincide for degree 1.
+    let written = file.constraints.as_ref().and_then(|t| t.enforcement.as_deref());
+    let constraints = match (&c.terms.constraints, written) {
+        (None, _) => None,
+        (Some((k, _)), None | Some("nodes")) => Some(k.clone()),
+        (Some((k, _)), Some(_)) if c.element.degree() == 1 => Some(k.clone()),
+        (Some(_), Some(e)) => {
+            return Err(src.error(format!(
+                "[constraints] enforcement = \"{e}\": `femvi optimize` holds the constraints at every node; leave enforcement out or write \"nodes\""
+            )))
+        }
+    };
     let b = file
         .boundary
         .as_ref()
@@ -451,6 +461,7 @@ fn build_optimize(src: &Source, file: &ProblemFile, c: Common) -> Result<Optimiz
         boundary,
         control,
         coordinate_bounds,
+        constraints,
         force: c.terms.force,
         source: c.source,
     })

@@ -49,7 +49,7 @@ impl Projector {
     /// Projects p̃ at (t, q), whose jet (G) is `jet`, from the velocity guess `v`: writes v,
     /// p = p̃ − Gᵀμ̂ and returns μ̂.
     #[allow(clippy::too_many_arguments)]
-    pub fn project<L: Lagrangian>(
+    pub fn project<L: Lagrangian + ?Sized>(
         &mut self,
         lag: &L,
         jet: &ConstraintJet,

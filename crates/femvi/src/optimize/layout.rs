@@ -1,19 +1,21 @@
 //! The numbering of the optimiser's unknowns, chosen so that the KKT matrix is banded.
 //!
 //! Nodes are numbered g = 0 … N·s in time (element k has nodes k·s … k·s + s). Each node has
-//! its multipliers Λ_g (n) and, but for the two ends whose positions are given, its position
-//! Q_g (n); element k has the controls U_{k,j} (m) at its r quadrature points. The order is
-//! Λ_0, then per element k: U_k, then for the nodes g = k·s + 1 … k·s + s: Q_g, Λ_g. An
-//! element's unknowns then lie within rm + 2n(s + 1) consecutive indices, which is the
-//! bandwidth (plus one) of the KKT matrix. A free end (`free_q` components of the last
+//! its multipliers Λ_g (n), with holonomic constraints its constraint impulses ν_g (mc) and,
+//! but for the two ends whose positions are given, its position Q_g (n) and the multipliers
+//! κ_g (mc) of g(Q_g) = 0; element k has the controls U_{k,j} (m) at its r quadrature points.
+//! The order is Λ_0, ν_0, then per element k: U_k, then for the nodes g = k·s + 1 … k·s + s:
+//! Q_g, Λ_g, ν_g, κ_g. An element's unknowns then lie within rm + (2n + 2mc)(s + 1)
+//! consecutive indices, which is the bandwidth (plus one) of the KKT matrix. A free end (`free_q` components of the last
 //! position, `free_v` of the last velocity left to the optimiser) puts the free components of
-//! Q_N before Λ_N and those of the end velocity V after it. The last element then spans
-//! rm + 2ns + n + free_q ≤ rm + 2n(s + 1) indices, and V, which only the end term couples
-//! (with Q_N and Λ_N), lies within free_q + n + free_v ≤ 3n of them, so the bandwidth holds.
+//! Q_N before Λ_N, ν_N (and κ_N) and those of the end velocity V after them, followed by the
+//! multipliers of the hidden constraints G(q_N) V = 0. The last element then fits the
+//! bandwidth as the others do, and V, which only the end terms couple (with Q_N, Λ_N and the
+//! hidden multipliers), lies within 3n + 3mc of them, so the bandwidth holds.
 //! A free final time is one more unknown after all of these, kept out of the band (a bordered system).
 
 /// Index arithmetic for a mesh of `elements` elements of degree `s` with `r` quadrature
-/// points, `n` coordinates and `m` controls.
+/// points, `n` coordinates, `m` controls and `mc` holonomic constraints.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Layout {
     pub(super) n: usize,
@@ -25,22 +27,47 @@ pub(super) struct Layout {
     pub(super) free_q: usize,
     /// Free components of the last velocity.
     pub(super) free_v: usize,
+    /// Holonomic constraints.
+    pub(super) mc: usize,
 }
 
 impl Layout {
-    /// Unknowns per element: its controls and, per node after its first, Q and Λ.
+    /// Unknowns of a node between the ends: Q, Λ, ν, κ.
+    fn node(&self) -> usize {
+        2 * self.n + 2 * self.mc
+    }
+
+    /// Unknowns per element: its controls and the nodes after its first.
     fn block(&self) -> usize {
-        self.r * self.m + 2 * self.n * self.s
+        self.r * self.m + self.s * self.node()
+    }
+
+    /// κ at the last node: the constraints on its position, when some of it is free.
+    fn end_kappa(&self) -> usize {
+        if self.free_q > 0 {
+            self.mc
+        } else {
+            0
+        }
+    }
+
+    /// The hidden constraints G(q_N) v_N = 0, when some of the end velocity is free.
+    fn end_hidden(&self) -> usize {
+        if self.free_v > 0 {
+            self.mc
+        } else {
+            0
+        }
     }
 
     /// Number of banded unknowns (the final time, when free, is not among them).
     pub(super) fn size(&self) -> usize {
-        self.elements * self.block() + self.free_q + self.free_v
+        self.end_start() + self.free_q + self.n + self.mc + self.end_kappa() + self.free_v + self.end_hidden()
     }
 
     /// Lower and upper bandwidth of the KKT matrix.
     pub(super) fn bandwidth(&self) -> usize {
-        self.r * self.m + 2 * self.n * (self.s + 1) - 1
+        self.r * self.m + self.node() * (self.s + 1) - 1
     }
 
     /// Number of nodes, N·s + 1.
@@ -48,11 +75,15 @@ impl Layout {
         self.elements * self.s + 1
     }
 
-    /// Start of node g's Q followed by its Λ (g ≥ 1); the last node has only its free
-    /// components of Q.
+    /// Start of node g's unknowns (g ≥ 1).
     fn node_start(&self, g: usize) -> usize {
         let (k, a) = ((g - 1) / self.s, (g - 1) % self.s + 1);
-        self.n + k * self.block() + self.r * self.m + (a - 1) * 2 * self.n
+        self.n + self.mc + k * self.block() + self.r * self.m + (a - 1) * self.node()
+    }
+
+    /// Start of the last node's unknowns.
+    fn end_start(&self) -> usize {
+        self.node_start(self.nodes() - 1)
     }
 
     /// Index of Q_g's first entry, `None` at the two ends (given positions; the free
@@ -63,26 +94,43 @@ impl Layout {
 
     /// Index of the `slot`-th free component of the last position.
     pub(super) fn end_q(&self, slot: usize) -> usize {
-        self.node_start(self.nodes() - 1) + slot
-    }
-
-    /// Index of the `slot`-th free component of the end velocity.
-    pub(super) fn end_v(&self, slot: usize) -> usize {
-        self.node_start(self.nodes() - 1) + self.free_q + self.n + slot
+        self.end_start() + slot
     }
 
     /// Index of Λ_g's first entry.
     pub(super) fn lambda(&self, g: usize) -> usize {
         match g {
             0 => 0,
-            g if g + 1 == self.nodes() => self.node_start(g) + self.free_q,
+            g if g + 1 == self.nodes() => self.end_start() + self.free_q,
             g => self.node_start(g) + self.n,
         }
     }
 
+    /// Index of the first constraint impulse ν_g (mc entries).
+    pub(super) fn nu(&self, g: usize) -> usize {
+        self.lambda(g) + self.n
+    }
+
+    /// Index of the first multiplier κ_g of g(Q_g) = 0, where Q_g has unknowns.
+    pub(super) fn kappa(&self, g: usize) -> Option<usize> {
+        let has = self.mc > 0 && g != 0 && (g + 1 != self.nodes() || self.free_q > 0);
+        has.then(|| self.nu(g) + self.mc)
+    }
+
     /// Index of the first control at quadrature point j of element k.
     pub(super) fn u(&self, k: usize, j: usize) -> usize {
-        self.n + k * self.block() + j * self.m
+        self.n + self.mc + k * self.block() + j * self.m
+    }
+
+    /// Index of the `slot`-th free component of the end velocity.
+    pub(super) fn end_v(&self, slot: usize) -> usize {
+        self.end_start() + self.free_q + self.n + self.mc + self.end_kappa() + slot
+    }
+
+    /// Index of the first multiplier of the hidden constraints G(q_N) v_N = 0, when some of
+    /// the end velocity is free and there are constraints.
+    pub(super) fn hidden(&self) -> Option<usize> {
+        (self.end_hidden() > 0).then(|| self.end_v(self.free_v))
     }
 }
 
@@ -95,12 +143,16 @@ mod tests {
     #[test]
     fn numbering_is_a_bijection_within_the_band() {
         let cases = [
-            (1, 1, 1, 1, 3, 0, 0),
-            (2, 1, 2, 2, 4, 1, 2),
-            (3, 2, 3, 4, 2, 3, 3),
-            (1, 2, 1, 2, 1, 1, 0),
+            (1, 1, 1, 1, 3, 0, 0, 0),
+            (2, 1, 2, 2, 4, 1, 2, 0),
+            (3, 2, 3, 4, 2, 3, 3, 0),
+            (1, 2, 1, 2, 1, 1, 0, 0),
+            (3, 1, 1, 1, 3, 0, 0, 1),
+            (3, 1, 2, 2, 3, 3, 3, 2),
+            (2, 1, 3, 3, 2, 1, 0, 1),
+            (2, 2, 2, 2, 1, 0, 1, 1),
         ];
-        for (n, m, s, r, elements, free_q, free_v) in cases {
+        for (n, m, s, r, elements, free_q, free_v, mc) in cases {
             let l = Layout {
                 n,
                 m,
@@ -109,15 +161,22 @@ mod tests {
                 elements,
                 free_q,
                 free_v,
+                mc,
             };
             let mut seen = vec![0; l.size()];
-            for g in 0..l.nodes() {
-                for i in 0..n {
-                    seen[l.lambda(g) + i] += 1;
-                    if let Some(q) = l.q(g) {
-                        seen[q + i] += 1;
-                    }
+            let node_vars = |g: usize| {
+                let mut v: Vec<usize> = (0..n).map(|i| l.lambda(g) + i).collect();
+                v.extend((0..mc).map(|c| l.nu(g) + c));
+                if let Some(q) = l.q(g) {
+                    v.extend((0..n).map(|i| q + i));
                 }
+                if let Some(k) = l.kappa(g) {
+                    v.extend((0..mc).map(|c| k + c));
+                }
+                v
+            };
+            for g in 0..l.nodes() {
+                node_vars(g).into_iter().for_each(|i| seen[i] += 1);
             }
             for k in 0..elements {
                 let mut idx = vec![];
@@ -125,10 +184,7 @@ mod tests {
                     (0..m).for_each(|c| idx.push(l.u(k, j) + c));
                 }
                 for g in k * s..=k * s + s {
-                    (0..n).for_each(|i| idx.push(l.lambda(g) + i));
-                    if let Some(q) = l.q(g) {
-                        (0..n).for_each(|i| idx.push(q + i));
-                    }
+                    idx.extend(node_vars(g));
                 }
                 if k + 1 == elements {
                     (0..free_q).for_each(|c| idx.push(l.end_q(c)));
@@ -149,6 +205,9 @@ mod tests {
             }
             (0..free_q).for_each(|c| seen[l.end_q(c)] += 1);
             (0..free_v).for_each(|c| seen[l.end_v(c)] += 1);
+            if let Some(h) = l.hidden() {
+                (0..mc).for_each(|c| seen[h + c] += 1);
+            }
             assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
         }
     }

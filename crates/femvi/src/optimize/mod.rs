@@ -31,6 +31,14 @@
 //! control bounds do; for elements of degree s > 1 the polynomial between nodes may pass
 //! them by O(h^2) of the curvature.
 //!
+//! **Holonomic constraints** g(q) = 0 ([`WithConstraints`], DESIGN §4) are held at every
+//! node: node g's equation gains the constraint impulse −G(Q_g)ᵀν_g, with ν_g an unknown, and
+//! g(Q_g) = 0 is a constraint wherever Q_g is unknown. ℒ gains the node terms
+//! κ_g·g(Q_g) − ν_g·G(Q_g)Λ_g (and, for a free end velocity, κ'·G(q_N)v_N, the hidden
+//! constraint), local to a node, so the KKT matrix stays banded. The given ends must lie on
+//! the manifold with tangent velocities. The reported momenta are projected onto its
+//! cotangent space, as in the initial value problem (`constraints::project`).
+//!
 //! **KKT.** With multipliers Λ at every node, ℒ = J + Λ·c. Interpolating Λ with the same
 //! basis, Λ·c is a sum over quadrature points of h b_j [∂L/∂q·λ + ∂L/∂v·λ̇ + F·λ], so ℒ is a
 //! sum of point terms Ψ (`point.rs`) and its Hessian over all unknowns (Q, U, Λ) is block
@@ -57,7 +65,7 @@ mod system;
 #[cfg(test)]
 mod tests;
 
-pub use system::{Controls, ExprControls, WithForce};
+pub use system::{Controls, ExprControls, WithConstraints, WithForce};
 
 use crate::discrete::Element;
 use crate::error::{Error, Result};
@@ -228,6 +236,7 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         elements: problem.elements,
         free_q: problem.q1.iter().filter(|x| x.is_none()).count(),
         free_v: problem.v1.iter().filter(|x| x.is_none()).count(),
+        mc: controls.constraint_count(),
     };
     let slots = |end: &[Option<f64>], index: &dyn Fn(usize) -> usize| {
         let mut slot = 0;
@@ -287,6 +296,7 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         residual: out.violation.max(out.optimality),
         reason: stalled(out.reason.clone().unwrap_or_default(), out.violation, options.tolerance),
     });
+    let p = momenta(&model, &it.x, it.t1, &q)?;
     Ok(Optimum {
         objective: vals.objective,
         t1: it.t1,
@@ -295,12 +305,63 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         optimality: out.optimality,
         t: (0..=problem.elements).map(|k| problem.t0 + k as f64 * h).collect(),
         q,
-        p: model.momenta(&it.x, it.t1),
+        p,
         control_t,
         u,
         v1: (0..n).map(|i| model.end_velocity(&it.x, i).0).collect(),
         error,
     })
+}
+
+/// The discrete momenta at the element end nodes; with constraints projected onto the
+/// cotangent space of the constraint manifold (the hidden constraint G ∂H/∂p = 0 fixes the
+/// node impulse's split between the two elements, as in the initial value problem).
+fn momenta<L: Lagrangian + ?Sized, C: Controls>(
+    model: &Model<'_, L, C>,
+    x: &[f64],
+    t1: f64,
+    q: &[f64],
+) -> Result<Vec<f64>> {
+    use crate::constraints::{jet::ConstraintJet, project::Projector};
+    let mut p = model.momenta(x, t1);
+    let (n, mc, elements) = (model.layout.n, model.layout.mc, model.layout.elements);
+    if mc == 0 {
+        return Ok(p);
+    }
+    let held = system::Held(model.ctl);
+    let (mut jet, mut projector) = (ConstraintJet::new(mc, n), Projector::new(n, mc));
+    let h = model.step(t1);
+    let (mut v, mut out) = (vec![0.0; n], vec![0.0; n]);
+    for k in 0..=elements {
+        let (a, b) = (
+            k.saturating_sub(1).min(elements - 1),
+            k.saturating_sub(1).min(elements - 1) + 1,
+        );
+        (0..n).for_each(|i| v[i] = (q[b * n + i] - q[a * n + i]) / h);
+        let qk = &q[k * n..(k + 1) * n];
+        jet.eval(&held, qk, false);
+        let t = model.t0 + k as f64 * h;
+        projector
+            .project(
+                model.lag,
+                &jet,
+                t,
+                qk,
+                &p[k * n..(k + 1) * n],
+                &mut v,
+                &mut out,
+                1e-13,
+                20,
+            )
+            .map_err(|e| Error::NotConverged {
+                what: format!("the momentum projection at node {k}"),
+                iterations: 20,
+                residual: f64::NAN,
+                reason: format!("{e:?}"),
+            })?;
+        p[k * n..(k + 1) * n].copy_from_slice(&out);
+    }
+    Ok(p)
 }
 
 /// The reason of a failed run, with the likely cause when the equations stay violated: no

@@ -1,6 +1,6 @@
 //! The primal–dual interior-point iteration on the KKT system (after IPOPT: Wächter and
-//! Biegler, Math. Program. 106, 2006, in a plain form). Bounds l ≤ x ≤ u on controls and on a
-//! free final time enter through the barrier −μ Σ ln(x − l) + ln(u − x) and their dual
+//! Biegler, Math. Program. 106, 2006, in a plain form). Bounds l ≤ x ≤ u on controls, on
+//! coordinates and on a free final time enter through the barrier −μ Σ ln(x − l) + ln(u − x) and their dual
 //! variables z; each Newton step solves the banded KKT system (`kkt.rs`) with the Hessian
 //! block raised by Σ = z_l/(x − l) + z_u/(u − x). Globalisation:
 //! - a Hessian block with the wrong curvature along the step (dᵀWd ≤ 10⁻⁸|d|², read off the
@@ -286,12 +286,21 @@ fn finish(
     }
 }
 
-/// Banded indices of the multipliers Λ.
+/// Banded indices of the multipliers: Λ, and with constraints κ and the hidden constraints'.
 fn lambda_mask<L: Lagrangian + ?Sized, C: Controls>(model: &Model<'_, L, C>) -> Vec<usize> {
     let l = model.layout;
-    (0..l.nodes())
+    let mut rows: Vec<usize> = (0..l.nodes())
         .flat_map(|g| (0..l.n).map(move |i| l.lambda(g) + i))
-        .collect()
+        .collect();
+    for g in 0..l.nodes() {
+        if let Some(k) = l.kappa(g) {
+            rows.extend(k..k + l.mc);
+        }
+    }
+    if let Some(h) = l.hidden() {
+        rows.extend(h..h + l.mc);
+    }
+    rows
 }
 
 /// The step from `it` by α (multipliers too).

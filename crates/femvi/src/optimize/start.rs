@@ -91,6 +91,62 @@ pub(super) fn validate<L: Lagrangian + ?Sized, C: Controls>(
     if let Some(g) = &o.guess {
         check_guess(g, n, m)?;
     }
+    check_constraints(controls, p)
+}
+
+/// The given ends on the constraint manifold (g = 0 within the library's start tolerance)
+/// and their given velocities tangent to it (G v = 0 to the same relative tolerance), with
+/// fewer constraints than coordinates.
+fn check_constraints<C: Controls>(controls: &C, p: &ControlProblem) -> Result<()> {
+    use crate::constraints::limits::START_TOLERANCE;
+    use num_dual::Dual64;
+    let (n, mc) = (controls.dim(), controls.constraint_count());
+    if mc == 0 {
+        return Ok(());
+    }
+    if mc >= n {
+        return Err(invalid(
+            "constraints",
+            format!("{mc} constraints on {n} coordinates leave no motion: give fewer than {n}"),
+        ));
+    }
+    let q1: Option<Vec<f64>> = p.q1.iter().copied().collect();
+    let v1: Option<Vec<f64>> = p.v1.iter().copied().collect();
+    let ends = [("0", Some(&p.q0), Some(&p.v0)), ("1", q1.as_ref(), v1.as_ref())];
+    let mut g = vec![Dual64::from(0.0); mc];
+    let off = |x: f64, tol: f64| x.is_nan() || x.abs() > tol;
+    for (end, q, v) in ends {
+        let Some(q) = q else { continue };
+        let zero = vec![0.0; n];
+        let qd: Vec<Dual64> = q
+            .iter()
+            .zip(v.unwrap_or(&zero))
+            .map(|(&a, &b)| Dual64::new(a, b))
+            .collect();
+        controls.constraints(&qd, &mut g);
+        let scale = q.iter().fold(1.0f64, |a, b| a.max(b.abs()));
+        let vscale = v.map_or(1.0, |v| v.iter().fold(1.0f64, |a, b| a.max(b.abs())));
+        if let Some(l) = (0..mc).find(|&l| off(g[l].re, START_TOLERANCE * scale * scale)) {
+            return Err(invalid(
+                &format!("boundary q{end}"),
+                format!(
+                    "violates constraint {}: g = {:.3e} (tolerance {START_TOLERANCE:.0e} * max(1, |q|^2))",
+                    l + 1,
+                    g[l].re
+                ),
+            ));
+        }
+        if let Some(l) = (0..mc).find(|&l| off(g[l].eps, START_TOLERANCE * scale * scale * vscale)) {
+            return Err(invalid(
+                &format!("boundary v{end}"),
+                format!(
+                    "is not tangent to constraint {}: G v = {:.3e}; the velocity must satisfy the hidden constraint",
+                    l + 1,
+                    g[l].eps
+                ),
+            ));
+        }
+    }
     Ok(())
 }
 

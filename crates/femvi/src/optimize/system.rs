@@ -46,6 +46,13 @@ pub trait Controls {
     fn terminal_cost<D: Scalar>(&self, _t: D, _q: &[D], _v: &[D]) -> D {
         D::from(0.0)
     }
+    /// Number of holonomic constraints g(q) = 0 the system is held to; none by default
+    /// ([`WithConstraints`] adds them).
+    fn constraint_count(&self) -> usize {
+        0
+    }
+    /// g(q) into `out` ([`Controls::constraint_count`] entries).
+    fn constraints<D: Scalar>(&self, _q: &[D], _out: &mut [D]) {}
 }
 
 /// Controls from math expressions in t, the coordinates, their `_dot` velocities and the
@@ -253,5 +260,89 @@ impl<C: Controls, F: crate::forces::Force> Controls for WithForce<'_, C, F> {
 
     fn terminal_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
         self.controls.terminal_cost(t, q, v)
+    }
+
+    fn constraint_count(&self) -> usize {
+        self.controls.constraint_count()
+    }
+
+    fn constraints<D: Scalar>(&self, q: &[D], out: &mut [D]) {
+        self.controls.constraints(q, out)
+    }
+}
+
+/// Controls on a system held to holonomic constraints g(q) = 0 (DESIGN §4): the constraint
+/// forces −G(q)ᵀν act at every node beside the controls' force.
+///
+/// # Example
+///
+/// ```
+/// use femvi::constraints::ExprConstraints;
+/// use femvi::optimize::{Controls, ExprControls, WithConstraints};
+///
+/// let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+/// let xy = s(&["x", "y"]);
+/// let push = ExprControls::new(&xy, &s(&["u"]), &s(&["u", "0"]), "u^2", &[])?;
+/// let circle = ExprConstraints::new(&s(&["x^2 + y^2 - 1"]), &xy, &[])?;
+/// let held = WithConstraints { controls: &push, constraints: &circle };
+/// let mut g = [0.0f64];
+/// held.constraints(&[0.6, 0.8], &mut g);
+/// assert_eq!(held.constraint_count(), 1);
+/// assert!(g[0].abs() < 1e-15);
+/// # Ok::<(), femvi::expr::ExprError>(())
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct WithConstraints<'a, C, K> {
+    /// The controls.
+    pub controls: &'a C,
+    /// The constraints.
+    pub constraints: &'a K,
+}
+
+impl<C: Controls, K: crate::constraints::Constraints> Controls for WithConstraints<'_, C, K> {
+    fn dim(&self) -> usize {
+        self.controls.dim()
+    }
+
+    fn controls(&self) -> usize {
+        self.controls.controls()
+    }
+
+    fn force<D: Scalar>(&self, t: D, q: &[D], v: &[D], u: &[D], out: &mut [D]) {
+        self.controls.force(t, q, v, u, out);
+    }
+
+    fn running_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D], u: &[D]) -> D {
+        self.controls.running_cost(t, q, v, u)
+    }
+
+    fn terminal_cost<D: Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
+        self.controls.terminal_cost(t, q, v)
+    }
+
+    fn constraint_count(&self) -> usize {
+        self.constraints.count()
+    }
+
+    fn constraints<D: Scalar>(&self, q: &[D], out: &mut [D]) {
+        self.constraints.value(q, out)
+    }
+}
+
+/// The constraints of [`Controls`] as [`Constraints`](crate::constraints::Constraints), for
+/// the library's constraint jets and projections.
+pub(super) struct Held<'a, C>(pub(super) &'a C);
+
+impl<C: Controls> crate::constraints::Constraints for Held<'_, C> {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+
+    fn count(&self) -> usize {
+        self.0.constraint_count()
+    }
+
+    fn value<D: Scalar>(&self, q: &[D], out: &mut [D]) {
+        self.0.constraints(q, out)
     }
 }

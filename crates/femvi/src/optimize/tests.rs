@@ -2,7 +2,8 @@
 
 use super::assemble::{Border, Model};
 use super::layout::Layout;
-use super::{Element, ExprControls};
+use super::{Controls, Element, ExprControls, WithConstraints};
+use crate::constraints::ExprConstraints;
 use crate::expr::ExprLagrangian;
 use crate::solve::BandMatrix;
 
@@ -30,6 +31,20 @@ fn hessian_matches_differences_of_the_gradient() {
     .unwrap();
     // (order, free t1, free end position components, free end velocity components)
     for (order, free, fq, fv) in [(2, false, 0, 0), (4, false, 1, 2), (6, true, 2, 1), (2, true, 1, 1)] {
+        check(&lag, &ctl, order, free, fq, fv);
+    }
+    let circle = ExprConstraints::new(&names(&["x^2 + sin(th)*x - 1"]), &coords, &[]).unwrap();
+    let held = WithConstraints {
+        controls: &ctl,
+        constraints: &circle,
+    };
+    for (order, free, fq, fv) in [(2, false, 0, 0), (4, true, 1, 2), (6, false, 2, 1)] {
+        check(&lag, &held, order, free, fq, fv);
+    }
+}
+
+fn check<C: Controls>(lag: &ExprLagrangian, ctl: &C, order: usize, free: bool, fq: usize, fv: usize) {
+    {
         let element = Element::with_order(order).unwrap();
         let layout = Layout {
             n: 2,
@@ -39,6 +54,7 @@ fn hessian_matches_differences_of_the_gradient() {
             elements: 3,
             free_q: fq,
             free_v: fv,
+            mc: ctl.constraint_count(),
         };
         // The last `fq` position and first `fv` velocity components are free.
         let end_q = (0..2)
@@ -46,8 +62,8 @@ fn hessian_matches_differences_of_the_gradient() {
             .collect();
         let end_v = (0..2).map(|i| (i < fv).then(|| layout.end_v(i))).collect();
         let model = Model {
-            lag: &lag,
-            ctl: &ctl,
+            lag,
+            ctl,
             element: &element,
             layout,
             t0: 0.1,

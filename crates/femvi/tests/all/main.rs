@@ -47,6 +47,7 @@ mod hostile;
 mod legendre_regular;
 mod model_params;
 mod optimize;
+mod optimize_constraints;
 mod optimize_ends;
 mod paper_formulas;
 mod rattle_exact;
