@@ -31,8 +31,11 @@ pub struct OptimizeSummary {
     pub t1: f64,
     /// The end velocity (given, or the optimiser's where `[boundary] v1` is "free").
     pub v1: Vec<f64>,
-    /// Newton iterations.
+    /// Newton iterations (on the problem's mesh).
     pub iterations: usize,
+    /// Mesh refinement's coarser stages (`[boundary] coarse`): elements, iterations,
+    /// objective, converged.
+    pub stages: Vec<StageSummary>,
     /// The largest violation of the discrete equations.
     pub violation: f64,
     /// The optimality residual.
@@ -47,6 +50,19 @@ pub struct OptimizeSummary {
     pub command_line: Vec<String>,
     /// The problem file's text.
     pub problem: String,
+}
+
+/// One coarser stage of mesh refinement in summary.json.
+#[derive(Debug, Serialize)]
+pub struct StageSummary {
+    /// Its elements.
+    pub elements: usize,
+    /// Its Newton iterations.
+    pub iterations: usize,
+    /// Its objective.
+    pub objective: f64,
+    /// Whether it converged.
+    pub converged: bool,
 }
 
 /// Solves and writes; Ok with the summary and the optimum (also when the iteration did not
@@ -98,6 +114,7 @@ fn run_with<L: Lagrangian, C: Controls>(
     };
     let options = OptimizeOptions {
         guess,
+        coarse: b.coarse.clone(),
         ..problem.options.clone()
     };
     let best = optimize(lag, controls, &problem.element, &data, &options).map_err(|e| (e.to_string(), 2))?;
@@ -133,6 +150,16 @@ fn run_with<L: Lagrangian, C: Controls>(
         t1: best.t1,
         v1: best.v1.clone(),
         iterations: best.iterations,
+        stages: best
+            .stages
+            .iter()
+            .map(|s| StageSummary {
+                elements: s.elements,
+                iterations: s.iterations,
+                objective: s.objective,
+                converged: s.converged,
+            })
+            .collect(),
         violation: best.violation,
         optimality: best.optimality,
         wall_seconds: clock.elapsed().as_secs_f64(),

@@ -32,6 +32,8 @@ pub struct BoundaryTable {
     pub elements: usize,
     /// A trajectory.csv to interpolate as the initial guess (default: the straight line).
     pub guess: Option<String>,
+    /// Coarser meshes solved first (`femvi optimize`: mesh refinement).
+    pub coarse: Option<Vec<usize>>,
     /// "fixed" (a uniform mesh) or "energy" (the interior element end times are unknowns).
     #[serde(default)]
     pub time_mode: Mode,
@@ -120,9 +122,14 @@ impl BoundaryTable {
                 return Err(src.error("[boundary] t1 = \"free\" is for `femvi optimize`; `femvi bvp` needs a time"))
             }
         };
-        if self.v0.is_some() || self.v1.is_some() || self.t1_min.is_some() || self.t1_max.is_some() {
+        if self.v0.is_some()
+            || self.v1.is_some()
+            || self.t1_min.is_some()
+            || self.t1_max.is_some()
+            || self.coarse.is_some()
+        {
             return Err(src.error(
-                "[boundary] v0, v1, t1_min and t1_max are for `femvi optimize` (with [controls]); `femvi bvp` takes positions only",
+                "[boundary] v0, v1, t1_min, t1_max and coarse are for `femvi optimize` (with [controls]); `femvi bvp` takes positions only",
             ));
         }
         let values = BoundaryValues {
@@ -193,6 +200,7 @@ impl BoundaryTable {
             v1,
             elements: self.elements,
             guess,
+            coarse: self.coarse.clone().unwrap_or_default(),
         })
     }
 }
@@ -216,4 +224,6 @@ pub struct ControlBoundary {
     pub elements: usize,
     /// A guess file (columns t and the coordinates, optionally the controls).
     pub guess: Option<PathBuf>,
+    /// Coarser meshes solved first (mesh refinement).
+    pub coarse: Vec<usize>,
 }

@@ -456,6 +456,7 @@ fn build_optimize(src: &Source, file: &ProblemFile, c: Common) -> Result<Optimiz
             tolerance: file.solver.tolerance.unwrap_or(1e-9),
             max_iterations: file.solver.max_iterations.unwrap_or(200),
             guess: None,
+            coarse: Vec::new(),
         },
         directory: c.directory,
         boundary,

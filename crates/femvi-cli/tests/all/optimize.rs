@@ -219,6 +219,18 @@ degree = 2
         "{last:?}"
     );
     assert!(dir.path().join("phase_x.svg").exists());
+    // Mesh refinement: the same optimum from a 2-element solve, recorded as a stage.
+    let refined = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["optimize", "-", "--quiet", "--out"])
+        .arg(refined.path())
+        .write_stdin(text.replace("elements = 8", "elements = 8\ncoarse = [2]"))
+        .assert()
+        .success();
+    let r = summary(refined.path());
+    assert!((r["objective"].as_f64().unwrap() - 1.5).abs() < 1e-11, "{r}");
+    assert_eq!(r["stages"][0]["elements"].as_u64(), Some(2));
+    assert_eq!(r["stages"][0]["converged"].as_bool(), Some(true));
 }
 
 /// Bryson and Ho's x <= 1/9 (J* = 8, the library's test derives it) from

@@ -59,6 +59,7 @@ mod assemble;
 mod kkt;
 mod layout;
 mod point;
+mod refine;
 mod solver;
 mod start;
 mod system;
@@ -145,6 +146,11 @@ pub struct OptimizeOptions {
     pub max_iterations: usize,
     /// The start; `None`: straight lines between the end positions, zero controls.
     pub guess: Option<Guess>,
+    /// Coarser meshes solved first, in order (mesh refinement): each stage starts from the
+    /// previous one's optimum (positions, controls and t1), the first from `guess`, and the
+    /// last from `elements` starts from the finest of them. Each must have fewer elements
+    /// than the next and than the problem. Empty: no refinement.
+    pub coarse: Vec<usize>,
 }
 
 impl Default for OptimizeOptions {
@@ -153,6 +159,7 @@ impl Default for OptimizeOptions {
             tolerance: 1e-9,
             max_iterations: 200,
             guess: None,
+            coarse: Vec::new(),
         }
     }
 }
@@ -184,6 +191,22 @@ pub struct Optimum {
     pub v1: Vec<f64>,
     /// Why the iteration stopped short, if it did; the fields above are its best iterate.
     pub error: Option<Error>,
+    /// The coarser stages of mesh refinement ([`OptimizeOptions::coarse`]): elements, Newton
+    /// iterations and objective of each.
+    pub stages: Vec<Stage>,
+}
+
+/// One coarser stage of mesh refinement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stage {
+    /// Its number of elements.
+    pub elements: usize,
+    /// Its Newton iterations.
+    pub iterations: usize,
+    /// Its objective.
+    pub objective: f64,
+    /// Whether it converged (its best iterate is the next stage's start either way).
+    pub converged: bool,
 }
 
 /// Solves the optimal control problem of the system `lag` with `controls` on the mesh of
@@ -227,6 +250,21 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
     options: &OptimizeOptions,
 ) -> Result<Optimum> {
     validate(lag, controls, problem, options)?;
+    if options.coarse.is_empty() {
+        solve_once(lag, controls, element, problem, options)
+    } else {
+        refine::solve_refined(lag, controls, element, problem, options, solve_once)
+    }
+}
+
+/// One solve on the problem's own mesh from `options.guess`.
+fn solve_once<L: Lagrangian + ?Sized, C: Controls>(
+    lag: &L,
+    controls: &C,
+    element: &Element,
+    problem: &ControlProblem,
+    options: &OptimizeOptions,
+) -> Result<Optimum> {
     let (n, m) = (lag.dim(), controls.controls());
     let layout = Layout {
         n,
@@ -310,6 +348,7 @@ pub fn optimize<L: Lagrangian + ?Sized, C: Controls>(
         u,
         v1: (0..n).map(|i| model.end_velocity(&it.x, i).0).collect(),
         error,
+        stages: Vec::new(),
     })
 }
 

@@ -188,7 +188,7 @@ fn check_guess(g: &Guess, n: usize, m: usize) -> Result<()> {
 }
 
 /// Linear interpolation of row-major `rows` (width w) at t, ends held.
-fn interpolate(times: &[f64], rows: &[f64], w: usize, t: f64, out: &mut [f64]) {
+pub(super) fn interpolate(times: &[f64], rows: &[f64], w: usize, t: f64, out: &mut [f64]) {
     let k = times.partition_point(|&s| s <= t);
     let (i, j, a) = if k == 0 {
         (0, 0, 0.0)

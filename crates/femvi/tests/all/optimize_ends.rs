@@ -167,3 +167,58 @@ fn a_coordinate_bound_meets_bryson_and_ho() {
     assert!((p - 2.0).abs() < 0.1, "order {p:.3} from {errs:?}");
     assert!(errs[3].abs() < 1e-3, "{errs:?}");
 }
+
+/// Mesh refinement: a free end with a terminal cost from coarser solves gives the same
+/// optimum as the direct solve (both meet the closed form J* = 24/13 to the discretisation
+/// error of the fine mesh) and records its stages; coarse meshes that do not increase
+/// below the problem's are refused.
+#[test]
+fn mesh_refinement_reaches_the_direct_optimum() {
+    let x = s(&["x"]);
+    let lag = ExprLagrangian::new("0.5*x_dot^2", &x, &[]).unwrap();
+    let ctl = ExprControls::new(&x, &s(&["u"]), &s(&["u"]), "u^2", &[])
+        .unwrap()
+        .with_terminal(&x, "3*(x - 1)^2 + x_dot^2", &[])
+        .unwrap();
+    let problem = ControlProblem {
+        t0: 0.0,
+        t1: FinalTime::Fixed(1.0),
+        q0: vec![0.0],
+        v0: vec![0.0],
+        q1: vec![None],
+        v1: vec![None],
+        elements: 80,
+        lower: vec![-1.2],
+        upper: vec![2.0],
+        q_lower: vec![],
+        q_upper: vec![],
+        time_weight: 0.0,
+    };
+    let element = Element::with_order(2).unwrap();
+    let direct = optimize(&lag, &ctl, &element, &problem, &OptimizeOptions::default()).unwrap();
+    let options = OptimizeOptions {
+        coarse: vec![5, 20],
+        ..OptimizeOptions::default()
+    };
+    let refined = optimize(&lag, &ctl, &element, &problem, &options).unwrap();
+    assert!(direct.error.is_none() && refined.error.is_none());
+    assert!(
+        (refined.objective - direct.objective).abs() < 1e-9,
+        "{} {}",
+        refined.objective,
+        direct.objective
+    );
+    assert_eq!(
+        refined.stages.iter().map(|s| s.elements).collect::<Vec<_>>(),
+        vec![5, 20]
+    );
+    assert!(refined.stages.iter().all(|s| s.converged));
+    assert!((direct.objective - 24.0 / 13.0).abs() < 1e-3);
+    for coarse in [vec![80], vec![20, 10], vec![0, 20]] {
+        let bad = OptimizeOptions {
+            coarse,
+            ..OptimizeOptions::default()
+        };
+        assert!(optimize(&lag, &ctl, &element, &problem, &bad).is_err());
+    }
+}
