@@ -29,6 +29,9 @@ pub(super) struct Layout {
     pub(super) free_v: usize,
     /// Holonomic constraints.
     pub(super) mc: usize,
+    /// Whether the end carries the hidden constraints G(q_N) v_N = 0 (with constraints and
+    /// a free end velocity, or a free end position and a given non-zero end velocity).
+    pub(super) hidden: bool,
 }
 
 impl Layout {
@@ -51,9 +54,9 @@ impl Layout {
         }
     }
 
-    /// The hidden constraints G(q_N) v_N = 0, when some of the end velocity is free.
+    /// The hidden constraints G(q_N) v_N = 0, when the end carries them.
     fn end_hidden(&self) -> usize {
-        if self.free_v > 0 {
+        if self.hidden {
             self.mc
         } else {
             0
@@ -162,6 +165,7 @@ mod tests {
                 free_q,
                 free_v,
                 mc,
+                hidden: mc > 0 && free_q + free_v > 0,
             };
             let mut seen = vec![0; l.size()];
             let node_vars = |g: usize| {

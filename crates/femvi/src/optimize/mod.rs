@@ -173,7 +173,8 @@ pub struct Optimum {
     pub t1: f64,
     /// Newton iterations.
     pub iterations: usize,
-    /// max |c|: the largest violation of the discrete equations (momentum units).
+    /// max |c|: the largest violation of the discrete equations (their momentum rows, and
+    /// with constraints g(q) at the nodes and G(q_N)v_N).
     pub violation: f64,
     /// The optimality residual ‖∇ₓℒ − z‖∞ / h.
     pub optimality: f64,
@@ -214,9 +215,12 @@ pub struct Stage {
 ///
 /// # Errors
 /// Invalid data (dimensions, non-finite values, t1 ≤ t0, bounds that exclude zero width,
-/// a free t1 whose guess is not inside its bounds, a guess of the wrong shape), or a mesh
-/// too large for memory. A run that does not converge is not an error: its best iterate is
-/// returned with [`Optimum::error`] set.
+/// a free t1 whose guess is not inside its finite bounds, a guess of the wrong shape, given
+/// end positions outside the coordinate bounds or off the constraint manifold, given
+/// velocities not tangent to it, coarse meshes that do not increase below `elements`), or
+/// a mesh too large for memory. A run that does not converge is not an error: its best
+/// iterate is returned with [`Optimum::error`] set (as is a node whose momentum cannot be
+/// projected onto the constraint manifold: NaN there).
 ///
 /// # Example
 ///
@@ -275,6 +279,11 @@ fn solve_once<L: Lagrangian + ?Sized, C: Controls>(
         free_q: problem.q1.iter().filter(|x| x.is_none()).count(),
         free_v: problem.v1.iter().filter(|x| x.is_none()).count(),
         mc: controls.constraint_count(),
+        // A velocity at the end, where the position is left free, must be tangent to the
+        // manifold there; a given zero velocity is, wherever the end lands.
+        hidden: controls.constraint_count() > 0
+            && (problem.v1.contains(&None)
+                || (problem.q1.contains(&None) && problem.v1.iter().any(|v| v.is_some_and(|x| x != 0.0)))),
     };
     let slots = |end: &[Option<f64>], index: &dyn Fn(usize) -> usize| {
         let mut slot = 0;
@@ -334,7 +343,15 @@ fn solve_once<L: Lagrangian + ?Sized, C: Controls>(
         residual: out.violation.max(out.optimality),
         reason: stalled(out.reason.clone().unwrap_or_default(), out.violation, options.tolerance),
     });
-    let p = momenta(&model, &it.x, it.t1, &q)?;
+    let (p, unprojected) = momenta(&model, &it.x, it.t1, &q);
+    let error = error.or_else(|| {
+        unprojected.map(|reason| Error::NotConverged {
+            what: "optimal control's output".to_string(),
+            iterations: out.iterations,
+            residual: out.violation.max(out.optimality),
+            reason,
+        })
+    });
     Ok(Optimum {
         objective: vals.objective,
         t1: it.t1,
@@ -360,47 +377,41 @@ fn momenta<L: Lagrangian + ?Sized, C: Controls>(
     x: &[f64],
     t1: f64,
     q: &[f64],
-) -> Result<Vec<f64>> {
+) -> (Vec<f64>, Option<String>) {
     use crate::constraints::{jet::ConstraintJet, project::Projector};
     let mut p = model.momenta(x, t1);
     let (n, mc, elements) = (model.layout.n, model.layout.mc, model.layout.elements);
-    if mc == 0 {
-        return Ok(p);
+    if mc == 0 || elements == 0 {
+        return (p, None);
     }
     let held = system::Held(model.ctl);
     let (mut jet, mut projector) = (ConstraintJet::new(mc, n), Projector::new(n, mc));
     let h = model.step(t1);
     let (mut v, mut out) = (vec![0.0; n], vec![0.0; n]);
+    let mut failed = None;
     for k in 0..=elements {
-        let (a, b) = (
-            k.saturating_sub(1).min(elements - 1),
-            k.saturating_sub(1).min(elements - 1) + 1,
-        );
-        (0..n).for_each(|i| v[i] = (q[b * n + i] - q[a * n + i]) / h);
+        let a = k.saturating_sub(1).min(elements - 1);
+        (0..n).for_each(|i| v[i] = (q[(a + 1) * n + i] - q[a * n + i]) / h);
         let qk = &q[k * n..(k + 1) * n];
         jet.eval(&held, qk, false);
         let t = model.t0 + k as f64 * h;
-        projector
-            .project(
-                model.lag,
-                &jet,
-                t,
-                qk,
-                &p[k * n..(k + 1) * n],
-                &mut v,
-                &mut out,
-                1e-13,
-                20,
-            )
-            .map_err(|e| Error::NotConverged {
-                what: format!("the momentum projection at node {k}"),
-                iterations: 20,
-                residual: f64::NAN,
-                reason: format!("{e:?}"),
-            })?;
-        p[k * n..(k + 1) * n].copy_from_slice(&out);
+        let row = &mut p[k * n..(k + 1) * n];
+        match projector.project(model.lag, &jet, t, qk, row, &mut v, &mut out, 1e-13, 20) {
+            Ok(_) => row.copy_from_slice(&out),
+            // A node where G is singular or the projection does not converge keeps no
+            // momentum: NaN, and the first such node is reported.
+            Err(e) => {
+                row.iter_mut().for_each(|x| *x = f64::NAN);
+                failed.get_or_insert((k, e));
+            }
+        }
     }
-    Ok(p)
+    (
+        p,
+        failed.map(|(k, e)| {
+            format!("the momentum at node {k} could not be projected onto the constraint manifold ({e:?}); it is NaN")
+        }),
+    )
 }
 
 /// The reason of a failed run, with the likely cause when the equations stay violated: no

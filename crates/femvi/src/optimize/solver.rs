@@ -110,12 +110,12 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
         let res = residuals(model, &it, bounds, &grad, border.grad, &lambda_rows, 0.0);
         let err = res.error();
         let (eta, c_noise) = backward_error(&band, bw, &it, bounds, &border, &grad, &lambda_rows);
+        if best.as_ref().is_none_or(|(e, ..)| err < *e) {
+            best = Some((err, it.clone(), res));
+        }
         if !err.is_finite() {
             reason = Some("the residuals are not finite".to_string());
             break;
-        }
-        if best.as_ref().is_none_or(|(e, ..)| err < *e) {
-            best = Some((err, it.clone(), res));
         }
         // At the smallest barrier the residual stops falling at its round-off floor, which
         // grows with N (the optimality residual is divided by h, and its terms grow like

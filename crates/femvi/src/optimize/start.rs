@@ -74,7 +74,7 @@ pub(super) fn validate<L: Lagrangian + ?Sized, C: Controls>(
                 format!("t1 = {t1} is not a finite time after t0 = {}", p.t0),
             ));
         }
-        FinalTime::Free { min, max, guess } if !(min > p.t0 && min < guess && guess < max && min.is_finite()) => {
+        FinalTime::Free { min, max, guess } if !(min > p.t0 && min < guess && guess < max && max.is_finite()) => {
             return Err(invalid(
                 "free t1",
                 format!("need t0 = {} < t1_min = {min} < guess = {guess} < t1_max = {max}", p.t0),
@@ -103,6 +103,15 @@ fn check_constraints<C: Controls>(controls: &C, p: &ControlProblem) -> Result<()
     let (n, mc) = (controls.dim(), controls.constraint_count());
     if mc == 0 {
         return Ok(());
+    }
+    if controls.constraint_dim() != n {
+        return Err(invalid(
+            "constraints",
+            format!(
+                "the constraints are on {} coordinates, the system has {n}",
+                controls.constraint_dim()
+            ),
+        ));
     }
     if mc >= n {
         return Err(invalid(
@@ -327,10 +336,15 @@ fn value(x: &[f64], t1: f64, b: &Bound) -> f64 {
 /// x moved strictly inside [lo, up] (by 1% of the width, or of max(1, |bound|) for one bound).
 fn inside(x: f64, lo: f64, up: f64) -> f64 {
     let width = up - lo;
-    let (lo_in, up_in) = if width.is_finite() {
-        (lo + 0.01 * width, up - 0.01 * width)
-    } else {
-        (lo + 0.01 * lo.abs().max(1.0), up - 0.01 * up.abs().max(1.0))
+    let lo_in = match (lo.is_finite(), width.is_finite()) {
+        (false, _) => f64::NEG_INFINITY,
+        (true, true) => lo + 0.01 * width,
+        (true, false) => lo + 0.01 * lo.abs().max(1.0),
+    };
+    let up_in = match (up.is_finite(), width.is_finite()) {
+        (false, _) => f64::INFINITY,
+        (true, true) => up - 0.01 * width,
+        (true, false) => up - 0.01 * up.abs().max(1.0),
     };
     x.max(lo_in).min(up_in)
 }

@@ -53,6 +53,11 @@ pub trait Controls {
     }
     /// g(q) into `out` ([`Controls::constraint_count`] entries).
     fn constraints<D: Scalar>(&self, _q: &[D], _out: &mut [D]) {}
+    /// The number of coordinates the constraints are written for (checked against
+    /// [`Controls::dim`]); that of the controls by default.
+    fn constraint_dim(&self) -> usize {
+        self.dim()
+    }
 }
 
 /// Controls from math expressions in t, the coordinates, their `_dot` velocities and the
@@ -269,6 +274,10 @@ impl<C: Controls, F: crate::forces::Force> Controls for WithForce<'_, C, F> {
     fn constraints<D: Scalar>(&self, q: &[D], out: &mut [D]) {
         self.controls.constraints(q, out)
     }
+
+    fn constraint_dim(&self) -> usize {
+        self.controls.constraint_dim()
+    }
 }
 
 /// Controls on a system held to holonomic constraints g(q) = 0 (DESIGN §4): the constraint
@@ -326,6 +335,10 @@ impl<C: Controls, K: crate::constraints::Constraints> Controls for WithConstrain
 
     fn constraints<D: Scalar>(&self, q: &[D], out: &mut [D]) {
         self.constraints.value(q, out)
+    }
+
+    fn constraint_dim(&self) -> usize {
+        self.constraints.dim()
     }
 }
 

@@ -55,6 +55,7 @@ fn check<C: Controls>(lag: &ExprLagrangian, ctl: &C, order: usize, free: bool, f
             free_q: fq,
             free_v: fv,
             mc: ctl.constraint_count(),
+            hidden: ctl.constraint_count() > 0 && fq + fv > 0,
         };
         // The last `fq` position and first `fv` velocity components are free.
         let end_q = (0..2)
@@ -88,6 +89,26 @@ fn check<C: Controls>(lag: &ExprLagrangian, ctl: &C, order: usize, free: bool, f
             grad: 0.0,
         };
         model.assemble(&x, t1, &mut band, &mut grad, &mut border).unwrap();
+        // The line search's residuals are the gradient's multiplier rows.
+        let c = model.values(&x, t1).c;
+        let mut rows: Vec<usize> = (0..layout.nodes())
+            .flat_map(|g| layout.lambda(g)..layout.lambda(g) + 2)
+            .collect();
+        let mc = layout.mc;
+        rows.extend(
+            (0..layout.nodes())
+                .filter_map(|g| layout.kappa(g))
+                .flat_map(|k| k..k + mc),
+        );
+        rows.extend(layout.hidden().map(|h| h..h + mc).into_iter().flatten());
+        for &i in &rows {
+            assert!(
+                (c[i] - grad[i]).abs() <= 1e-12 * (1.0 + grad[i].abs()),
+                "row {i}: {} {}",
+                c[i],
+                grad[i]
+            );
+        }
         let eps = 1e-6;
         let grad_at = |x: &[f64], t1: f64| {
             let mut b = BandMatrix::zeros(size, bw, bw).unwrap();

@@ -30,40 +30,44 @@ fn problem(q0: Vec<f64>, q1: Vec<f64>, elements: usize) -> ControlProblem {
 }
 
 /// In the angle θ (0 hanging): L = ½θ̇² + g cos θ, the torque τ is the force.
-fn polar(elements: usize, order: usize) -> Optimum {
+fn polar(p: ControlProblem, order: usize, terminal: &str) -> Optimum {
     let th = s(&["th"]);
     let lag = ExprLagrangian::new("0.5*th_dot^2 + 9.81*cos(th)", &th, &[]).unwrap();
-    let ctl = ExprControls::new(&th, &s(&["u"]), &s(&["u"]), "u^2", &[]).unwrap();
-    let p = problem(vec![0.0], vec![std::f64::consts::FRAC_PI_2], elements);
-    optimize(
-        &lag,
-        &ctl,
-        &Element::with_order(order).unwrap(),
-        &p,
-        &OptimizeOptions::default(),
-    )
-    .unwrap()
+    let ctl = ExprControls::new(&th, &s(&["u"]), &s(&["u"]), "u^2", &[])
+        .unwrap()
+        .with_terminal(&th, terminal, &[])
+        .unwrap();
+    let element = Element::with_order(order).unwrap();
+    optimize(&lag, &ctl, &element, &p, &OptimizeOptions::default()).unwrap()
 }
 
 /// In (x, y) on x² + y² = 1: L = ½(ẋ² + ẏ²) − g y, the torque acts as the force τ(−y, x).
-fn cartesian(elements: usize, order: usize) -> Optimum {
+fn cartesian(p: ControlProblem, order: usize, terminal: &str, coarse: &[usize]) -> Optimum {
     let xy = s(&["x", "y"]);
     let lag = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) - 9.81*y", &xy, &[]).unwrap();
-    let ctl = ExprControls::new(&xy, &s(&["u"]), &s(&["-u*y", "u*x"]), "u^2", &[]).unwrap();
+    let ctl = ExprControls::new(&xy, &s(&["u"]), &s(&["-u*y", "u*x"]), "u^2", &[])
+        .unwrap()
+        .with_terminal(&xy, terminal, &[])
+        .unwrap();
     let circle = ExprConstraints::new(&s(&["x^2 + y^2 - 1"]), &xy, &[]).unwrap();
     let held = WithConstraints {
         controls: &ctl,
         constraints: &circle,
     };
-    let p = problem(vec![0.0, -1.0], vec![1.0, 0.0], elements);
-    optimize(
-        &lag,
-        &held,
-        &Element::with_order(order).unwrap(),
-        &p,
-        &OptimizeOptions::default(),
-    )
-    .unwrap()
+    let options = OptimizeOptions {
+        coarse: coarse.to_vec(),
+        ..OptimizeOptions::default()
+    };
+    let element = Element::with_order(order).unwrap();
+    optimize(&lag, &held, &element, &p, &options).unwrap()
+}
+
+fn swing(elements: usize, polar_form: bool) -> ControlProblem {
+    if polar_form {
+        problem(vec![0.0], vec![std::f64::consts::FRAC_PI_2], elements)
+    } else {
+        problem(vec![0.0, -1.0], vec![1.0, 0.0], elements)
+    }
 }
 
 /// The two formulations discretise differently but share the continuous optimum J*, taken
@@ -73,14 +77,14 @@ fn cartesian(elements: usize, order: usize) -> Optimum {
 /// space (x p_x + y p_y = 0, the hidden constraint).
 #[test]
 fn the_cartesian_pendulum_meets_the_angle_form() {
-    let reference = polar(200, 6);
+    let reference = polar(swing(200, true), 6, "0");
     assert!(reference.error.is_none());
     let j = reference.objective;
     let meshes = [10, 20, 40, 80];
     for (order, want) in [(2, 2.0), (4, 4.0), (6, 4.0)] {
         let mut errs = vec![];
         for &n in &meshes {
-            let o = cartesian(n, order);
+            let o = cartesian(swing(n, false), order, "0", &[]);
             assert!(o.error.is_none(), "degree {}, {n}: {:?}", order / 2, o.error);
             for k in 0..=n {
                 let (q, p) = (&o.q[2 * k..2 * k + 2], &o.p[2 * k..2 * k + 2]);
@@ -156,4 +160,62 @@ fn inconsistent_constrained_data_is_refused() {
         .expect_err("2 on 2")
         .to_string()
         .contains("leave no motion"));
+}
+
+/// The angular momentum x p_y − y p_x of the Cartesian form against p_θ of the angle form,
+/// node by node, degree 2 on 80 elements (each differs from the exact optimum by O(h⁴)):
+/// measured 8.9e-7 apart, of momenta up to 3.35.
+#[test]
+fn the_cartesian_momenta_are_the_angle_forms() {
+    let (c, a) = (cartesian(swing(80, false), 4, "0", &[]), polar(swing(80, true), 4, "0"));
+    let worst = (0..=80)
+        .map(|k| (c.q[2 * k] * c.p[2 * k + 1] - c.q[2 * k + 1] * c.p[2 * k] - a.p[k]).abs())
+        .fold(0.0, f64::max);
+    let size = a.p.iter().fold(0.0f64, |m, p| m.max(p.abs()));
+    assert!(worst < 1e-5 * size, "worst {worst:.3e} of {size:.3}");
+}
+
+/// A free end with a terminal cost on a constrained system: started at θ = 0.3 with q1 and
+/// v1 free and Φ = 20(y − 1/2)² + |v|², the Cartesian form (with the hidden constraint at the
+/// end) and the angle form (Φ = 20(−cos θ − 1/2)² + θ̇²) share the continuous optimum; at
+/// degree 2 both are within 1e-4 of each other on 25 elements, and on 50 the Cartesian form
+/// reached through a 25-element stage agrees with its direct solve.
+#[test]
+fn a_constrained_free_end_meets_the_angle_form() {
+    let free = |mut p: ControlProblem| {
+        p.q1 = vec![None; p.q0.len()];
+        p.v1 = vec![None; p.q0.len()];
+        p
+    };
+    let mut pa = free(swing(25, true));
+    pa.q0 = vec![0.3];
+    let mut pc = free(swing(25, false));
+    pc.q0 = vec![0.3f64.sin(), -0.3f64.cos()];
+    let a = polar(pa, 4, "20*(-cos(th) - 0.5)^2 + th_dot^2");
+    let c = cartesian(pc.clone(), 4, "20*(y - 0.5)^2 + x_dot^2 + y_dot^2", &[]);
+    assert!(a.error.is_none() && c.error.is_none(), "{:?} {:?}", a.error, c.error);
+    assert!(
+        (a.objective - c.objective).abs() < 1e-4,
+        "{} {}",
+        a.objective,
+        c.objective
+    );
+    let speed = (c.v1[0] * c.v1[0] + c.v1[1] * c.v1[1]).sqrt();
+    assert!((speed - a.v1[0].abs()).abs() < 1e-3, "{:?} {:?}", c.v1, a.v1);
+    pc.elements = 50;
+    let direct = cartesian(pc.clone(), 4, "20*(y - 0.5)^2 + x_dot^2 + y_dot^2", &[]);
+    let refined = cartesian(pc, 4, "20*(y - 0.5)^2 + x_dot^2 + y_dot^2", &[25]);
+    assert!(direct.error.is_none() && refined.error.is_none());
+    assert!(
+        (direct.objective - refined.objective).abs() < 1e-9,
+        "{} {}",
+        direct.objective,
+        refined.objective
+    );
+    assert!(
+        refined.iterations < direct.iterations,
+        "{} {}",
+        refined.iterations,
+        direct.iterations
+    );
 }

@@ -115,16 +115,22 @@ fn a_terminal_cost_on_a_free_end_meets_its_closed_form() {
 
 /// A free end position with a given end velocity, and a free end velocity with a given end
 /// position: with no terminal cost the transversality condition puts the free costate to
-/// zero. x(1) free, v(1) = 0: λ1 = 0, so u is constant and v(1) = 0 forces u = 0, J* = 0 from
-/// rest. x(1) = 1, v(1) free: λ2(1) = 0 gives u = 3(1 - t), x(1) = 1, J* = 3.
+/// zero. x(1) free, v(1) = 0 from v(0) = 1: λ1 = 0, so u is constant, and v(1) = 1 + u = 0
+/// gives u = -1, J* = 1, x(1) = 1/2. From rest with x(1) = 1, v(1) free: λ2(1) = 0 gives
+/// u = 3(1 - t), J* = 3, v(1) = 3/2.
 #[test]
 fn free_components_obey_transversality() {
-    let o = double_integrator(20, 4, "0", 0.0, (None, Some(0.0)), (vec![], vec![]));
+    let o = double_integrator(20, 4, "0", 1.0, (None, Some(0.0)), (vec![], vec![]));
     assert!(
-        o.error.is_none() && o.objective.abs() < 1e-12,
+        o.error.is_none() && (o.objective - 1.0).abs() < 1e-11,
         "{} {:?}",
         o.objective,
         o.error
+    );
+    assert!(
+        (o.q[o.q.len() - 1] - 0.5).abs() < 1e-11,
+        "x(1) = {}",
+        o.q[o.q.len() - 1]
     );
     let o = double_integrator(20, 4, "0", 0.0, (Some(1.0), None), (vec![], vec![]));
     assert!(o.error.is_none(), "{:?}", o.error);
