@@ -90,7 +90,7 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
     }
 
     /// Component i of node g's position, and where its share goes.
-    fn node_q(&self, x: &[f64], g: usize, i: usize) -> (f64, Target) {
+    pub(super) fn node_q(&self, x: &[f64], g: usize, i: usize) -> (f64, Target) {
         match (self.layout.q(g), g) {
             (Some(b), _) => (x[b + i], Target::Band(b + i)),
             (None, 0) => (self.q0[i], Target::Fixed),
@@ -176,65 +176,6 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
             self.constraint_terms(x, band, grad, border)?;
         }
         Ok(())
-    }
-
-    /// The holonomic constraints' terms, node by node: κ_g·g(Q_g) − ν_g·G(Q_g)Λ_g (the
-    /// constraint impulse −G(Q_g)ᵀν_g in node g's equation, and g(Q_g) = 0 where Q_g has
-    /// unknowns), and with a free end velocity the hidden constraints κ'·G(q_N)v_N.
-    fn constraint_terms(&self, x: &[f64], band: &mut BandMatrix, grad: &mut [f64], border: &mut Border) -> Result<()> {
-        let (l, n, mc) = (self.layout, self.layout.n, self.layout.mc);
-        let fixed = |_| (0.0, Target::Fixed);
-        let band_at = |i: usize| (x[i], Target::Band(i));
-        for g in 0..l.nodes() {
-            let mut z: Vec<(f64, Target)> = (0..n).map(|i| self.node_q(x, g, i)).collect();
-            z.extend((l.lambda(g)..l.lambda(g) + n).map(band_at));
-            z.extend((l.nu(g)..l.nu(g) + mc).map(band_at));
-            match l.kappa(g) {
-                Some(k) => z.extend((k..k + mc).map(band_at)),
-                None => z.extend((0..mc).map(fixed)),
-            }
-            hyper_term(&z, |zd| self.node_term(zd), band, grad, border)?;
-        }
-        if let Some(h) = l.hidden() {
-            let mut z: Vec<(f64, Target)> = (0..n).map(|i| self.node_q(x, l.nodes() - 1, i)).collect();
-            z.extend((0..n).map(|i| self.end_velocity(x, i)));
-            z.extend((h..h + mc).map(band_at));
-            hyper_term(&z, |zd| self.hidden_term(zd), band, grad, border)?;
-        }
-        Ok(())
-    }
-
-    /// κ·g(Q) − ν·G(Q)Λ at z = (Q, Λ, ν, κ), G(Q)Λ as the derivative of g along Λ.
-    fn node_term<D: Scalar>(&self, z: &[D]) -> D
-    where
-        Dual<D>: Scalar,
-    {
-        let (n, mc) = (self.layout.n, self.layout.mc);
-        let (q, lam, nu, kappa) = (&z[..n], &z[n..2 * n], &z[2 * n..2 * n + mc], &z[2 * n + mc..]);
-        let qd: Vec<Dual<D>> = q.iter().zip(lam).map(|(&a, &b)| Dual::new(a, b)).collect();
-        let mut g = vec![Dual::from_re(D::from(0.0)); mc];
-        self.ctl.constraints(&qd, &mut g);
-        g.iter()
-            .zip(nu.iter().zip(kappa))
-            .fold(D::from(0.0), |s, (gl, (&v, &k))| s + k * gl.re - v * gl.eps)
-    }
-
-    /// κ'·G(q)v at z = (q, v, κ').
-    fn hidden_term<D: Scalar>(&self, z: &[D]) -> D
-    where
-        Dual<D>: Scalar,
-    {
-        let (n, mc) = (self.layout.n, self.layout.mc);
-        let qd: Vec<Dual<D>> = z[..n]
-            .iter()
-            .zip(&z[n..2 * n])
-            .map(|(&a, &b)| Dual::new(a, b))
-            .collect();
-        let mut g = vec![Dual::from_re(D::from(0.0)); mc];
-        self.ctl.constraints(&qd, &mut g);
-        g.iter()
-            .zip(&z[2 * n..])
-            .fold(D::from(0.0), |s, (gl, &k)| s + k * gl.eps)
     }
 
     /// The ends' terms in the gradient and Hessian: Λ_0·p_0, and the end term
@@ -329,36 +270,6 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
         Values { objective, c }
     }
 
-    /// The constraints' shares of c: −G(Q_g)ᵀν_g in node g's equation, g(Q_g) at κ_g and
-    /// G(q_N)v_N at the hidden constraints' multipliers.
-    fn constraint_values(&self, x: &[f64], c: &mut [f64]) {
-        let (l, n, mc) = (self.layout, self.layout.n, self.layout.mc);
-        let mut qd = vec![Dual64::from(0.0); n];
-        let mut g = vec![Dual64::from(0.0); mc];
-        for node in 0..l.nodes() {
-            qd.iter_mut()
-                .enumerate()
-                .for_each(|(i, d)| *d = Dual64::from(self.node_q(x, node, i).0));
-            for i in 0..n {
-                qd[i].eps = 1.0;
-                self.ctl.constraints(&qd, &mut g);
-                qd[i].eps = 0.0;
-                c[l.lambda(node) + i] -= (0..mc).map(|k| g[k].eps * x[l.nu(node) + k]).sum::<f64>();
-            }
-            if let Some(k) = l.kappa(node) {
-                (0..mc).for_each(|j| c[k + j] = g[j].re);
-            }
-        }
-        if let Some(h) = l.hidden() {
-            let last = l.nodes() - 1;
-            for (i, d) in qd.iter_mut().enumerate() {
-                *d = Dual64::new(self.node_q(x, last, i).0, self.end_velocity(x, i).0);
-            }
-            self.ctl.constraints(&qd, &mut g);
-            (0..mc).for_each(|j| c[h + j] = g[j].eps);
-        }
-    }
-
     /// The discrete momenta at the element end nodes, p_k = −∂L_d/∂Q^0 − f^0 of element k
     /// and p_N = ∂L_d/∂Q^s + f^s of the last (N + 1 rows of n).
     pub(super) fn momenta(&self, x: &[f64], t1: f64) -> Vec<f64> {
@@ -393,7 +304,7 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
 
 /// The gradient and Hessian of a small term f(z) by hyper-dual passes over its variables
 /// that are unknowns (the given ones skipped), added to the global arrays.
-fn hyper_term(
+pub(super) fn hyper_term(
     z: &[(f64, Target)],
     f: impl Fn(&[HyperDual64]) -> HyperDual64,
     band: &mut BandMatrix,

@@ -230,43 +230,8 @@ pub(super) fn start<L: Lagrangian + ?Sized, C: Controls>(
         u: None,
     };
     let g = guess.unwrap_or(&line);
+    let mut coordinate_bounds = start_positions(model, problem, g, t1, &mut x);
     let mut row = vec![0.0; n.max(m)];
-    let (lower, upper) = coordinate_bounds(problem, n);
-    let position = |x: &mut [f64], i: usize, c: usize, value: f64, bounds: &mut Vec<Bound>| {
-        x[i] = inside(value, lower[c], upper[c]);
-        if lower[c].is_finite() || upper[c].is_finite() {
-            bounds.push(Bound {
-                var: Some(i),
-                lo: lower[c],
-                up: upper[c],
-            });
-        }
-    };
-    let mut coordinate_bounds = Vec::new();
-    for node in 0..l.nodes() {
-        let (k, a) = (node / l.s, node % l.s);
-        let tau = model.element.basis.nodes.get(a).copied().unwrap_or(0.0);
-        interpolate(&g.t, &g.q, n, problem.t0 + (k as f64 + tau) * h, &mut row);
-        for c in 0..n {
-            let index = if node + 1 == l.nodes() {
-                model.end_q[c]
-            } else {
-                l.q(node).map(|i| i + c)
-            };
-            if let Some(i) = index {
-                position(&mut x, i, c, row[c], &mut coordinate_bounds);
-            }
-        }
-    }
-    // A free end velocity starts at the guess's slope over the last element.
-    let mut before = vec![0.0; n];
-    interpolate(&g.t, &g.q, n, t1 - h, &mut before);
-    interpolate(&g.t, &g.q, n, t1, &mut row);
-    for c in 0..n {
-        if let Some(i) = model.end_v[c] {
-            x[i] = (row[c] - before[c]) / h;
-        }
-    }
     let mut bounds = Vec::new();
     for k in 0..l.elements {
         for j in 0..l.r {
@@ -318,6 +283,57 @@ pub(super) fn start<L: Lagrangian + ?Sized, C: Controls>(
         })
         .collect();
     Ok((Iterate { x, t1, zl, zu }, bounds))
+}
+
+/// The guess's positions at the nodes (moved inside the coordinate bounds) and a free end
+/// velocity's start into `x`; the bounded positions.
+fn start_positions<L: Lagrangian + ?Sized, C: Controls>(
+    model: &Model<'_, L, C>,
+    problem: &ControlProblem,
+    g: &Guess,
+    t1: f64,
+    x: &mut [f64],
+) -> Vec<Bound> {
+    let (l, n) = (model.layout, model.layout.n);
+    let h = (t1 - problem.t0) / l.elements as f64;
+    let mut row = vec![0.0; n];
+    let (lower, upper) = coordinate_bounds(problem, n);
+    let position = |x: &mut [f64], i: usize, c: usize, value: f64, bounds: &mut Vec<Bound>| {
+        x[i] = inside(value, lower[c], upper[c]);
+        if lower[c].is_finite() || upper[c].is_finite() {
+            bounds.push(Bound {
+                var: Some(i),
+                lo: lower[c],
+                up: upper[c],
+            });
+        }
+    };
+    let mut coordinate_bounds = Vec::new();
+    for node in 0..l.nodes() {
+        let (k, a) = (node / l.s, node % l.s);
+        let tau = model.element.basis.nodes.get(a).copied().unwrap_or(0.0);
+        interpolate(&g.t, &g.q, n, problem.t0 + (k as f64 + tau) * h, &mut row);
+        for c in 0..n {
+            let index = if node + 1 == l.nodes() {
+                model.end_q[c]
+            } else {
+                l.q(node).map(|i| i + c)
+            };
+            if let Some(i) = index {
+                position(x, i, c, row[c], &mut coordinate_bounds);
+            }
+        }
+    }
+    // A free end velocity starts at the guess's slope over the last element.
+    let mut before = vec![0.0; n];
+    interpolate(&g.t, &g.q, n, t1 - h, &mut before);
+    interpolate(&g.t, &g.q, n, t1, &mut row);
+    for c in 0..n {
+        if let Some(i) = model.end_v[c] {
+            x[i] = (row[c] - before[c]) / h;
+        }
+    }
+    coordinate_bounds
 }
 
 /// The coordinates' bounds, infinite when none are given.
