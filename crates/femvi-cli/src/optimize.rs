@@ -98,13 +98,14 @@ fn run_with<L: Lagrangian, C: Controls>(
         None => None,
         Some(file) => Some(read_guess(file, &problem.coordinates, &problem.control.names)?),
     };
+    let (v0, v1) = end_velocities(lag, b)?;
     let data = ControlProblem {
         t0: b.t0,
         t1: b.t1,
         q0: b.q0.clone(),
-        v0: b.v0.clone(),
+        v0,
         q1: b.q1.clone(),
-        v1: b.v1.clone(),
+        v1,
         elements: b.elements,
         lower: problem.control.lower.clone(),
         upper: problem.control.upper.clone(),
@@ -171,6 +172,55 @@ fn run_with<L: Lagrangian, C: Controls>(
     let text = serde_json::to_string_pretty(&summary).map_err(|e| (e.to_string(), 2))?;
     std::fs::write(dir.join("summary.json"), text + "\n").map_err(io)?;
     Ok((summary, best))
+}
+
+/// The end velocities: as given, or from given momenta by the inverse Legendre transform
+/// at the given positions (at t1 only where that does not depend on t1: a fixed t1 or an
+/// autonomous L; and only with the end position given).
+fn end_velocities<L: Lagrangian>(
+    lag: &L,
+    b: &crate::problem::ControlBoundary,
+) -> Result<(Vec<f64>, Vec<Option<f64>>), (String, u8)> {
+    let n = lag.dim();
+    let bad = |m: String| (format!("[boundary] {m}"), 2);
+    let invert = |t: f64, q: &[f64], p: &[f64], what: &str| -> Result<Vec<f64>, (String, u8)> {
+        if q.len() != n || p.len() != n {
+            return Err(bad(format!("{what} needs {n} entries")));
+        }
+        let mut v = vec![0.0; n];
+        let mut work = femvi::lagrangian::PointDerivatives::new(n);
+        femvi::lagrangian::velocity_from_momentum(lag, t, q, p, &mut v, &mut work)
+            .map_err(|e| bad(format!("{what}: no velocity has these momenta: {e}")))?;
+        Ok(v)
+    };
+    let v0 = match &b.p0 {
+        Some(p) => invert(b.t0, &b.q0, p, "p0")?,
+        None => b.v0.clone(),
+    };
+    let v1 = match &b.p1 {
+        None => b.v1.clone(),
+        Some(p) => {
+            let q1: Option<Vec<f64>> = b.q1.iter().copied().collect();
+            let Some(q1) = q1 else {
+                return Err(bad(
+                    "p1 needs q1 given in full (its velocity depends on the end position); give v1 with a free q1"
+                        .into(),
+                ));
+            };
+            let t1 = match b.t1 {
+                femvi::optimize::FinalTime::Fixed(t) => t,
+                femvi::optimize::FinalTime::Free { guess, .. } if lag.is_autonomous() => guess,
+                femvi::optimize::FinalTime::Free { .. } => {
+                    return Err(bad(
+                        "p1 with a free t1 needs a Lagrangian without t (its velocity would depend on t1); give v1"
+                            .into(),
+                    ))
+                }
+            };
+            invert(t1, &q1, p, "p1")?.into_iter().map(Some).collect()
+        }
+    };
+    Ok((v0, v1))
 }
 
 /// One line per column of row-major `values` against `times`, into `<stem>.<format>`.

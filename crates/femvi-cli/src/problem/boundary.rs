@@ -26,6 +26,10 @@ pub struct BoundaryTable {
     pub v0: Option<Vec<f64>>,
     /// Velocities at `t1` (`femvi optimize`): numbers, each or all "free".
     pub v1: Option<EndState>,
+    /// Momenta at `t0` instead of `v0` (`femvi optimize`).
+    pub p0: Option<Vec<f64>>,
+    /// Momenta at `t1` instead of `v1` (`femvi optimize`).
+    pub p1: Option<Vec<f64>>,
     /// Positions at `t1`; for `femvi optimize` each or all may be "free".
     pub q1: EndState,
     /// Number of elements between `t0` and `t1`.
@@ -124,12 +128,14 @@ impl BoundaryTable {
         };
         if self.v0.is_some()
             || self.v1.is_some()
+            || self.p0.is_some()
+            || self.p1.is_some()
             || self.t1_min.is_some()
             || self.t1_max.is_some()
             || self.coarse.is_some()
         {
             return Err(src.error(
-                "[boundary] v0, v1, t1_min, t1_max and coarse are for `femvi optimize` (with [controls]); `femvi bvp` takes positions only",
+                "[boundary] v0, v1, p0, p1, t1_min, t1_max and coarse are for `femvi optimize` (with [controls]); `femvi bvp` takes positions only",
             ));
         }
         let values = BoundaryValues {
@@ -165,13 +171,24 @@ impl BoundaryTable {
         if self.time_mode != Mode::Fixed {
             return Err(src.error("[boundary] time_mode: `femvi optimize` takes a uniform mesh (a free t1 scales it)"));
         }
-        let need = |what: &str| {
+        let need = |end: &str| {
             src.error(format!(
-                "[boundary] {what} is needed by `femvi optimize` (the velocities at the ends; v1 may be \"free\")"
+                "[boundary] `femvi optimize` needs the velocities v{end} or the momenta p{end} at each end (v1 may be \"free\")"
             ))
         };
-        let v0 = self.v0.clone().ok_or_else(|| need("v0"))?;
-        let v1 = self.v1.as_ref().ok_or_else(|| need("v1"))?.resolve("v1", n, src)?;
+        let both = |end: &str| src.error(format!("[boundary] give v{end} or p{end}, not both"));
+        let (v0, p0) = match (&self.v0, &self.p0) {
+            (Some(v), None) => (v.clone(), None),
+            (None, Some(p)) => (vec![], Some(p.clone())),
+            (Some(_), Some(_)) => return Err(both("0")),
+            (None, None) => return Err(need("0")),
+        };
+        let (v1, p1) = match (&self.v1, &self.p1) {
+            (Some(v), None) => (v.resolve("v1", n, src)?, None),
+            (None, Some(p)) => (vec![], Some(p.clone())),
+            (Some(_), Some(_)) => return Err(both("1")),
+            (None, None) => return Err(need("1")),
+        };
         let t1 = match (&self.t1, self.t1_min, self.t1_max) {
             (EndTime::Time(t), None, None) => femvi::optimize::FinalTime::Fixed(*t),
             (EndTime::Time(_), ..) => return Err(src.error("[boundary] t1_min and t1_max go with t1 = \"free\"")),
@@ -198,6 +215,8 @@ impl BoundaryTable {
             v0,
             q1: self.q1.resolve("q1", n, src)?,
             v1,
+            p0,
+            p1,
             elements: self.elements,
             guess,
             coarse: self.coarse.clone().unwrap_or_default(),
@@ -214,12 +233,16 @@ pub struct ControlBoundary {
     pub t1: femvi::optimize::FinalTime,
     /// Positions at t0.
     pub q0: Vec<f64>,
-    /// Velocities at t0.
+    /// Velocities at t0; empty when `p0` is given.
     pub v0: Vec<f64>,
     /// Positions at t1 (`None`: free).
     pub q1: Vec<Option<f64>>,
-    /// Velocities at t1 (`None`: free).
+    /// Velocities at t1 (`None`: free); empty when `p1` is given.
     pub v1: Vec<Option<f64>>,
+    /// Momenta at t0, given instead of `v0` (which is then empty).
+    pub p0: Option<Vec<f64>>,
+    /// Momenta at t1, given instead of `v1`.
+    pub p1: Option<Vec<f64>>,
     /// Number of elements.
     pub elements: usize,
     /// A guess file (columns t and the coordinates, optionally the controls).

@@ -108,7 +108,10 @@ fn bad_problems_are_refused() {
     let cases = [
         (MIN_TIME.replace("upper = [1.0]", "upper = [-2.0]"), "not below upper"),
         (MIN_TIME.replace("t1_max = 5.0\n", ""), "needs t1_min and t1_max"),
-        (MIN_TIME.replace("v1 = [0.0]\n", ""), "v1 is needed"),
+        (
+            MIN_TIME.replace("v1 = [0.0]\n", ""),
+            "needs the velocities v1 or the momenta p1",
+        ),
         (
             MIN_TIME.replace("force = [\"u\"]", "force = [\"u\", \"u\"]"),
             "2 force expressions for 1 coordinates",
@@ -299,4 +302,76 @@ fn the_constrained_pendulum_example_meets_the_angle_form() {
         .assert()
         .code(2);
     assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("holds the constraints at every node"));
+}
+
+/// Momenta at the ends instead of velocities: with L = ½·2ẋ² (p = 2v), Bryson and Ho's
+/// problem from p0 = 2 to p1 = −2 is the one from v0 = 1 to v1 = −1, to the bit (the inverse
+/// Legendre transform of a constant mass is one linear solve). Giving both, p1 with a free
+/// end position, and p1 with a free t1 of a time-dependent L are refused.
+#[test]
+fn momenta_at_the_ends() {
+    let with_v = r#"
+[system]
+coordinates = ["x"]
+lagrangian = "x_dot^2"
+[controls]
+names = ["u"]
+force = ["u"]
+[objective]
+running = "u^2"
+[coordinate_bounds]
+upper = [0.1111111111111111]
+[boundary]
+t0 = 0.0
+t1 = 1.0
+q0 = [0.0]
+v0 = [1.0]
+q1 = [0.0]
+v1 = [-1.0]
+elements = 40
+[scheme]
+degree = 1
+"#;
+    let with_p = with_v
+        .replace("v0 = [1.0]", "p0 = [2.0]")
+        .replace("v1 = [-1.0]", "p1 = [-2.0]");
+    let objective = |text: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        femvi()
+            .args(["optimize", "-", "--quiet", "--out"])
+            .arg(dir.path())
+            .write_stdin(text.to_string())
+            .assert()
+            .success();
+        summary(dir.path())["objective"].as_f64().unwrap()
+    };
+    let (a, b) = (objective(with_v), objective(&with_p));
+    assert_eq!(a.to_bits(), b.to_bits(), "{a} {b}");
+    // Twice the mass: u = 2x'', so J = 4 × Bryson and Ho's J* = 8, up to the mesh's error.
+    assert!((a / 32.0 - 1.0).abs() < 5e-3, "J = {a}");
+    let cases = [
+        (
+            with_p.replace("p0 = [2.0]", "p0 = [2.0]\nv0 = [1.0]"),
+            "give v0 or p0, not both",
+        ),
+        (
+            with_p.replace("q1 = [0.0]", "q1 = [\"free\"]"),
+            "p1 needs q1 given in full",
+        ),
+        (
+            with_p
+                .replace("x_dot^2\"", "x_dot^2 + t*x\"")
+                .replace("t1 = 1.0", "t1 = \"free\"\nt1_min = 0.5\nt1_max = 2.0"),
+            "p1 with a free t1",
+        ),
+        (
+            with_p.replace("p0 = [2.0]\n", ""),
+            "needs the velocities v0 or the momenta p0",
+        ),
+    ];
+    for (text, why) in cases {
+        let out = femvi().args(["optimize", "-"]).write_stdin(text).assert().code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).into_owned();
+        assert!(err.contains(why), "expected '{why}' in: {err}");
+    }
 }
