@@ -174,13 +174,13 @@ fn run_with<L: Lagrangian, C: Controls>(
     Ok((summary, best))
 }
 
+/// The velocities at t0 and t1 (a free component of the latter `None`).
+type EndVelocities = (Vec<f64>, Vec<Option<f64>>);
+
 /// The end velocities: as given, or from given momenta by the inverse Legendre transform
 /// at the given positions (at t1 only where that does not depend on t1: a fixed t1 or an
 /// autonomous L; and only with the end position given).
-fn end_velocities<L: Lagrangian>(
-    lag: &L,
-    b: &crate::problem::ControlBoundary,
-) -> Result<(Vec<f64>, Vec<Option<f64>>), (String, u8)> {
+fn end_velocities<L: Lagrangian>(lag: &L, b: &crate::problem::ControlBoundary) -> Result<EndVelocities, (String, u8)> {
     let n = lag.dim();
     let bad = |m: String| (format!("[boundary] {m}"), 2);
     let invert = |t: f64, q: &[f64], p: &[f64], what: &str| -> Result<Vec<f64>, (String, u8)> {
