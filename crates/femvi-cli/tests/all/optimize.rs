@@ -236,11 +236,9 @@ degree = 2
     assert_eq!(r["stages"][0]["converged"].as_bool(), Some(true));
 }
 
-/// Bryson and Ho's x <= 1/9 (J* = 8, the library's test derives it) from
-/// [coordinate_bounds]: degree 1 at 100 elements is 1.8e-3 above, and no node passes the bound.
-#[test]
-fn coordinate_bounds_from_a_file() {
-    let text = r#"
+/// Bryson and Ho's state-constrained double integrator, x <= 1/9 (J* = 8; the library's test
+/// derives it).
+const BRYSON_HO: &str = r#"
 [system]
 coordinates = ["x"]
 lagrangian = "0.5*x_dot^2"
@@ -262,6 +260,12 @@ elements = 100
 [scheme]
 degree = 1
 "#;
+
+/// Bryson and Ho's x <= 1/9 (J* = 8, the library's test derives it) from
+/// [coordinate_bounds]: degree 1 at 100 elements is 1.8e-3 above, and no node passes the bound.
+#[test]
+fn coordinate_bounds_from_a_file() {
+    let text = BRYSON_HO;
     let dir = tempfile::tempdir().unwrap();
     femvi()
         .args(["optimize", "-", "--quiet", "--out"])
@@ -310,28 +314,9 @@ fn the_constrained_pendulum_example_meets_the_angle_form() {
 /// end position, and p1 with a free t1 of a time-dependent L are refused.
 #[test]
 fn momenta_at_the_ends() {
-    let with_v = r#"
-[system]
-coordinates = ["x"]
-lagrangian = "x_dot^2"
-[controls]
-names = ["u"]
-force = ["u"]
-[objective]
-running = "u^2"
-[coordinate_bounds]
-upper = [0.1111111111111111]
-[boundary]
-t0 = 0.0
-t1 = 1.0
-q0 = [0.0]
-v0 = [1.0]
-q1 = [0.0]
-v1 = [-1.0]
-elements = 40
-[scheme]
-degree = 1
-"#;
+    let with_v = &BRYSON_HO
+        .replace("0.5*x_dot^2", "x_dot^2")
+        .replace("elements = 100", "elements = 40");
     let with_p = with_v
         .replace("v0 = [1.0]", "p0 = [2.0]")
         .replace("v1 = [-1.0]", "p1 = [-2.0]");

@@ -1,6 +1,7 @@
 //! Optimal control (issue 36): the double integrator against its closed form, minimum time
 //! against T* = 2, and the solver's errors.
 
+use crate::common::fitted_order;
 use femvi::expr::ExprLagrangian;
 use femvi::optimize::{optimize, ControlProblem, ExprControls, FinalTime, OptimizeOptions, Optimum};
 use femvi::Element;
@@ -80,21 +81,6 @@ fn cart_pole_with(elements: usize, order: usize, options: &OptimizeOptions) -> O
     };
     let element = Element::with_order(order).unwrap();
     optimize(&lag, &ctl, &element, &problem, options).unwrap()
-}
-
-/// Slope of log(err) against log(h) by least squares.
-fn fitted_order(n: &[usize], err: &[f64]) -> f64 {
-    let pts: Vec<(f64, f64)> = n
-        .iter()
-        .zip(err)
-        .map(|(&n, &e)| (-(n as f64).ln(), e.abs().ln()))
-        .collect();
-    let (mx, my) = pts.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
-        (a + x / pts.len() as f64, b + y / pts.len() as f64)
-    });
-    let sxy: f64 = pts.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
-    let sxx: f64 = pts.iter().map(|(x, _)| (x - mx) * (x - mx)).sum();
-    sxy / sxx
 }
 
 fn control_error(o: &Optimum) -> f64 {

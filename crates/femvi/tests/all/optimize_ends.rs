@@ -1,6 +1,7 @@
 //! Optimal control with free end states, terminal costs and bounds on the coordinates
 //! (issue 36, items 1 and 7), each against a closed form derived from Pontryagin's principle.
 
+use crate::common::fitted_order;
 use femvi::expr::ExprLagrangian;
 use femvi::optimize::{optimize, ControlProblem, ExprControls, FinalTime, OptimizeOptions, Optimum};
 use femvi::Element;
@@ -41,20 +42,6 @@ fn double_integrator(
     };
     let element = Element::with_order(order).unwrap();
     optimize(&lag, &ctl, &element, &problem, &OptimizeOptions::default()).unwrap()
-}
-
-/// Slope of log(err) against log(h) by least squares.
-fn fitted_order(n: &[usize], err: &[f64]) -> f64 {
-    let pts: Vec<(f64, f64)> = n
-        .iter()
-        .zip(err)
-        .map(|(&n, &e)| (-(n as f64).ln(), e.abs().ln()))
-        .collect();
-    let k = pts.len() as f64;
-    let (mx, my) = pts.iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + x / k, b + y / k));
-    let sxy: f64 = pts.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
-    let sxx: f64 = pts.iter().map(|(x, _)| (x - mx) * (x - mx)).sum();
-    sxy / sxx
 }
 
 /// Free end, terminal cost a(x(1) - 1)^2 + b v(1)^2 with a = 3, b = 1. Pontryagin: the

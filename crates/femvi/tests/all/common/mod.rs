@@ -75,3 +75,18 @@ impl std::fmt::Display for Errs<'_> {
         Ok(())
     }
 }
+
+/// Observed order: the least-squares slope of log|err| against log h, with h ∝ 1/n for
+/// meshes of n elements.
+pub fn fitted_order(n: &[usize], err: &[f64]) -> f64 {
+    let pts: Vec<(f64, f64)> = n
+        .iter()
+        .zip(err)
+        .map(|(&n, &e)| (-(n as f64).ln(), e.abs().ln()))
+        .collect();
+    let k = pts.len() as f64;
+    let (mx, my) = pts.iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + x / k, b + y / k));
+    let sxy: f64 = pts.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = pts.iter().map(|(x, _)| (x - mx) * (x - mx)).sum();
+    sxy / sxx
+}
