@@ -50,13 +50,12 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
         Dual<D>: Scalar,
     {
         let (n, mc) = (self.layout.n, self.layout.mc);
-        let (q, lam, nu, kappa) = (&z[..n], &z[n..2 * n], &z[2 * n..2 * n + mc], &z[2 * n + mc..]);
-        let qd: Vec<Dual<D>> = q.iter().zip(lam).map(|(&a, &b)| Dual::new(a, b)).collect();
-        let mut g = vec![Dual::from_re(D::from(0.0)); mc];
-        self.ctl.constraints(&qd, &mut g);
-        g.iter()
-            .zip(nu.iter().zip(kappa))
-            .fold(D::from(0.0), |s, (gl, (&v, &k))| s + k * gl.re - v * gl.eps)
+        let (nu, kappa) = (&z[2 * n..2 * n + mc], &z[2 * n + mc..]);
+        self.along(&z[..n], &z[n..2 * n], |g| {
+            g.iter()
+                .zip(nu.iter().zip(kappa))
+                .fold(D::from(0.0), |s, (gl, (&v, &k))| s + k * gl.re - v * gl.eps)
+        })
     }
 
     /// κ'·G(q)v at z = (q, v, κ').
@@ -64,17 +63,40 @@ impl<L: Lagrangian + ?Sized, C: Controls> Model<'_, L, C> {
     where
         Dual<D>: Scalar,
     {
+        let n = self.layout.n;
+        self.along(&z[..n], &z[n..2 * n], |g| {
+            g.iter()
+                .zip(&z[2 * n..])
+                .fold(D::from(0.0), |s, (gl, &k)| s + k * gl.eps)
+        })
+    }
+
+    /// `f` of g(q + ε·dir) as dual numbers (g(q) and G(q)·dir), evaluated in stack buffers
+    /// when n and the number of constraints are at most 16 (no allocation in the node loop's
+    /// hyper-dual passes), else in allocated ones.
+    fn along<D: Scalar>(&self, q: &[D], dir: &[D], f: impl FnOnce(&[Dual<D>]) -> D) -> D
+    where
+        Dual<D>: Scalar,
+    {
+        const STACK: usize = 16;
         let (n, mc) = (self.layout.n, self.layout.mc);
-        let qd: Vec<Dual<D>> = z[..n]
-            .iter()
-            .zip(&z[n..2 * n])
-            .map(|(&a, &b)| Dual::new(a, b))
-            .collect();
-        let mut g = vec![Dual::from_re(D::from(0.0)); mc];
-        self.ctl.constraints(&qd, &mut g);
-        g.iter()
-            .zip(&z[2 * n..])
-            .fold(D::from(0.0), |s, (gl, &k)| s + k * gl.eps)
+        let zero = Dual::from_re(D::from(0.0));
+        let fill = |qd: &mut [Dual<D>]| {
+            qd.iter_mut()
+                .zip(q.iter().zip(dir))
+                .for_each(|(d, (&a, &b))| *d = Dual::new(a, b));
+        };
+        if n <= STACK && mc <= STACK {
+            let (mut qd, mut g) = ([zero; STACK], [zero; STACK]);
+            fill(&mut qd[..n]);
+            self.ctl.constraints(&qd[..n], &mut g[..mc]);
+            f(&g[..mc])
+        } else {
+            let (mut qd, mut g) = (vec![zero; n], vec![zero; mc]);
+            fill(&mut qd);
+            self.ctl.constraints(&qd, &mut g);
+            f(&g)
+        }
     }
 
     /// The constraints' shares of c: −G(Q_g)ᵀν_g in node g's equation, g(Q_g) at κ_g and
