@@ -2,8 +2,9 @@
 //! [`femvi::optimize::optimize`]) for a problem file with `[boundary]` (positions and
 //! velocities at both ends, t1 given or free), `[controls]` and `[objective]`; the system's
 //! own `[forces]` act beside the controls. Writes trajectory.csv (the element end nodes: t,
-//! positions and discrete momenta), controls.csv (the quadrature points, where the controls
-//! live: t and a column per control) and summary.json; with plots, coordinates and controls
+//! positions, discrete momenta and the controls read off at the nodes), controls.csv (the
+//! quadrature points, where the controls live as unknowns: t and a column per control) and
+//! summary.json; with plots, coordinates and controls
 //! against t and a phase portrait (q, p) per coordinate, as `femvi run` draws them.
 
 use crate::plot::{file, lines, Format, Series};
@@ -274,19 +275,21 @@ fn write_files(problem: &OptimizeProblem, best: &Optimum, dir: &Path) -> Result<
     let mut header = vec!["step".to_string(), "t".to_string()];
     header.extend(problem.coordinates.iter().cloned());
     header.extend(problem.coordinates.iter().map(|c| format!("p_{c}")));
+    header.extend(problem.control.names.iter().cloned());
     csv.write_record(&header).map_err(err)?;
+    let m = problem.control.names.len();
     for (k, t) in best.t.iter().enumerate() {
         let mut row = vec![k.to_string(), format!("{t:?}")];
         row.extend(
             best.q[k * n..(k + 1) * n]
                 .iter()
                 .chain(&best.p[k * n..(k + 1) * n])
+                .chain(best.u_nodes.get(k * m..(k + 1) * m).unwrap_or(&[]))
                 .map(|x| format!("{x:?}")),
         );
         csv.write_record(&row).map_err(err)?;
     }
     csv.flush().map_err(|e| (e.to_string(), 2))?;
-    let m = problem.control.names.len();
     let mut csv = csv::Writer::from_path(dir.join("controls.csv")).map_err(err)?;
     let mut header = vec!["t".to_string()];
     header.extend(problem.control.names.iter().cloned());

@@ -93,6 +93,7 @@ pub fn optimize_file<'py>(py: Python<'py>, path: PathBuf, dir: PathBuf) -> PyRes
     out.set_item("p", crate::arrays::rows(py, best.p, n)?)?;
     out.set_item("control_t", crate::arrays::vec1(py, best.control_t))?;
     out.set_item("u", crate::arrays::rows(py, best.u, m)?)?;
+    out.set_item("u_nodes", crate::arrays::rows(py, best.u_nodes, m)?)?;
     Ok((text, out))
 }
 

@@ -97,6 +97,18 @@ impl ControlsTable {
         if m == 0 {
             return Err(src.error("[controls] names is empty: name at least one control"));
         }
+        // The controls are columns of trajectory.csv beside step, t, the coordinates and p_<q>.
+        let taken = |name: &str| {
+            name == "step"
+                || coordinates
+                    .iter()
+                    .any(|c| name == c.as_str() || name == format!("p_{c}"))
+        };
+        if let Some(name) = self.names.iter().find(|n| taken(n)) {
+            return Err(src.error(format!(
+                "[controls] a control is named '{name}', the name of a column of trajectory.csv (step, t, a coordinate or p_<coordinate>): rename it"
+            )));
+        }
         let bounds = |b: &Option<Vec<f64>>, what: &str, default: f64| -> Result<Vec<f64>, InputError> {
             match b {
                 None => Ok(vec![default; m]),

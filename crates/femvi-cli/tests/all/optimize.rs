@@ -65,11 +65,37 @@ fn the_cart_pole_example_reaches_the_collocation_optimum() {
     assert!((j / CART_POLE_J - 1.0).abs() < 2e-6, "J = {j}");
     assert!(s["error"].is_null() && s["violation"].as_f64().unwrap() < 1e-10);
     let traj = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
-    assert!(traj.starts_with("step,t,x,theta,p_x,p_theta\n"));
+    assert!(traj.starts_with("step,t,x,theta,p_x,p_theta,u\n"));
     assert_eq!(traj.lines().count(), 1 + 101);
     let controls = std::fs::read_to_string(dir.path().join("controls.csv")).unwrap();
     assert!(controls.starts_with("t,u\n"));
     assert_eq!(controls.lines().count(), 1 + 100 * 2);
+    // The control column of trajectory.csv reads the quadrature values off at the nodes: at
+    // each interior node, near the cubic through the four nearest points (two on each side),
+    // an independent reading of the same values. Both are O(h^2) from the smooth control.
+    let rows = |text: &str| -> Vec<Vec<f64>> {
+        text.lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect()
+    };
+    let (nodes, points) = (rows(&traj), rows(&controls));
+    let scale = points.iter().map(|r| r[1].abs()).fold(0.0, f64::max);
+    for k in 1..100 {
+        let (t, u) = (nodes[k][1], nodes[k][6]);
+        let i = points.iter().position(|r| r[0] > t).unwrap();
+        let near = &points[i - 2..i + 2];
+        let cubic: f64 = (0..4)
+            .map(|j| {
+                let w: f64 = (0..4)
+                    .filter(|&l| l != j)
+                    .map(|l| (t - near[l][0]) / (near[j][0] - near[l][0]))
+                    .product();
+                w * near[j][1]
+            })
+            .sum();
+        assert!((u - cubic).abs() < 1e-3 * scale, "node {k}: u = {u}, cubic {cubic}");
+    }
     assert!(dir.path().join("controls.svg").exists() && dir.path().join("coordinates.svg").exists());
 }
 
@@ -115,6 +141,13 @@ fn bad_problems_are_refused() {
         (
             MIN_TIME.replace("force = [\"u\"]", "force = [\"u\", \"u\"]"),
             "2 force expressions for 1 coordinates",
+        ),
+        (
+            MIN_TIME.replace(
+                "names = [\"u\"]\nforce = [\"u\"]",
+                "names = [\"p_x\"]\nforce = [\"p_x\"]",
+            ),
+            "the name of a column of trajectory.csv",
         ),
         (
             MIN_TIME.replace("t1 = \"free\"", "t1 = \"soon\""),

@@ -341,15 +341,18 @@ class Optimum:
 
     ``t``, ``q`` and ``p`` are the element end nodes (times, positions and discrete momenta,
     one row per node); the controls live at the quadrature points: ``u`` has one row per
-    point, at the times ``control_t``. ``summary`` is ``femvi optimize``'s summary.json.
+    point, at the times ``control_t``. ``u_nodes`` reads them off at the nodes (the columns
+    of trajectory.csv: in each element the polynomial through its quadrature values at the
+    element's ends, the mean of two elements at an interior node, clamped into the bounds).
+    ``summary`` is ``femvi optimize``'s summary.json.
 
     >>> import femvi
     >>> push = femvi.System(["x"], "0.5*x_dot^2", name="push")
     >>> best = femvi.optimize(push, controls={"names": ["u"], "force": ["u"]}, objective={"running": "u^2"},
     ...                       boundary={"t0": 0.0, "t1": 1.0, "q0": [0.0], "v0": [0.0],
     ...                                 "q1": [1.0], "v1": [0.0], "elements": 10})
-    >>> (best.q.shape, best.p.shape, best.u.shape, best.control_t.shape)
-    ((11, 1), (11, 1), (20, 1), (20,))
+    >>> (best.q.shape, best.p.shape, best.u.shape, best.control_t.shape, best.u_nodes.shape)
+    ((11, 1), (11, 1), (20, 1), (20,), (11, 1))
     """
 
     objective: float
@@ -359,6 +362,7 @@ class Optimum:
     p: np.ndarray
     control_t: np.ndarray
     u: np.ndarray
+    u_nodes: np.ndarray
     error: Optional[str]
     summary: Dict[str, Any]
 
@@ -381,6 +385,8 @@ def optimize(problem: Any, directory: Optional[str] = None, overrides: Optional[
     >>> best.error is None and abs(best.objective - 12.0) < 1e-9
     True
     >>> bool(abs(best.u[:, 0] - (6.0 - 12.0 * best.control_t)).max() < 1e-9)
+    True
+    >>> bool(abs(best.u_nodes[:, 0] - (6.0 - 12.0 * best.t)).max() < 1e-9)
     True
     """
     run = split_run(kw)

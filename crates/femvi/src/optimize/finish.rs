@@ -15,6 +15,7 @@ pub(super) fn optimum<L: Lagrangian + ?Sized, C: Controls>(
     model: &Model<'_, L, C>,
     out: &Outcome,
     tolerance: f64,
+    bounds: (&[f64], &[f64]),
 ) -> Optimum {
     let l = model.layout;
     let (n, m) = (l.n, l.m);
@@ -58,11 +59,64 @@ pub(super) fn optimum<L: Lagrangian + ?Sized, C: Controls>(
         q,
         p,
         control_t,
+        u_nodes: node_controls(&model.element.rule.nodes, l.elements, m, &u, bounds),
         u,
         v1: (0..n).map(|i| model.end_velocity(&it.x, i).0).collect(),
         error,
         stages: Vec::new(),
     }
+}
+
+/// The controls at the element end nodes, read off the quadrature values `u` (N·r rows of m
+/// at the rule's nodes `c` ∈ [0, 1]): at each node, the polynomial through the quadrature
+/// values of the two elements nearest to it (the two it joins; the first or last two at the
+/// ends; points that coincide, as a Lobatto rule's at a shared node, merged by their mean),
+/// evaluated at the node. Inside the mesh this interpolates across the node; the mean of two
+/// one-sided extrapolations, one from each element, reads a smooth control two orders of
+/// magnitude less accurately (the cart-pole example, degree 2, 100 elements, against a 16×
+/// finer solve: 0.09 for that mean, 9.5e-4 for this reading, of a control of size 27). The
+/// result is clamped into the control bounds, which the quadrature values satisfy.
+/// (N + 1) rows of m; empty for no elements.
+fn node_controls(c: &[f64], elements: usize, m: usize, u: &[f64], (lower, upper): (&[f64], &[f64])) -> Vec<f64> {
+    let r = c.len();
+    if elements == 0 || r == 0 || m == 0 {
+        return Vec::new();
+    }
+    let mut out = Vec::with_capacity((elements + 1) * m);
+    let mut points: Vec<(f64, usize)> = Vec::with_capacity(2 * r);
+    for node in 0..=elements {
+        // The elements [first, first + 1] (or the only one), in units of h from the node.
+        let first = node.saturating_sub(1).min(elements.saturating_sub(2));
+        points.clear();
+        for k in first..(first + 2).min(elements) {
+            for (j, cj) in c.iter().enumerate() {
+                points.push((k as f64 + cj - node as f64, k * r + j));
+            }
+        }
+        for a in 0..m {
+            let mut merged: Vec<(f64, f64)> = Vec::with_capacity(points.len());
+            for &(tau, row) in &points {
+                let value = u[row * m + a];
+                match merged.iter_mut().find(|(t, _)| (t - tau).abs() < 1e-12) {
+                    Some(p) => p.1 = 0.5 * (p.1 + value),
+                    None => merged.push((tau, value)),
+                }
+            }
+            let value: f64 = (0..merged.len())
+                .map(|j| {
+                    let w: f64 = (0..merged.len())
+                        .filter(|&i| i != j)
+                        .map(|i| (0.0 - merged[i].0) / (merged[j].0 - merged[i].0))
+                        .product();
+                    w * merged[j].1
+                })
+                .sum();
+            let lo = lower.get(a).copied().unwrap_or(f64::NEG_INFINITY);
+            let hi = upper.get(a).copied().unwrap_or(f64::INFINITY);
+            out.push(value.max(lo).min(hi));
+        }
+    }
+    out
 }
 
 /// The discrete momenta at the element end nodes; with constraints projected onto the

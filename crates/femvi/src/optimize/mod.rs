@@ -190,6 +190,11 @@ pub struct Optimum {
     pub control_t: Vec<f64>,
     /// Controls at the quadrature points, N·r rows of m.
     pub u: Vec<f64>,
+    /// The controls read off at the element end nodes, (N + 1) rows of m: in each element
+    /// the polynomial through its quadrature values, evaluated at the element's ends; the
+    /// mean of the two elements' values at an interior node; clamped into the bounds. An
+    /// estimate beside the node positions and momenta: the optimiser's unknowns are `u`.
+    pub u_nodes: Vec<f64>,
     /// The end velocity v_N: the given components, and the optimiser's for the free ones.
     pub v1: Vec<f64>,
     /// Why the iteration stopped short, if it did; the fields above are its best iterate.
@@ -324,7 +329,12 @@ fn solve_once<L: Lagrangian + ?Sized, C: Controls>(
         max_iterations: options.max_iterations,
     };
     let out = solver::solve(&model, &bounds, start, settings)?;
-    Ok(finish::optimum(&model, &out, options.tolerance))
+    Ok(finish::optimum(
+        &model,
+        &out,
+        options.tolerance,
+        (&problem.lower, &problem.upper),
+    ))
 }
 
 fn momentum<L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[f64], v: &[f64]) -> Vec<f64> {

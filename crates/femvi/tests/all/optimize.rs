@@ -91,6 +91,15 @@ fn control_error(o: &Optimum) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The controls read off at the nodes against u(t) = 6 - 12t.
+fn node_control_error(o: &Optimum) -> f64 {
+    assert_eq!(o.u_nodes.len(), o.t.len());
+    o.t.iter()
+        .zip(&o.u_nodes)
+        .map(|(t, u)| (u - (6.0 - 12.0 * t)).abs())
+        .fold(0.0, f64::max)
+}
+
 /// The double integrator x'' = u, rest to rest over unit distance in unit time, minimising
 /// the integral of u^2: u = 6 - 12t and J* = 12 in closed form. Degree 1 (midpoint) converges
 /// at order 2; from degree 2 the discrete optimum is the exact one at the nodes and points
@@ -105,10 +114,12 @@ fn the_double_integrator_meets_its_closed_form() {
     assert!(runs.iter().all(|o| o.error.is_none() && o.violation < 1e-12));
     let cost: Vec<f64> = runs.iter().map(|o| o.objective - 12.0).collect();
     let control: Vec<f64> = runs.iter().map(control_error).collect();
+    let nodal: Vec<f64> = runs.iter().map(node_control_error).collect();
     let (pc, pu) = (fitted_order(&meshes, &cost), fitted_order(&meshes, &control));
+    let pn = fitted_order(&meshes, &nodal);
     assert!(
-        (pc - 2.0).abs() < 0.05 && (pu - 2.0).abs() < 0.1,
-        "orders {pc:.3} {pu:.3}: {cost:?} {control:?}"
+        (pc - 2.0).abs() < 0.05 && (pu - 2.0).abs() < 0.1 && (pn - 2.0).abs() < 0.1,
+        "orders {pc:.3} {pu:.3} {pn:.3}: {cost:?} {control:?} {nodal:?}"
     );
     for order in [4, 6, 8] {
         for n in [5, 40] {
@@ -120,9 +131,10 @@ fn the_double_integrator_meets_its_closed_form() {
                 o.objective - 12.0
             );
             assert!(
-                control_error(&o) < 1e-10,
-                "order {order} N {n}: control error {:.3e}",
-                control_error(&o)
+                control_error(&o) < 1e-10 && node_control_error(&o) < 1e-10,
+                "order {order} N {n}: control error {:.3e}, at the nodes {:.3e}",
+                control_error(&o),
+                node_control_error(&o)
             );
         }
     }
@@ -152,6 +164,15 @@ fn minimum_time_is_two() {
         // Bang-bang: the control is at a bound but near the switch.
         let near_bound = o.u.iter().filter(|u| (u.abs() - 1.0).abs() < 1e-6).count();
         assert!(near_bound + 4 >= o.u.len(), "{near_bound} of {} at a bound", o.u.len());
+        // Read off at the nodes: within the bounds, +1 before the switch at t = 1 and -1 after
+        // (the nodes next to it excepted).
+        assert_eq!(o.u_nodes.len(), n + 1);
+        assert!(o.u_nodes.iter().all(|u| u.abs() <= 1.0));
+        let off =
+            o.t.iter()
+                .zip(&o.u_nodes)
+                .filter(|(t, u)| (**u - if **t < 1.0 { -1.0 } else { 1.0 }).abs() > 1e-6);
+        assert!(off.count() <= 4, "{:?}", o.u_nodes);
     }
 }
 
