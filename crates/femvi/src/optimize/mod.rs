@@ -60,6 +60,7 @@ mod constrained;
 mod finish;
 mod kkt;
 mod layout;
+mod multipliers;
 mod point;
 mod refine;
 mod solver;

@@ -219,3 +219,35 @@ fn a_constrained_free_end_meets_the_angle_form() {
         direct.iterations
     );
 }
+
+/// The same free end, solved directly from the straight line on fine meshes, reaches the
+/// angle form's optimum (the swing up to y = 1/2, J ≈ 17.59; the other stationary points the
+/// iteration can stall near have J ≈ 45). Before Powell's penalty update and least-squares
+/// first multipliers, degree 1 failed here at 400 elements and degree 2 at 200.
+#[test]
+fn a_constrained_free_end_converges_directly_on_fine_meshes() {
+    let terminal = ("20*(-cos(th) - 0.5)^2 + th_dot^2", "20*(y - 0.5)^2 + x_dot^2 + y_dot^2");
+    let free = |mut p: ControlProblem, q0: Vec<f64>| {
+        p.q0 = q0;
+        p.q1 = vec![None; p.q0.len()];
+        p.v1 = vec![None; p.q0.len()];
+        p
+    };
+    let reference = polar(free(swing(400, true), vec![0.3]), 6, terminal.0);
+    assert!(reference.error.is_none());
+    for (order, n, within) in [(2, 400, 1e-3), (4, 200, 1e-5)] {
+        let c = cartesian(
+            free(swing(n, false), vec![0.3f64.sin(), -0.3f64.cos()]),
+            order,
+            terminal.1,
+            &[],
+        );
+        assert!(c.error.is_none(), "order {order} N {n}: {:?}", c.error);
+        assert!(
+            (c.objective - reference.objective).abs() < within,
+            "order {order} N {n}: J {} against {}",
+            c.objective,
+            reference.objective
+        );
+    }
+}
