@@ -58,11 +58,14 @@
 mod assemble;
 mod constrained;
 mod finish;
+mod floor;
 mod kkt;
 mod layout;
 mod multipliers;
+mod newton;
 mod point;
 mod refine;
+mod search;
 mod solver;
 mod start;
 mod system;

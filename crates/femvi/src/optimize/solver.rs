@@ -20,7 +20,9 @@
 //! iterate seen (smallest of the three residuals) is what either stop and a failure return.
 
 use super::assemble::{Border, Model};
-use super::kkt::{bordered_solve, dot};
+use super::floor::Floor;
+use super::newton::newton_step;
+use super::search::{line_search, to_the_boundary, Kkt, Penalty};
 use super::system::Controls;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
@@ -75,7 +77,7 @@ impl Residuals {
     }
 }
 
-fn value_of(it: &Iterate, b: &Bound) -> f64 {
+pub(super) fn value_of(it: &Iterate, b: &Bound) -> f64 {
     b.var.map_or(it.t1, |i| it.x[i])
 }
 
@@ -171,87 +173,22 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
             break;
         };
         let (dx, dt, diag) = step;
-        // Fraction to the boundary for the primal step; the duals' steps.
-        let tau = 0.99f64.max(1.0 - mu);
-        let mut alpha = 1.0f64;
-        let mut dz = Vec::with_capacity(bounds.len());
-        for (k, b) in bounds.iter().enumerate() {
-            let (x, d) = (value_of(&it, b), b.var.map_or(dt, |i| dx[i]));
-            if b.lo.is_finite() && d < 0.0 {
-                alpha = alpha.min(-tau * (x - b.lo) / d);
-            }
-            if b.up.is_finite() && d > 0.0 {
-                alpha = alpha.min(tau * (b.up - x) / d);
-            }
-            let dzl = if b.lo.is_finite() {
-                mu / (x - b.lo) - it.zl[k] - it.zl[k] / (x - b.lo) * d
-            } else {
-                0.0
-            };
-            let dzu = if b.up.is_finite() {
-                mu / (b.up - x) - it.zu[k] + it.zu[k] / (b.up - x) * d
-            } else {
-                0.0
-            };
-            dz.push((dzl, dzu));
-        }
-        let mut alpha_z = 1.0f64;
-        for (k, &(dzl, dzu)) in dz.iter().enumerate() {
-            if dzl < 0.0 {
-                alpha_z = alpha_z.min(-tau * it.zl[k] / dzl);
-            }
-            if dzu < 0.0 {
-                alpha_z = alpha_z.min(-tau * it.zu[k] / dzu);
-            }
-        }
-        // Line search on the exact penalty.
+        let (mut alpha, alpha_z, dz) = to_the_boundary(&it, bounds, &dx, dt, mu);
         let lam_new = lambda_rows.iter().map(|&i| (it.x[i] + dx[i]).abs()).fold(0.0, f64::max);
         // Powell's update: ν stays above the multipliers but relaxes towards them, so that
         // one wild early step does not leave a penalty that shortens every later step. (A
         // monotone ν = max(ν, 1.1|Λ|) took the constrained free-end pendulum at 200
         // elements, degree 1, 83 iterations, and failed at 400; with this update 28 and 46.)
         nu = (1.1 * lam_new).max(0.5 * (nu + 1.1 * lam_new)).max(1.0);
-        let vals = model.values(&it.x, it.t1);
-        let c1: f64 = lambda_rows.iter().map(|&i| vals.c[i].abs()).sum();
-        let phi0 = vals.objective + barrier(&it, bounds, mu) + nu * c1;
-        let gbar = barrier_gradient(&it, bounds, &grad, border.grad, &lambda_rows, mu, &dx, dt);
-        let slope = gbar - nu * c1 + lambda_rows.iter().map(|&i| it.x[i] * vals.c[i]).sum::<f64>();
-        let merit = |trial: &Iterate| {
-            let tv = model.values(&trial.x, trial.t1);
-            let tc: f64 = lambda_rows.iter().map(|&i| tv.c[i].abs()).sum();
-            (tv.objective + barrier(trial, bounds, mu) + nu * tc, tv.c)
+        let kkt = Kkt {
+            band: &band,
+            border: &border,
+            diag,
+            grad: &grad,
+            lambda_rows: &lambda_rows,
         };
-        // A decrease below the rounding of φ itself cannot be asked for: that of J, and ν
-        // times that of ‖c‖₁, whose rows are sums of terms of size (|K||x|)_i (at 10⁴
-        // elements ν‖c‖₁ rounds at 1e-6 while a step near the optimum gains 1e-8).
-        let noise = 10.0 * f64::EPSILON * phi0.abs() + nu * c_noise;
-        let armijo =
-            |phi: f64, alpha: f64| phi.is_finite() && (slope >= 0.0 || phi <= phi0 + 1e-4 * alpha * slope + noise);
-        let mut accepted = None;
-        for _ in 0..40 {
-            let trial = moved(&it, &dx, dt, alpha);
-            let (phi, c) = merit(&trial);
-            if armijo(phi, alpha) {
-                accepted = Some(trial);
-                break;
-            }
-            if alpha == 1.0 {
-                // A second-order correction of the full step (against the Maratos effect):
-                // the least change that removes the constraint residual the step left.
-                let mut soc = vec![0.0; dx.len()];
-                lambda_rows.iter().for_each(|&i| soc[i] = -c[i]);
-                if let Some(dts) = bordered_solve(&band, model.free, &border.col, diag, &mut soc, 0.0)? {
-                    let mut corrected = trial.clone();
-                    corrected.x.iter_mut().zip(&soc).for_each(|(x, d)| *x += d);
-                    corrected.t1 += dts;
-                    if within(&corrected, bounds) && armijo(merit(&corrected).0, 1.0) {
-                        accepted = Some(corrected);
-                        break;
-                    }
-                }
-            }
-            alpha *= 0.5;
-        }
+        let penalty = Penalty { mu, nu, c_noise };
+        let accepted = line_search(model, &it, bounds, &kkt, penalty, (&dx, dt), &mut alpha)?;
         let Some(next) = accepted else {
             if eta <= settings.tolerance {
                 if mu <= mu_min {
@@ -294,35 +231,6 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
     Ok(finish(best, iterations, false, reason))
 }
 
-/// The sizes of the last two steps (max |Δxᵢ| / (1 + |xᵢ|), the final time's included) at
-/// the current barrier, for the round-off stop: Newton's full steps shrink at least
-/// quadratically until the round-off of the residual they correct is all that is left, then
-/// they stay at its size. So a full step no smaller than half the full step before it
-/// marks the floor; so do four iterations already taken in the noise (a floor that keeps
-/// moving).
-#[derive(Debug, Clone, Copy, Default)]
-struct Floor {
-    last: Option<(f64, bool)>,
-    before: Option<(f64, bool)>,
-    /// Iterations that went on at the smallest barrier with the backward error in the noise.
-    noisy: usize,
-}
-
-impl Floor {
-    fn push(&mut self, size: f64, full: bool) {
-        self.before = self.last;
-        self.last = Some((size, full));
-    }
-
-    fn reached(&self) -> bool {
-        let stalled = match (self.before, self.last) {
-            (Some((a, true)), Some((b, true))) => b >= 0.5 * a,
-            _ => false,
-        };
-        stalled || self.noisy >= 4
-    }
-}
-
 fn finish(
     best: Option<(f64, Iterate, Residuals)>,
     iterations: usize,
@@ -355,14 +263,6 @@ fn lambda_mask<L: Lagrangian + ?Sized, C: Controls>(model: &Model<'_, L, C>) -> 
         rows.extend(h..h + l.mc);
     }
     rows
-}
-
-/// The step from `it` by α (multipliers too).
-fn moved(it: &Iterate, dx: &[f64], dt: f64, alpha: f64) -> Iterate {
-    let mut next = it.clone();
-    next.x.iter_mut().zip(dx).for_each(|(x, d)| *x += alpha * d);
-    next.t1 += alpha * dt;
-    next
 }
 
 /// ω = max_i |g_i| / d_i with g the gradient of the barrier problem (∇ℒ − z_l + z_u: at a
@@ -406,27 +306,6 @@ fn backward_error(
 }
 
 /// Whether every bounded unknown is strictly inside its bounds.
-fn within(it: &Iterate, bounds: &[Bound]) -> bool {
-    bounds.iter().all(|b| {
-        let x = value_of(it, b);
-        x > b.lo && x < b.up
-    })
-}
-
-/// −μ Σ ln(x − l) + ln(u − x); +∞ outside the bounds.
-fn barrier(it: &Iterate, bounds: &[Bound], mu: f64) -> f64 {
-    let mut s = 0.0;
-    for b in bounds {
-        let x = value_of(it, b);
-        for gap in [x - b.lo, b.up - x] {
-            if gap.is_finite() {
-                s -= if gap > 0.0 { mu * gap.ln() } else { f64::NEG_INFINITY };
-            }
-        }
-    }
-    s
-}
-
 /// ‖c‖∞, the scaled optimality residual and the complementarity at barrier μ.
 #[allow(clippy::too_many_arguments)]
 fn residuals<L: Lagrangian + ?Sized, C: Controls>(
@@ -463,121 +342,5 @@ fn residuals<L: Lagrangian + ?Sized, C: Controls>(
         violation,
         optimality,
         complementarity,
-    }
-}
-
-/// ∇J_μ·d less the multiplier part: g_μ·dx where g_μ is the barrier gradient of the KKT
-/// Lagrangian (the Λ·c term is added by the caller).
-#[allow(clippy::too_many_arguments)]
-fn barrier_gradient(
-    it: &Iterate,
-    bounds: &[Bound],
-    grad: &[f64],
-    grad_t: f64,
-    lambda_rows: &[usize],
-    mu: f64,
-    dx: &[f64],
-    dt: f64,
-) -> f64 {
-    let mut s = dot(grad, dx) + grad_t * dt - lambda_rows.iter().map(|&i| grad[i] * dx[i]).sum::<f64>();
-    for b in bounds {
-        let x = value_of(it, b);
-        let d = b.var.map_or(dt, |i| dx[i]);
-        if b.lo.is_finite() {
-            s -= mu / (x - b.lo) * d;
-        }
-        if b.up.is_finite() {
-            s += mu / (b.up - x) * d;
-        }
-    }
-    s
-}
-
-/// The Newton step (dx over the banded unknowns, dt1), with the Hessian block raised until
-/// its curvature along the step is positive. `None` if no regularisation makes the matrix
-/// factorisable.
-#[allow(clippy::too_many_arguments)]
-fn newton_step<L: Lagrangian + ?Sized, C: Controls>(
-    model: &Model<'_, L, C>,
-    band: &mut BandMatrix,
-    grad: &[f64],
-    border: &Border,
-    it: &Iterate,
-    bounds: &[Bound],
-    mu: f64,
-    delta: &mut f64,
-    lambda_rows: &[usize],
-) -> Result<Option<(Vec<f64>, f64, f64)>> {
-    let size = grad.len();
-    let mut is_lambda = vec![false; size];
-    lambda_rows.iter().for_each(|&i| is_lambda[i] = true);
-    // Barrier gradient and Σ.
-    let mut rhs: Vec<f64> = grad.iter().map(|g| -g).collect();
-    let mut rho = -border.grad;
-    let mut sigma = vec![0.0; size];
-    let mut sigma_t = 0.0;
-    for (k, b) in bounds.iter().enumerate() {
-        let x = value_of(it, b);
-        let (mut g, mut s) = (0.0, 0.0);
-        if b.lo.is_finite() {
-            g -= mu / (x - b.lo);
-            s += it.zl[k] / (x - b.lo);
-        }
-        if b.up.is_finite() {
-            g += mu / (b.up - x);
-            s += it.zu[k] / (b.up - x);
-        }
-        match b.var {
-            Some(i) => {
-                rhs[i] -= g;
-                sigma[i] += s;
-            }
-            None => {
-                rho -= g;
-                sigma_t += s;
-            }
-        }
-    }
-    // The assembled matrix is kept for the retries; the first try factors `band` as it is.
-    let base = band.clone();
-    let mut tries = 0;
-    loop {
-        if tries > 0 {
-            band.clone_from(&base);
-        }
-        for i in (0..size).filter(|&i| !is_lambda[i]) {
-            band.add(i, i, sigma[i] + *delta)?;
-        }
-        let diag = border.diag + sigma_t + if model.free { *delta } else { 0.0 };
-        let mut d = rhs.clone();
-        let solved = if band.factor() {
-            bordered_solve(band, model.free, &border.col, diag, &mut d, rho)?
-        } else {
-            None
-        };
-        if let Some(dt) = solved {
-            // dxᵀ W dx = −dx·g + dΛ·c with g the barrier gradient (rhs = −g, −c).
-            let (mut curv, mut norm) = (0.0, 0.0);
-            for i in 0..size {
-                if is_lambda[i] {
-                    curv -= d[i] * rhs[i];
-                } else {
-                    curv += d[i] * rhs[i];
-                    norm += d[i] * d[i];
-                }
-            }
-            curv += dt * rho;
-            norm += dt * dt;
-            if curv.is_finite() && curv >= 1e-8 * norm {
-                // The next step tries a third of this, or none once it is small.
-                *delta = if *delta < 1e-6 { 0.0 } else { *delta / 3.0 };
-                return Ok(Some((d, dt, diag)));
-            }
-        }
-        tries += 1;
-        if tries > 30 {
-            return Ok(None);
-        }
-        *delta = if *delta == 0.0 { 1e-4 } else { 10.0 * *delta };
     }
 }
