@@ -25,24 +25,22 @@ const LARGEST: f64 = 1e3;
 /// Sets the multiplier rows `lambda_rows` of `it` to their least-squares values, or leaves
 /// them as they are where the augmented system is singular or its solution is not finite or
 /// too large. Returns whether they were set.
+/// `band`, `grad` and `border` are the solver's, used as work space (their contents are
+/// overwritten).
 pub(super) fn least_squares<L: Lagrangian + ?Sized, C: Controls>(
     model: &Model<'_, L, C>,
+    band: &mut BandMatrix,
+    grad: &mut [f64],
+    border: &mut Border,
     it: &mut Iterate,
     bounds: &[Bound],
     lambda_rows: &[usize],
 ) -> Result<bool> {
     let size = model.layout.size();
     let bw = model.layout.bandwidth();
-    let mut band = BandMatrix::zeros(size, bw, bw)?;
-    let mut grad = vec![0.0; size];
-    let mut border = Border {
-        col: vec![0.0; size],
-        diag: 0.0,
-        grad: 0.0,
-    };
     let mut x = it.x.clone();
     lambda_rows.iter().for_each(|&i| x[i] = 0.0);
-    model.assemble(&x, it.t1, &mut band, &mut grad, &mut border)?;
+    model.assemble(&x, it.t1, band, grad, border)?;
     let mut is_lambda = vec![false; size];
     lambda_rows.iter().for_each(|&i| is_lambda[i] = true);
     for i in (0..size).filter(|&i| !is_lambda[i]) {

@@ -12,13 +12,14 @@ use crate::solve::BandMatrix;
 
 /// The Newton step (dx over the banded unknowns, dt1), with the Hessian block raised until
 /// its curvature along the step is positive. `None` if no regularisation makes the matrix
-/// factorisable.
+/// factorisable. `band`, `grad` and `border` hold the system assembled at `it`; a retry
+/// assembles them again.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn newton_step<L: Lagrangian + ?Sized, C: Controls>(
     model: &Model<'_, L, C>,
     band: &mut BandMatrix,
-    grad: &[f64],
-    border: &Border,
+    grad: &mut [f64],
+    border: &mut Border,
     it: &Iterate,
     bounds: &[Bound],
     mu: f64,
@@ -55,12 +56,13 @@ pub(super) fn newton_step<L: Lagrangian + ?Sized, C: Controls>(
             }
         }
     }
-    // The assembled matrix is kept for the retries; the first try factors `band` as it is.
-    let base = band.clone();
     let mut tries = 0;
     loop {
         if tries > 0 {
-            band.clone_from(&base);
+            // The factorisation overwrote the matrix: a retry assembles it again (the same
+            // arithmetic, so the same bits) rather than keeping a copy, which doubled the
+            // peak memory.
+            model.assemble(&it.x, it.t1, band, grad, border)?;
         }
         for i in (0..size).filter(|&i| !is_lambda[i]) {
             band.add(i, i, sigma[i] + *delta)?;

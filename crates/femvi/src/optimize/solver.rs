@@ -107,7 +107,7 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
     // they changed no iteration count of the cart-pole (degrees 1–3, 25 to 1000 elements),
     // so the extra factorisation is not spent.
     if model.layout.mc > 0 {
-        super::multipliers::least_squares(model, &mut it, bounds, &lambda_rows)?;
+        super::multipliers::least_squares(model, &mut band, &mut grad, &mut border, &mut it, bounds, &lambda_rows)?;
     }
     let mut reason = None;
     let mut iterations = 0;
@@ -160,8 +160,8 @@ pub(super) fn solve<L: Lagrangian + ?Sized, C: Controls>(
         let Some(step) = newton_step(
             model,
             &mut band,
-            &grad,
-            &border,
+            &mut grad,
+            &mut border,
             &it,
             bounds,
             mu,
