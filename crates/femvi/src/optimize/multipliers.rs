@@ -61,8 +61,9 @@ pub(super) fn least_squares<L: Lagrangian + ?Sized, C: Controls>(
         return Ok(false);
     }
     band.solve(&mut d)?;
-    let largest = lambda_rows.iter().map(|&i| d[i].abs()).fold(0.0, f64::max);
-    if !(largest <= LARGEST) {
+    // A NaN anywhere makes the fit unusable (f64::max would skip it).
+    let usable = lambda_rows.iter().all(|&i| d[i].abs() <= LARGEST);
+    if !usable {
         return Ok(false);
     }
     lambda_rows.iter().for_each(|&i| it.x[i] = d[i]);
