@@ -77,7 +77,13 @@ pub(super) fn optimum<L: Lagrangian + ?Sized, C: Controls>(
 /// finer solve: 0.09 for that mean, 9.5e-4 for this reading, of a control of size 27). The
 /// result is clamped into the control bounds, which the quadrature values satisfy.
 /// (N + 1) rows of m; empty for no elements.
-fn node_controls(c: &[f64], elements: usize, m: usize, u: &[f64], (lower, upper): (&[f64], &[f64])) -> Vec<f64> {
+pub(super) fn node_controls(
+    c: &[f64],
+    elements: usize,
+    m: usize,
+    u: &[f64],
+    (lower, upper): (&[f64], &[f64]),
+) -> Vec<f64> {
     let r = c.len();
     if elements == 0 || r == 0 || m == 0 {
         return Vec::new();

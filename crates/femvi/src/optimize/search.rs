@@ -142,6 +142,7 @@ fn moved(it: &Iterate, dx: &[f64], dt: f64, alpha: f64) -> Iterate {
     next
 }
 
+/// Whether every bounded unknown is strictly inside its bounds.
 fn within(it: &Iterate, bounds: &[Bound]) -> bool {
     bounds.iter().all(|b| {
         let x = value_of(it, b);

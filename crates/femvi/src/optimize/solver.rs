@@ -305,7 +305,6 @@ fn backward_error(
     (omega, c_noise)
 }
 
-/// Whether every bounded unknown is strictly inside its bounds.
 /// ‖c‖∞, the scaled optimality residual and the complementarity at barrier μ.
 #[allow(clippy::too_many_arguments)]
 fn residuals<L: Lagrangian + ?Sized, C: Controls>(

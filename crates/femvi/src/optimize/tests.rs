@@ -1,4 +1,5 @@
-//! The optimiser's Hessian against differences of its gradient.
+//! The optimiser's Hessian against differences of its gradient, and the node reading of the
+//! controls against polynomials it must reproduce.
 
 use super::assemble::{Border, Model};
 use super::layout::Layout;
@@ -143,5 +144,38 @@ fn check<C: Controls>(lag: &ExprLagrangian, ctl: &C, order: usize, free: bool, f
             worst = worst.max(((tp - tm) / (2.0 * eps) - border.diag).abs() / (1.0 + border.diag.abs()));
         }
         assert!(worst < 1e-6, "order {order}: worst relative difference {worst:.3e}");
+    }
+}
+
+/// The node reading of the controls reproduces a control that is a polynomial of degree
+/// below the number of points it uses: a Gauss rule (points inside the elements) and a
+/// Lobatto one (points shared at the nodes, merged); and clamps into the bounds.
+#[test]
+fn node_controls_reproduce_polynomials_and_keep_the_bounds() {
+    let f = |t: f64| [1.0 + 2.0 * t - 0.5 * t * t, 3.0 - t];
+    let s3 = 0.6f64.sqrt();
+    let rules: [&[f64]; 2] = [&[0.5 - 0.5 * s3, 0.5, 0.5 + 0.5 * s3], &[0.0, 0.5, 1.0]];
+    for c in rules {
+        for elements in [1, 2, 5] {
+            let u: Vec<f64> = (0..elements)
+                .flat_map(|k| c.iter().flat_map(move |cj| f(k as f64 + cj)))
+                .collect();
+            let open = [f64::NEG_INFINITY; 2];
+            let closed = [f64::INFINITY; 2];
+            let nodes = super::finish::node_controls(c, elements, 2, &u, (&open, &closed));
+            assert_eq!(nodes.len(), (elements + 1) * 2);
+            for (k, row) in nodes.chunks(2).enumerate() {
+                let want = f(k as f64);
+                assert!(
+                    (row[0] - want[0]).abs() < 1e-12 && (row[1] - want[1]).abs() < 1e-12,
+                    "{c:?} {k} {row:?}"
+                );
+            }
+            let clamped = super::finish::node_controls(c, elements, 2, &u, (&[1.5, 0.0], &[2.0, 2.5]));
+            assert!(clamped
+                .chunks(2)
+                .all(|r| (1.5..=2.0).contains(&r[0]) && (0.0..=2.5).contains(&r[1])));
+            assert_eq!(clamped[0], 1.5);
+        }
     }
 }
