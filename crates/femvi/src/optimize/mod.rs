@@ -59,6 +59,7 @@ mod assemble;
 mod constrained;
 mod finish;
 mod floor;
+mod iterate;
 mod kkt;
 mod layout;
 mod multipliers;

@@ -13,7 +13,7 @@
 //! `constr_mult_init_max`): the least-squares fit of a poor guess can be far from the optimum's.
 
 use super::assemble::{Border, Model};
-use super::solver::{Bound, Iterate};
+use super::iterate::{Bound, Iterate};
 use super::system::Controls;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;

@@ -3,8 +3,8 @@
 //! (the inertia-free test of Chiang and Zavala, 2016), δ shrinking between steps.
 
 use super::assemble::{Border, Model};
+use super::iterate::{value_of, Bound, Iterate};
 use super::kkt::bordered_solve;
-use super::solver::{value_of, Bound, Iterate};
 use super::system::Controls;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;

@@ -6,8 +6,8 @@
 //! plain form).
 
 use super::assemble::{Border, Model};
+use super::iterate::{value_of, Bound, Iterate};
 use super::kkt::{bordered_solve, dot};
-use super::solver::{value_of, Bound, Iterate};
 use super::system::Controls;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;

@@ -21,30 +21,13 @@
 
 use super::assemble::{Border, Model};
 use super::floor::Floor;
+use super::iterate::{value_of, Bound, Iterate};
 use super::newton::newton_step;
 use super::search::{line_search, to_the_boundary, Kkt, Penalty};
 use super::system::Controls;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
 use crate::solve::BandMatrix;
-
-/// A bounded unknown: a banded index or the final time, with its bounds (infinite when
-/// absent).
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Bound {
-    pub(super) var: Option<usize>,
-    pub(super) lo: f64,
-    pub(super) up: f64,
-}
-
-/// The iterate: banded unknowns (positions, controls, multipliers), final time, bound duals.
-#[derive(Debug, Clone)]
-pub(super) struct Iterate {
-    pub(super) x: Vec<f64>,
-    pub(super) t1: f64,
-    pub(super) zl: Vec<f64>,
-    pub(super) zu: Vec<f64>,
-}
 
 /// How the iteration ended.
 #[derive(Debug, Clone)]
@@ -75,10 +58,6 @@ impl Residuals {
     fn error(&self) -> f64 {
         self.violation.max(self.optimality).max(self.complementarity)
     }
-}
-
-pub(super) fn value_of(it: &Iterate, b: &Bound) -> f64 {
-    b.var.map_or(it.t1, |i| it.x[i])
 }
 
 /// The interior-point iteration from `start`.

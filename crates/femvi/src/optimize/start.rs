@@ -4,7 +4,7 @@
 //! barrier's duals started at μ/(distance to the bound).
 
 use super::assemble::Model;
-use super::solver::{Bound, Iterate};
+use super::iterate::{Bound, Iterate};
 use super::system::Controls;
 use super::{ControlProblem, FinalTime, Guess, OptimizeOptions};
 use crate::error::{check_len, invalid, Result};
