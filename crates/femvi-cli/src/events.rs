@@ -9,7 +9,6 @@
 
 use crate::plot::{file, scatter, Series};
 use crate::problem::Problem;
-use femvi::solution::EventRecord;
 use std::path::Path;
 
 /// The header of events.csv.
@@ -21,20 +20,16 @@ pub fn columns(problem: &Problem) -> Vec<String> {
 }
 
 /// `poincare_<event>` for each event: the first coordinate against its momentum at the
-/// located events, as points.
+/// located events (`events`: event index, q₁, p₁), as points.
 pub(crate) fn poincare(
     dir: &Path,
     problem: &Problem,
-    events: &[EventRecord],
+    events: &[(usize, f64, f64)],
     f: crate::plot::Format,
 ) -> Result<(), String> {
     let c = &problem.coordinates[0];
     for (i, e) in problem.events.iter().enumerate() {
-        let points = events
-            .iter()
-            .filter(|r| r.event == i)
-            .map(|r| (r.q[0], r.p[0]))
-            .collect();
+        let points = events.iter().filter(|r| r.0 == i).map(|r| (r.1, r.2)).collect();
         let series = [Series {
             name: format!("{} ({})", e.name, e.when),
             points,

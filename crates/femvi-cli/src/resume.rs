@@ -10,8 +10,11 @@
 //! a clear refusal, exit 2), restores the integrator, cuts the output files back to the
 //! checkpoint and continues, so that the outputs are those of an uninterrupted run, byte for
 //! byte; with `[[events]]`, events.csv too (its length and the event locator's state are in
-//! the checkpoint). Refused: runs with plots (their observer keeps whole-run state that is not
-//! checkpointed; see [`resumable`]).
+//! the checkpoint). Runs with plots keep the bounded records their plots are drawn from
+//! (`record::PlotTrace`, `record::SectionPoints`) in a binary side file of the checkpoint
+//! ([`save_plots`]): two files written in turn, checkpoint.json naming the one it goes with
+//! and its SHA-256, so that a run killed while writing one still has the other whole. A
+//! resumed run draws the plots of an uninterrupted one.
 
 use crate::problem::Problem;
 use crate::run_output::RunOutput;
@@ -46,8 +49,7 @@ impl Default for Policy {
 }
 
 /// The energy observer's state in a checkpoint: its largest relative error so far (as bits).
-/// The rest of its state is recomputed on resume ([`crate::record::Recorders`]); see
-/// [`resumable`].
+/// The rest of its state is recomputed on resume ([`crate::record::Recorders`]).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct EnergySaved {
     /// Bits of the largest relative energy error over the nodes up to the checkpoint.
@@ -88,6 +90,9 @@ pub struct RunCheckpoint {
     /// Adaptive runs: the recorder's state, the rows written and the last kept node.
     #[serde(default)]
     pub adaptive: Option<AdaptiveSaved>,
+    /// Runs with plots: the side file holding their state.
+    #[serde(default)]
+    pub plots: Option<PlotsSaved>,
     /// The integrator's state.
     pub integrator: Checkpoint,
 }
@@ -108,15 +113,90 @@ pub struct AdaptiveSaved {
     pub v: Vec<u64>,
 }
 
-/// Removes a checkpoint left in `dir` by an earlier run.
+/// The side file of a checkpoint of a run with plots: which of the two files, how many
+/// words it holds and their SHA-256 (hex).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlotsSaved {
+    /// 0 or 1: the file `checkpoint-plots-<slot>.bin`.
+    pub slot: u8,
+    /// The words of the plots' state (little-endian u64 in the file).
+    pub words: u64,
+    /// SHA-256 of the file (hex).
+    pub sha256: String,
+}
+
+/// The name of side file `slot` (0 or 1).
+fn plots_file(slot: u8) -> String {
+    format!("checkpoint-plots-{}.bin", slot & 1)
+}
+
+/// Writes the plots' state `sections` (each a list of words) into side file `slot` of `dir`,
+/// atomically; what checkpoint.json then records of it.
 ///
 /// # Errors
-/// The file exists and cannot be removed.
-pub fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
-    match std::fs::remove_file(dir.join(FILE)) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
-        _ => Ok(()),
+/// The write failed.
+pub fn save_plots(dir: &Path, slot: u8, sections: &[Vec<u64>]) -> std::io::Result<PlotsSaved> {
+    let words: Vec<u64> = sections
+        .iter()
+        .flat_map(|s| std::iter::once(s.len() as u64).chain(s.iter().copied()))
+        .collect();
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    write_atomic(&dir.join(plots_file(slot)), &bytes)?;
+    Ok(PlotsSaved {
+        slot: slot & 1,
+        words: words.len() as u64,
+        sha256: hex(&sha2::Sha256::digest(&bytes)),
+    })
+}
+
+/// Reads the side file `saved` names back into its sections.
+///
+/// # Errors
+/// A message for the user: the file is missing, damaged or not the checkpoint's.
+pub fn load_plots(dir: &Path, saved: &PlotsSaved) -> Result<Vec<Vec<u64>>, String> {
+    let path = dir.join(plots_file(saved.slot));
+    let bytes = crate::bounded::read(&path, crate::bounded::Limits::BINARY)
+        .map_err(|e| format!("cannot resume the plots from {}: {e}", path.display()))?;
+    if bytes.len() as u64 != saved.words.saturating_mul(8) || hex(&sha2::Sha256::digest(&bytes)) != saved.sha256 {
+        return Err(format!(
+            "cannot resume the plots: {} is not the one checkpoint.json was written with (run again without --resume)",
+            path.display()
+        ));
     }
+    let words: Vec<u64> = bytes
+        .chunks_exact(8)
+        .map(|c| u64::from_le_bytes(c.try_into().unwrap_or_default()))
+        .collect();
+    let mut sections = vec![];
+    let mut rest = &words[..];
+    while let Some((len, tail)) = rest.split_first() {
+        let len = usize::try_from(*len).unwrap_or(usize::MAX);
+        if len > tail.len() {
+            return Err(format!("cannot resume the plots: {} is damaged", path.display()));
+        }
+        let (section, tail) = tail.split_at(len);
+        sections.push(section.to_vec());
+        rest = tail;
+    }
+    Ok(sections)
+}
+
+fn hex(digest: &[u8]) -> String {
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Removes a checkpoint left in `dir` by an earlier run, with its plot files.
+///
+/// # Errors
+/// A file exists and cannot be removed.
+pub fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
+    for name in [FILE.to_string(), plots_file(0), plots_file(1)] {
+        match std::fs::remove_file(dir.join(name)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// The SHA-256 (hex) of a problem's text: the tag of its checkpoints.
@@ -129,8 +209,7 @@ pub fn remove_checkpoint(dir: &Path) -> std::io::Result<()> {
 /// assert_eq!(femvi_cli::resume::problem_hash(&p).len(), 64);
 /// ```
 pub fn problem_hash(problem: &Problem) -> String {
-    let digest = sha2::Sha256::digest(problem.source.as_bytes());
-    digest.iter().map(|b| format!("{b:02x}")).collect()
+    hex(&sha2::Sha256::digest(problem.source.as_bytes()))
 }
 
 /// The output formats of a run as checkpoints name them.
@@ -211,7 +290,17 @@ pub fn load(dir: &Path, problem: &Problem, out: &RunOutput) -> Result<RunCheckpo
             cp.outputs
         ));
     }
-    Ok(cp)
+    match (cp.plots.is_some(), out.plots) {
+        (false, true) => Err(
+            "cannot resume with plots: the stopped run drew none (resume without --plot, and draw them from trajectory.csv)"
+                .into(),
+        ),
+        (true, false) => Err(
+            "cannot resume without plots: the stopped run draws them (add --plot, or set [output] plots = true)"
+                .into(),
+        ),
+        _ => Ok(cp),
+    }
 }
 
 /// Whether `dir` holds a run of `problem` that was killed before its first checkpoint: no
@@ -228,19 +317,4 @@ pub fn killed_before_first_checkpoint(dir: &Path, problem: &Problem) -> bool {
         return false;
     };
     summary["status"] == "running" && summary["problem"] == problem.source.as_str()
-}
-
-/// Whether a run can be resumed: not with plots. Any Lagrangian: the
-/// checkpoint holds the integrator's state and the energy tracker's (reference energy,
-/// warm-start velocity, energy balance).
-///
-/// # Errors
-/// The reason, for the user.
-pub fn resumable(out: &RunOutput) -> Result<(), String> {
-    if out.plots {
-        return Err(
-            "--resume is not available with plots (--plot or [output] plots = true): resume without them and draw the plots from trajectory.csv".into(),
-        );
-    }
-    Ok(())
 }

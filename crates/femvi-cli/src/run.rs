@@ -161,19 +161,15 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
         }
         Err(e) => return Ok(Outcome::Rejected(e.to_string())),
     };
-    let resumable = resume::resumable(&out);
     let checkpointing = Checkpointing {
         policy: control.checkpoints,
         tag: resume::problem_hash(problem),
         outputs: resume::outputs_label(&out),
     };
-    if let (true, Err(msg)) = (control.resume, &resumable) {
-        return Ok(Outcome::Rejected(msg.clone()));
-    }
     // A run killed before its first checkpoint resumes by starting again.
     let fresh = !control.resume || resume::killed_before_first_checkpoint(dir, problem);
     let mut recorders = if !fresh {
-        match resume_outputs(&mut it, a, resumable, checkpointing)? {
+        match resume_outputs(&mut it, a, checkpointing)? {
             Ok(r) => r,
             Err(msg) => return Ok(Outcome::Rejected(msg)),
         }
@@ -184,7 +180,7 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
         std::fs::create_dir_all(dir)?;
         resume::remove_checkpoint(dir)?;
         write_summary(dir, &running_summary(problem, clock, command))?;
-        Recorders::start(problem, dir, out, lag.dim(), resumable.ok().map(|_| checkpointing))?
+        Recorders::start(problem, dir, out, lag.dim(), Some(checkpointing))?
     };
     let report = crate::record::drive_in_chunks(lag, &mut it, &mut recorders);
     if let Some(e) = recorders.write_failure() {
@@ -231,11 +227,10 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
 fn resume_outputs<'a, L: Lagrangian>(
     it: &mut Integrator<'_, L>,
     a: &RunArgs<'a>,
-    resumable: Result<(), String>,
     checkpointing: Checkpointing,
 ) -> std::io::Result<Result<Recorders<'a>, String>> {
     let (problem, dir, out) = (a.problem, a.dir, a.out);
-    let cp = match resumable.and_then(|_| resume::load(dir, problem, &out)) {
+    let cp = match resume::load(dir, problem, &out) {
         Ok(cp) => cp,
         Err(msg) => return Ok(Err(msg)),
     };

@@ -173,10 +173,6 @@ fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
     };
     let n = problem.coordinates.len();
     let recorder = Recorder::new(&problem.element, n, t0, end, &options);
-    let resumable = crate::resume::resumable(&out);
-    if let (true, Err(msg)) = (a.resume, &resumable) {
-        return Ok(Outcome::Rejected(msg.clone()));
-    }
     let tag = crate::resume::problem_hash(problem);
     let checkpointing = Checkpointing {
         policy: a.checkpoints,
@@ -189,7 +185,7 @@ fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
         dir,
         out,
         e0: run.e0,
-        checkpoints: resumable.ok().map(|()| checkpointing),
+        checkpoints: Some(checkpointing),
     };
     // A run killed before its first checkpoint resumes by starting again.
     let fresh = !a.resume || crate::resume::killed_before_first_checkpoint(dir, problem);
@@ -236,15 +232,13 @@ fn run_with<L: Lagrangian>(lag: L, a: &Args<'_>) -> std::io::Result<Outcome> {
         summary.stopped_by_event = Some(events.stopper().filter(|_| stopped).map(str::to_string));
     }
     if let Some(kept) = writer.kept.take() {
-        let statistics = (summary.steps, summary.mean_solver_iterations, report.stopped);
-        let sol = AdaptiveSolution::from_rows(n, run.e0, kept, statistics, None);
-        if !problem.events.is_empty() {
-            let drawn = crate::events::poincare(dir, problem, &sol.events, out.plot_format);
+        if let Some(events) = &writer.events {
+            let drawn = crate::events::poincare(dir, problem, events.kept(), out.plot_format);
             if let Err(e) = drawn {
                 summary.error.get_or_insert(e);
             }
         }
-        if let Err(e) = plots::draw(dir, out.plot_format, problem, &sol, settings.ds) {
+        if let Err(e) = plots::draw(dir, out.plot_format, problem, &kept, settings.ds) {
             summary.error.get_or_insert(e);
         }
     }

@@ -1,15 +1,17 @@
 //! Plots of an adaptive run (`--plot` or `[output] plots = true`), against the physical time
 //! of the nodes: the coordinates, the relative energy error, the physical step size
-//! Δt = t_{k+1} − t_k (which the monitor sets), and the orbits of bodies.
+//! Δt = t_{k+1} − t_k (which the monitor sets), and the orbits of bodies. They are drawn
+//! from the bounded [`PlotTrace`] the writer keeps (`stream.rs`), so a run of any length
+//! plots in bounded memory and resumes to the same plots.
 
 use crate::plot::{file, lines, log_lines, orbits, Format, Series};
 use crate::problem::{Problem, System};
-use femvi::adaptive::AdaptiveSolution;
+use crate::record::PlotTrace;
 use std::path::Path;
 
 /// Draws coordinates, energy_error, step_size and (for bodies) orbit into `dir`.
-pub(super) fn draw(dir: &Path, f: Format, problem: &Problem, sol: &AdaptiveSolution, ds: f64) -> Result<(), String> {
-    let n = sol.n;
+pub(super) fn draw(dir: &Path, f: Format, problem: &Problem, sol: &PlotTrace, ds: f64) -> Result<(), String> {
+    let n = problem.coordinates.len();
     let name = format!("{} ({}, adaptive, ds = {ds})", problem.name, problem.scheme_label);
     let coords: Vec<Series> = (0..n)
         .map(|c| Series {
@@ -25,15 +27,9 @@ pub(super) fn draw(dir: &Path, f: Format, problem: &Problem, sol: &AdaptiveSolut
         "q",
         &coords,
     )?;
-    let scale = if sol.e0 == 0.0 { 1.0 } else { sol.e0.abs() };
     let energy = [Series {
         name: "relative energy error".into(),
-        points: sol
-            .t
-            .iter()
-            .zip(&sol.energy)
-            .map(|(t, h)| (*t, (h - sol.e0).abs() / scale))
-            .collect(),
+        points: sol.t.iter().zip(&sol.rel_energy).map(|(t, e)| (*t, *e)).collect(),
     }];
     let title = format!("{name}: relative energy error");
     log_lines(
@@ -47,7 +43,7 @@ pub(super) fn draw(dir: &Path, f: Format, problem: &Problem, sol: &AdaptiveSolut
     )?;
     let steps = [Series {
         name: "physical step between kept nodes".into(),
-        points: sol.t.windows(2).map(|w| (w[0], w[1] - w[0])).collect(),
+        points: sol.t.iter().zip(&sol.steps).skip(1).map(|(t, dt)| (*t, *dt)).collect(),
     }];
     let title = format!("{name}: physical step size");
     lines(&file(dir, "step_size", f), f, &title, "t", "dt", &steps)?;

@@ -9,12 +9,16 @@
 //! - the recorder's state (clock, next output time, events);
 //! - the outputs' lengths, the row count and the last kept node.
 //!
-//! So `--resume` continues to the same bytes. Memory stays bounded: only the plots keep the
-//! rows, and runs with plots are not resumable.
+//! So `--resume` continues to the same bytes. Memory stays bounded: the plots keep their
+//! nodes and Poincaré points in bounded records (`record::PlotTrace`, `record::SectionPoints`),
+//! whose state a checkpoint of a run with plots keeps in its side file.
 
 use super::AdaptiveTime;
 use crate::problem::Problem;
-use crate::record::{Checkpointing, CsvRows, EventRows, NodeEnergy, NpyRows, Pacer, Progress, WriteFailure};
+use crate::record::{
+    load_plot_state, save_plot_state, Checkpointing, CsvRows, EventRows, NodeEnergy, NpyRows, Pacer, PlotTrace,
+    Progress, TraceNode, WriteFailure,
+};
 use crate::resume::{self, AdaptiveSaved, EnergySaved, RunCheckpoint};
 use crate::signals::{self, Signal};
 use femvi::adaptive::{AdaptiveRows, Monitor, Recorder, TimeTransformed};
@@ -41,8 +45,10 @@ pub struct Writer<'a> {
     rows: usize,
     pub(super) max_rel: f64,
     pub(super) last: Option<LastNode>,
-    /// Everything recorded, for the plots (None without plots).
-    pub(super) kept: Option<AdaptiveRows>,
+    /// The kept nodes for the plots (None without plots).
+    pub(super) kept: Option<PlotTrace>,
+    /// Runs with plots: the side file the next checkpoint writes into.
+    plot_slot: u8,
     checkpoints: Option<Checkpointing>,
     dir: &'a Path,
     pacer: Pacer,
@@ -103,7 +109,7 @@ impl<'a> Writer<'a> {
         };
         let events = match s.problem.events.is_empty() {
             true => None,
-            false => Some(EventRows::create(s.problem, s.dir, columns_n(s.problem), false)?),
+            false => Some(EventRows::create(s.problem, s.dir, columns_n(s.problem), s.out.plots)?),
         };
         Ok(Self::with(s, recorder, (csv, npy, events), failure, false))
     }
@@ -136,7 +142,7 @@ impl<'a> Writer<'a> {
         }
         .transpose()
         .map_err(|e| format!("cannot resume trajectory.npy: {e}"))?;
-        let events = match (&cp.events, s.problem.events.is_empty()) {
+        let mut events = match (&cp.events, s.problem.events.is_empty()) {
             (_, true) => None,
             (Some(e), false) => Some(
                 EventRows::resume(s.problem, s.dir, columns_n(s.problem), e)
@@ -144,7 +150,16 @@ impl<'a> Writer<'a> {
             ),
             (None, false) => return Err("cannot resume: the checkpoint has no events.csv state".into()),
         };
+        let kept = match &cp.plots {
+            Some(saved) if s.out.plots => {
+                let trace = load_plot_state(s.dir, saved, events.as_mut())?;
+                Some(PlotTrace::from_words(columns_n(s.problem), &trace)?)
+            }
+            _ => None,
+        };
         let mut me = Self::with(s, recorder, (csv, npy, events), failure, true);
+        me.kept = kept;
+        me.plot_slot = cp.plots.as_ref().map_or(0, |p| 1 - (p.slot & 1));
         me.rows = saved.rows;
         if saved.v.len() == me.n {
             me.v = saved.v.iter().map(|b| f64::from_bits(*b)).collect();
@@ -178,7 +193,8 @@ impl<'a> Writer<'a> {
             rows: 0,
             max_rel: 0.0,
             last: None,
-            kept: s.out.plots.then(AdaptiveRows::default),
+            kept: s.out.plots.then(|| PlotTrace::new(n)),
+            plot_slot: 0,
             checkpoints: s.checkpoints,
             dir: s.dir,
             pacer: Pacer::default(),
@@ -218,6 +234,19 @@ impl<'a> Writer<'a> {
             let h = rows.energy[i];
             self.max_rel = self.max_rel.max((h - self.e0).abs() / scale);
             let k = (rows.s[i] / self.ds).round() as usize;
+            if let Some(kept) = self.kept.as_mut() {
+                let rel_energy = (h - self.e0).abs() / scale;
+                kept.offer(
+                    TraceNode {
+                        t,
+                        q,
+                        p,
+                        rel_energy,
+                        residual: None,
+                    },
+                    false,
+                );
+            }
             match self.last.as_mut() {
                 Some(last) => {
                     (last.0, last.1) = (k, t);
@@ -250,9 +279,6 @@ impl<'a> Writer<'a> {
         self.values = values;
         if let (Some(events), false) = (self.events.as_mut(), rows.events.is_empty()) {
             events.write(rows.events.clone())?;
-        }
-        if let Some(kept) = self.kept.as_mut() {
-            append(kept, rows.clone());
         }
         Ok(())
     }
@@ -290,6 +316,15 @@ impl<'a> Writer<'a> {
         let csv_bytes = self.csv.as_mut().map(CsvRows::sync).transpose()?;
         let npy_rows = self.npy.as_mut().map(NpyRows::sync).transpose()?;
         let events = self.events.as_mut().map(EventRows::sync).transpose()?;
+        let plots = match &self.kept {
+            Some(trace) => Some(save_plot_state(
+                self.dir,
+                self.plot_slot,
+                trace.words(),
+                self.events.as_ref(),
+            )?),
+            None => None,
+        };
         let last = self.last.as_ref().map(|(k, t, q, p)| {
             let bits = std::iter::once(t).chain(q).chain(p).map(|x| x.to_bits()).collect();
             (*k, bits)
@@ -314,9 +349,13 @@ impl<'a> Writer<'a> {
                 last,
                 v: self.v.iter().map(|x| x.to_bits()).collect(),
             }),
+            plots,
             integrator: it.checkpoint(&tag),
         };
         resume::save(self.dir, &cp)?;
+        if self.kept.is_some() {
+            self.plot_slot = 1 - self.plot_slot;
+        }
         self.last_checkpoint = Instant::now();
         Ok(())
     }
@@ -339,21 +378,6 @@ impl<'a> Writer<'a> {
 /// The number of coordinates of a problem.
 fn columns_n(problem: &Problem) -> usize {
     problem.coordinates.len()
-}
-
-/// Appends `rows` to `all`.
-fn append(all: &mut AdaptiveRows, rows: AdaptiveRows) {
-    all.s.extend(rows.s);
-    all.t.extend(rows.t);
-    all.q.extend(rows.q);
-    all.p.extend(rows.p);
-    all.v.extend(rows.v);
-    all.energy.extend(rows.energy);
-    all.saved.t.extend(rows.saved.t);
-    all.saved.q.extend(rows.saved.q);
-    all.saved.v.extend(rows.saved.v);
-    all.saved.p.extend(rows.saved.p);
-    all.events.extend(rows.events);
 }
 
 impl<L: Lagrangian, G: Monitor> Observer<TimeTransformed<L, G>> for Writer<'_> {

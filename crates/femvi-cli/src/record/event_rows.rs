@@ -2,8 +2,8 @@
 //! [`EventLocator`] on each element of the one run, each row (event, step, t, q, p) written
 //! when it is found. Like trajectory.csv, [`EventRows::sync`] returns the length a checkpoint
 //! keeps, with the locator's state, and [`EventRows::resume`] cuts the file back to it, so a
-//! resumed run writes the same bytes as an uninterrupted one. The records are kept in memory
-//! only for the Poincaré plots, when plots are on.
+//! resumed run writes the same bytes as an uninterrupted one. When plots are on, the points
+//! of the Poincaré plots are kept in memory, bounded ([`SectionPoints`]), and in checkpoints.
 
 use femvi::solution::{EventLocator, EventRecord};
 use femvi::step::Observer;
@@ -12,6 +12,7 @@ use std::fs::File;
 use std::io::{Seek, SeekFrom};
 use std::path::Path;
 
+use super::SectionPoints;
 use crate::problem::Problem;
 
 /// The events of a run and events.csv.
@@ -24,8 +25,8 @@ pub struct EventRows {
     count: usize,
     /// The first stopping event's name, once one occurred.
     stopper: Option<String>,
-    /// The records, for the plots (None without plots).
-    kept: Option<Vec<EventRecord>>,
+    /// The points of the Poincaré plots (None without plots).
+    kept: Option<SectionPoints>,
 }
 
 /// What a checkpoint keeps of the events: events.csv's length, the count and the locator's
@@ -75,7 +76,7 @@ impl EventRows {
             row: Vec::new(),
             count: 0,
             stopper: None,
-            kept: plots.then(Vec::new),
+            kept: plots.then(SectionPoints::default),
         }
     }
 
@@ -89,9 +90,24 @@ impl EventRows {
         self.stopper.as_deref()
     }
 
-    /// The records kept for the plots.
-    pub fn kept(&self) -> &[EventRecord] {
-        self.kept.as_deref().unwrap_or(&[])
+    /// The points kept for the Poincaré plots: (event index, q₁, p₁).
+    pub fn kept(&self) -> &[(usize, f64, f64)] {
+        self.kept.as_ref().map_or(&[], |k| &k.points)
+    }
+
+    /// The state of the Poincaré points, for a checkpoint (None without plots).
+    pub fn kept_words(&self) -> Option<Vec<u64>> {
+        self.kept.as_ref().map(SectionPoints::words)
+    }
+
+    /// Restores the Poincaré points of a resumed run with plots from
+    /// [`EventRows::kept_words`].
+    ///
+    /// # Errors
+    /// The words are not those of such points.
+    pub fn restore_kept(&mut self, words: &[u64]) -> Result<(), String> {
+        self.kept = Some(SectionPoints::from_words(words)?);
+        Ok(())
     }
 
     /// Flushes and returns what a checkpoint at this node keeps.
@@ -137,7 +153,8 @@ impl EventRows {
             self.writer.write_record(&self.row)?;
             self.count += 1;
             if let Some(kept) = self.kept.as_mut() {
-                kept.push(r);
+                let first = |x: &[f64]| x.first().copied().unwrap_or(f64::NAN);
+                kept.offer(r.event, first(&r.q), first(&r.p));
             }
         }
         Ok(())

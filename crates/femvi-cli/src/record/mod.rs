@@ -14,6 +14,7 @@ mod event_rows;
 mod npy_rows;
 mod pacing;
 mod plot_data;
+mod plot_trace;
 mod progress;
 mod recorders;
 
@@ -24,7 +25,8 @@ pub use energy::{EnergyError, NodeEnergy};
 pub use event_rows::{EventRows, EventsSaved};
 pub use npy_rows::{write_table, NpyRows};
 pub use pacing::Pacer;
-pub use plot_data::PlotData;
+pub use plot_data::{load_plot_state, save_plot_state, PlotData};
+pub use plot_trace::{max_nodes, PlotTrace, SectionPoints, TraceNode, MAX_SECTION_POINTS};
 pub use progress::Progress;
 pub use recorders::{Checkpointing, Recorders};
 
@@ -84,6 +86,11 @@ impl Thinning {
     /// ```
     pub fn after(every: usize, k: usize) -> Self {
         Thinning { every, last_kept: k }
+    }
+
+    /// The node kept last (`usize::MAX` before the first).
+    pub fn last_kept(&self) -> usize {
+        self.last_kept
     }
 
     /// Whether to keep node `k` (`last`: the final node of the grid).

@@ -5,16 +5,15 @@
 //! coordinates. They show the nodes trajectory.csv keeps; every title names the scheme and
 //! the step.
 //!
-//! Memory is bounded whatever the length of the run: the nodes kept for the plots (after
-//! `every`) are decimated by halving — when [`PlotData`] holds its limit of nodes
-//! ([`max_nodes`], at most 65 536 and about 32 MB of values), every other one is dropped and
-//! from then on only every 2nd, 4th, … node is taken — and the last node is always kept. A
-//! plot draws at most 5 000 points per line anyway (`plot::thin`), so for runs of up to 65 536
-//! kept nodes the plots are unchanged.
+//! Memory is bounded whatever the length of the run: the nodes are kept in a [`PlotTrace`],
+//! which halves them when it holds its limit. A run with plots resumes from a checkpoint to
+//! the same plots: [`PlotData::words`] and [`PlotData::resume`] carry the state across.
 
-use super::{NodeEnergy, Thinning, WriteFailure};
+use super::plot_trace::{PlotTrace, TraceNode};
+use super::{EventRows, NodeEnergy, Thinning, WriteFailure};
 use crate::plot::{file, lines, log_lines, orbits, step_label, Format, Series};
 use crate::problem::Problem;
+use crate::resume::{self, PlotsSaved};
 use femvi::step::Observer;
 use femvi::{Integrator, Lagrangian};
 use std::cell::Cell;
@@ -29,70 +28,7 @@ pub struct PlotData<'a> {
     thinning: Thinning,
     energy: Rc<Cell<NodeEnergy>>,
     failure: WriteFailure,
-    t: Vec<f64>,
-    q: Vec<f64>,
-    p: Vec<f64>,
-    rel_energy: Vec<f64>,
-    /// A constrained run's max |g(q)| per kept node (empty otherwise).
-    residual: Vec<f64>,
-    /// Per kept node: the time since the previous node after `every` (NaN for the first).
-    steps: Vec<f64>,
-    /// The previous node after `every`, kept or not.
-    previous: Option<f64>,
-    decimation: Decimation,
-}
-
-/// Which nodes (after `every`) the plots hold: those whose index is a multiple of `stride`,
-/// and the last; when `limit` are held, every other one goes and the stride doubles.
-#[derive(Debug, Clone, Copy)]
-struct Decimation {
-    seen: usize,
-    stride: usize,
-    limit: usize,
-}
-
-impl Decimation {
-    fn new(limit: usize) -> Self {
-        Decimation {
-            seen: 0,
-            stride: 1,
-            limit: limit.max(2),
-        }
-    }
-
-    /// For the next node (`last`: the run's final one), with `held` nodes held: whether to
-    /// halve those first, and whether to keep this one.
-    fn offer(&mut self, held: usize, last: bool) -> (bool, bool) {
-        let index = self.seen;
-        self.seen += 1;
-        if !(last || index.is_multiple_of(self.stride)) {
-            return (false, false);
-        }
-        if held >= self.limit {
-            self.stride *= 2;
-            return (true, last || index.is_multiple_of(self.stride));
-        }
-        (false, true)
-    }
-}
-
-/// Most values (times, coordinates, momenta, energies, steps) [`PlotData`] keeps.
-const MAX_VALUES: usize = 1 << 22;
-
-/// Most nodes [`PlotData`] keeps for a system with n coordinates: 65 536, fewer when a node's
-/// 2n + 3 values would take more than [`MAX_VALUES`] in all, and at least 16.
-pub fn max_nodes(n: usize) -> usize {
-    (MAX_VALUES / (2 * n + 3)).clamp(16, 1 << 16)
-}
-
-/// Keeps the chunks of `width` values of `v` at even positions (0, 2, 4, …).
-fn keep_even<T: Copy>(v: &mut Vec<T>, width: usize) {
-    let chunks = v.len() / width.max(1);
-    for c in (0..chunks).step_by(2) {
-        let to = c / 2 * width;
-        v.copy_within(c * width..(c + 1) * width, to);
-    }
-    v.truncate(chunks.div_ceil(2) * width);
+    trace: PlotTrace,
 }
 
 impl<'a> PlotData<'a> {
@@ -111,32 +47,42 @@ impl<'a> PlotData<'a> {
             thinning: Thinning::new(problem.every),
             energy,
             failure,
-            t: vec![],
-            q: vec![],
-            p: vec![],
-            rel_energy: vec![],
-            residual: vec![],
-            steps: vec![],
-            previous: None,
-            decimation: Decimation::new(max_nodes(problem.coordinates.len())),
+            trace: PlotTrace::new(problem.coordinates.len()),
         }
     }
 
-    /// Halves the nodes kept (those at even positions stay).
-    fn decimate(&mut self) {
-        let n = self.problem.coordinates.len();
-        keep_even(&mut self.t, 1);
-        keep_even(&mut self.q, n);
-        keep_even(&mut self.p, n);
-        keep_even(&mut self.rel_energy, 1);
-        keep_even(&mut self.residual, 1);
-        keep_even(&mut self.steps, 1);
+    /// The state of the plots after the node a checkpoint is written at: which node was kept
+    /// last and the [`PlotTrace`].
+    pub fn words(&self) -> Vec<u64> {
+        let mut w = vec![self.thinning.last_kept() as u64];
+        w.extend(self.trace.words());
+        w
+    }
+
+    /// Plots of a resumed run, in the state [`PlotData::words`] gave.
+    ///
+    /// # Errors
+    /// The words do not fit `problem`.
+    pub fn resume(
+        problem: &'a Problem,
+        dir: &'a Path,
+        format: Format,
+        energy: Rc<Cell<NodeEnergy>>,
+        failure: WriteFailure,
+        words: &[u64],
+    ) -> Result<Self, String> {
+        let mut me = Self::new(problem, dir, format, energy, failure);
+        let (last, trace) = words.split_first().ok_or("the checkpoint's plot state is empty")?;
+        let last = usize::try_from(*last).unwrap_or(usize::MAX);
+        me.thinning = Thinning::after(problem.every, last);
+        me.trace = PlotTrace::from_words(problem.coordinates.len(), trace)?;
+        Ok(me)
     }
 
     /// Draws coordinates against time, phase portraits, the energy error, (energy mode) the
     /// step sizes and (constraints) the constraint residual.
     fn draw(&self) -> Result<(), String> {
-        let (dir, f, problem) = (self.dir, self.format, self.problem);
+        let (dir, f, problem, trace) = (self.dir, self.format, self.problem, &self.trace);
         let n = problem.coordinates.len();
         let name = &format!(
             "{} ({}, h = {})",
@@ -147,19 +93,19 @@ impl<'a> PlotData<'a> {
         let coords: Vec<Series> = (0..n)
             .map(|c| Series {
                 name: problem.coordinates[c].clone(),
-                points: self
+                points: trace
                     .t
                     .iter()
                     .enumerate()
-                    .map(|(k, t)| (*t, self.q[k * n + c]))
+                    .map(|(k, t)| (*t, trace.q[k * n + c]))
                     .collect(),
             })
             .collect();
         let title = format!("{name}: coordinates");
         lines(&file(dir, "coordinates", f), f, &title, "t", "q", &coords)?;
         for (c, cname) in problem.coordinates.iter().enumerate() {
-            let pts = (0..self.t.len())
-                .map(|k| (self.q[k * n + c], self.p[k * n + c]))
+            let pts = (0..trace.t.len())
+                .map(|k| (trace.q[k * n + c], trace.p[k * n + c]))
                 .collect();
             let series = [Series {
                 name: cname.clone(),
@@ -171,7 +117,7 @@ impl<'a> PlotData<'a> {
         }
         let energy = [Series {
             name: "relative energy error".into(),
-            points: self.t.iter().zip(&self.rel_energy).map(|(t, e)| (*t, *e)).collect(),
+            points: trace.t.iter().zip(&trace.rel_energy).map(|(t, e)| (*t, *e)).collect(),
         }];
         let title = format!("{name}: relative energy error");
         let path = file(dir, "energy_error", f);
@@ -179,15 +125,21 @@ impl<'a> PlotData<'a> {
         if problem.energy.is_some() {
             let steps = [Series {
                 name: "step".into(),
-                points: self.t.iter().zip(&self.steps).skip(1).map(|(t, h)| (*t, *h)).collect(),
+                points: trace
+                    .t
+                    .iter()
+                    .zip(&trace.steps)
+                    .skip(1)
+                    .map(|(t, h)| (*t, *h))
+                    .collect(),
             }];
             let title = format!("{name}: step size (energy mode)");
             lines(&file(dir, "step_size", f), f, &title, "t", "h", &steps)?;
         }
-        if !self.residual.is_empty() {
+        if !trace.residual.is_empty() {
             let residual = [Series {
                 name: "max |g(q)|".into(),
-                points: self.t.iter().zip(&self.residual).map(|(t, g)| (*t, *g)).collect(),
+                points: trace.t.iter().zip(&trace.residual).map(|(t, g)| (*t, *g)).collect(),
             }];
             let title = format!("{name}: constraint residual");
             log_lines(
@@ -215,8 +167,8 @@ impl<'a> PlotData<'a> {
             .iter()
             .map(|(label, i, j)| Series {
                 name: label.clone(),
-                points: (0..self.t.len())
-                    .map(|k| (self.q[k * n + i], self.q[k * n + j]))
+                points: (0..self.trace.t.len())
+                    .map(|k| (self.trace.q[k * n + i], self.trace.q[k * n + j]))
                     .collect(),
             })
             .collect();
@@ -262,23 +214,14 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
         if !self.thinning.keep(node.k, last) {
             return Ok(());
         }
-        let step = self.previous.map_or(f64::NAN, |previous| node.t - previous);
-        self.previous = Some(node.t);
-        let (halve, keep) = self.decimation.offer(self.t.len(), last);
-        if halve {
-            self.decimate();
-        }
-        if !keep {
-            return Ok(());
-        }
-        self.steps.push(step);
-        self.t.push(node.t);
-        self.q.extend_from_slice(node.q);
-        self.p.extend_from_slice(node.p);
-        self.rel_energy.push(self.energy.get().rel);
-        if let Some(at) = it.node_constraints() {
-            self.residual.push(at.residual);
-        }
+        let node = TraceNode {
+            t: node.t,
+            q: node.q,
+            p: node.p,
+            rel_energy: self.energy.get().rel,
+            residual: it.node_constraints().map(|at| at.residual),
+        };
+        self.trace.offer(node, last);
         Ok(())
     }
 
@@ -297,59 +240,35 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// Writes the plots' state of a checkpoint into side file `slot` of `dir`: `trace` (the
+/// words of [`PlotData::words`] or of an adaptive run's [`PlotTrace`]) and the Poincaré
+/// points of `events`.
+///
+/// # Errors
+/// The write failed.
+pub fn save_plot_state(
+    dir: &Path,
+    slot: u8,
+    trace: Vec<u64>,
+    events: Option<&EventRows>,
+) -> std::io::Result<PlotsSaved> {
+    let mut sections = vec![trace];
+    sections.extend(events.and_then(EventRows::kept_words));
+    resume::save_plots(dir, slot, &sections)
+}
 
-    /// Nodes offered one by one: never more than the limit held, evenly spaced by the final
-    /// stride from node 0, and the last one always held.
-    #[test]
-    fn decimation_holds_a_bounded_evenly_spaced_subset_and_the_last_node() {
-        for (total, limit) in [
-            (1usize, 16usize),
-            (10, 16),
-            (16, 16),
-            (17, 16),
-            (1000, 16),
-            (100_003, 1000),
-        ] {
-            let mut d = Decimation::new(limit);
-            let mut held: Vec<usize> = vec![];
-            for i in 0..total {
-                let (halve, keep) = d.offer(held.len(), i + 1 == total);
-                if halve {
-                    keep_even(&mut held, 1);
-                }
-                if keep {
-                    held.push(i);
-                }
-                assert!(held.len() <= limit, "{total} {limit}: {} held", held.len());
-            }
-            assert_eq!(held.last(), Some(&(total - 1)));
-            let body = &held[..held.len() - 1];
-            for (j, &i) in body.iter().enumerate() {
-                assert_eq!(i, j * d.stride, "{total} {limit}");
-            }
-            // Not thinned more than needed: at least a quarter of the limit held.
-            assert!(held.len() >= (limit / 4).min(total), "{total} {limit}: {}", held.len());
-        }
+/// Reads back what [`save_plot_state`] wrote: restores the Poincaré points of `events` and
+/// returns the trace's words.
+///
+/// # Errors
+/// A message for the user: the side file is missing, damaged or not the checkpoint's.
+pub fn load_plot_state(dir: &Path, saved: &PlotsSaved, events: Option<&mut EventRows>) -> Result<Vec<u64>, String> {
+    let mut sections = resume::load_plots(dir, saved)?.into_iter();
+    let (Some(trace), points, None) = (sections.next(), sections.next(), sections.next()) else {
+        return Err("cannot resume: the checkpoint's plot state is damaged".into());
+    };
+    if let (Some(events), Some(points)) = (events, points) {
+        events.restore_kept(&points)?;
     }
-
-    #[test]
-    fn keep_even_keeps_chunks_at_even_positions() {
-        let mut v: Vec<f64> = (0..10).map(f64::from).collect();
-        keep_even(&mut v, 2);
-        assert_eq!(v, [0.0, 1.0, 4.0, 5.0, 8.0, 9.0]);
-        let mut w = vec![1, 2, 3];
-        keep_even(&mut w, 1);
-        assert_eq!(w, [1, 3]);
-    }
-
-    #[test]
-    fn node_limits_are_bounded() {
-        assert_eq!(max_nodes(1), 1 << 16);
-        assert!(max_nodes(1000) * 2003 <= MAX_VALUES);
-        assert!(max_nodes(100_000) * 200_003 <= MAX_VALUES);
-        assert_eq!(max_nodes(10_000_000), 16);
-    }
+    Ok(trace)
 }

@@ -8,6 +8,7 @@
 //! [`Policy`](crate::resume::Policy) and when a stop signal ends the run; and it resumes the
 //! outputs of a stopped run from a checkpoint.
 
+use super::plot_data::{load_plot_state, save_plot_state};
 use super::{
     columns, CsvRows, EnergyError, EventRows, NodeEnergy, NpyRows, Pacer, PlotData, Progress, WorkBalance, WriteFailure,
 };
@@ -71,6 +72,9 @@ pub struct Recorders<'a> {
     balance: Option<WorkBalance>,
     /// Problems with `[[events]]`: the events located on each element, into events.csv.
     events: Option<EventRows>,
+    /// Runs with plots: the side file the next checkpoint writes its plots' state into (the
+    /// other one holds the last checkpoint's).
+    plot_slot: u8,
 }
 
 impl<'a> Recorders<'a> {
@@ -155,6 +159,7 @@ impl<'a> Recorders<'a> {
             } else {
                 Some(EventRows::create(problem, dir, dim, out.plots)?)
             },
+            plot_slot: 0,
         })
     }
 
@@ -192,12 +197,20 @@ impl<'a> Recorders<'a> {
         .transpose()
         .map_err(|e| format!("cannot resume trajectory.csv: {e}"))?;
         let npy = match (out.npy, cp.npy_rows) {
-            (true, Some(r)) => Some(NpyRows::resume(dir, &columns, r, k, every, shared, failure.clone())),
+            (true, Some(r)) => Some(NpyRows::resume(
+                dir,
+                &columns,
+                r,
+                k,
+                every,
+                shared.clone(),
+                failure.clone(),
+            )),
             _ => None,
         }
         .transpose()
         .map_err(|e| format!("cannot resume trajectory.npy: {e}"))?;
-        let events = match (&cp.events, problem.events.is_empty()) {
+        let mut events = match (&cp.events, problem.events.is_empty()) {
             (_, true) => None,
             (Some(saved), false) => Some(
                 EventRows::resume(problem, dir, fresh.lagrangian().dim(), saved)
@@ -205,13 +218,28 @@ impl<'a> Recorders<'a> {
             ),
             (None, false) => return Err("cannot resume: the checkpoint has no events.csv state".into()),
         };
+        let plots = match &cp.plots {
+            Some(saved) if out.plots => {
+                let trace = load_plot_state(dir, saved, events.as_mut())?;
+                let f = out.plot_format;
+                Some(PlotData::resume(
+                    problem,
+                    dir,
+                    f,
+                    shared.clone(),
+                    failure.clone(),
+                    &trace,
+                )?)
+            }
+            _ => None,
+        };
         Ok(Recorders {
             progress: Progress::new(out.progress, problem),
             current: energy.current(),
             energy,
             csv,
             npy,
-            plots: None,
+            plots,
             failure,
             dir,
             pacer: Pacer::default(),
@@ -231,6 +259,7 @@ impl<'a> Recorders<'a> {
                 .is_some()
                 .then(|| cp.balance.map(WorkBalance::from_words).unwrap_or_default()),
             events,
+            plot_slot: cp.plots.as_ref().map_or(0, |p| 1 - (p.slot & 1)),
         })
     }
 
@@ -341,6 +370,8 @@ impl<'a> Recorders<'a> {
         let csv = self.csv.as_mut().map(CsvRows::sync).transpose();
         let npy = self.npy.as_mut().map(NpyRows::sync).transpose();
         let events = self.events.as_mut().map(EventRows::sync).transpose();
+        let plots = (self.plots.as_ref())
+            .map(|plots| save_plot_state(self.dir, self.plot_slot, plots.words(), self.events.as_ref()));
         let cp = csv.and_then(|csv_bytes| {
             Ok(RunCheckpoint {
                 format: resume::FORMAT,
@@ -357,10 +388,14 @@ impl<'a> Recorders<'a> {
                 balance: self.balance.map(|b| b.words()),
                 events: events?,
                 adaptive: None,
+                plots: plots.transpose()?,
                 integrator: it.checkpoint(&c.tag),
             })
         });
         let saved = cp.and_then(|cp| resume::save(self.dir, &cp));
+        if saved.is_ok() && self.plots.is_some() {
+            self.plot_slot = 1 - self.plot_slot;
+        }
         self.last_checkpoint = Instant::now();
         saved.map_err(|e| self.failure.record(e))
     }
@@ -383,8 +418,7 @@ impl<'a> Recorders<'a> {
 
 /// The energy observer of a resumed run, in the state of the checkpoint's node as far as
 /// [`EnergyError`] lets it be set: its reference energy from the start node of `fresh`, and
-/// a warm-start velocity that does not matter for the Lagrangians [`resume::resumable`]
-/// accepts. The largest error before the checkpoint is kept by [`Recorders`]. With a
+/// a warm-start velocity that the tracker's saved state then replaces. The largest error before the checkpoint is kept by [`Recorders`]. With a
 /// `state()/restore()` pair on the energy observer this becomes a restore of a saved state.
 fn resumed_energy<L: Lagrangian>(problem: &Problem, fresh: &Integrator<'_, L>) -> Result<EnergyError, String> {
     let lag = fresh.lagrangian();

@@ -8,8 +8,10 @@
 //! cases include forced runs (fixed steps and time steps as variables) and constrained runs
 //! (issue 33: terms of the one integrator).
 //!
-//! Two cases have `[[events]]`: events.csv is compared too, and "events_located" in
-//! summary.json.
+//! Three cases have `[[events]]`: events.csv is compared too, and "events_located" in
+//! summary.json. Three draw plots (energy mode with a Poincaré section, adaptive steps with
+//! one, RATTLE with the constraint residual): every plot is compared byte for byte too, and
+//! no checkpoint file is left when the run is done.
 //!
 //! The kill times are drawn from a seed printed by the test (set FEMVI_RESUME_SEED to repeat).
 
@@ -48,7 +50,7 @@ const CASES: [Case; 13] = [
         name: "energy",
         end: 60.0,
         toml: "name = \"energy\"\n[system]\nmodel = \"henon-heiles\"\n[initial]\nq = [0.1, -0.1]\np = [0.3, 0.2]\n[scheme]\ndegree = 2\nquadrature = \"gauss-legendre\"\n[time]\nmode = \"energy\"\nstep = 0.05\nend = {end}\nmin_step = 0.0001\nmax_step = 0.5\n[[events]]\nname = \"section\"\nwhen = \"x\"\ndirection = \"rising\"\n",
-        args: &["--checkpoint-every-steps", "101", "--checkpoint-every-seconds", "0.1"],
+        args: &["--plot", "--checkpoint-every-steps", "101", "--checkpoint-every-seconds", "0.1"],
     },
     // Velocity- and time-dependent (Newton; the energy tracker's warm-start velocity and its
     // energy balance are in the checkpoint).
@@ -96,7 +98,7 @@ const CASES: [Case; 13] = [
         name: "adaptive-nodes",
         end: 60.0,
         toml: "name = \"adaptive-nodes\"\n[system]\nmodel = \"kepler\"\nparameters = { mu = 1.0 }\n[initial]\nq = [0.1, 0.0]\np = [0.0, 4.358898943540674]\n[scheme]\ndegree = 2\n[time]\nmode = \"adaptive\"\nds = 0.05\nend = {end}\n[output]\nevery = 3\n[[events]]\nname = \"pericentre\"\nwhen = \"y\"\ndirection = \"rising\"\n",
-        args: &["--format", "csv,npy", "--checkpoint-every-steps", "101"],
+        args: &["--plot", "--format", "csv,npy", "--checkpoint-every-steps", "101"],
     },
     Case {
         name: "adaptive-uniform",
@@ -111,7 +113,7 @@ const CASES: [Case; 13] = [
         name: "constrained-rattle",
         end: 100.0,
         toml: "name = \"constrained-rattle\"\n[system]\ncoordinates = [\"x\", \"y\", \"z\"]\nlagrangian = \"0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z\"\n[constraints]\nholonomic = [\"x^2 + y^2 + z^2 - 1\"]\n[initial]\nq = [0.6, 0.0, -0.8]\nv = [0.3, 1.5, 0.225]\n[scheme]\ndegree = 1\nquadrature = \"trapezoid\"\n[time]\nstep = 0.001\nend = {end}\n[output]\nevery = 11\n",
-        args: &["--format", "csv,npy", "--checkpoint-every-steps", "997"],
+        args: &["--plot", "--format", "csv,npy", "--checkpoint-every-steps", "997"],
     },
     Case {
         name: "constrained-forced",
@@ -201,15 +203,27 @@ fn assert_same_outputs(case: &Case, dir: &Path, reference: &Path, what: &str) {
             _ => panic!("{}: {what}: {file} exists in one run only", case.name),
         }
     }
+    let plots: Vec<_> = std::fs::read_dir(reference)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|f| f.ends_with(".svg"))
+        .collect();
+    assert_eq!(plots.is_empty(), !case.args.contains(&"--plot"), "{}: plots", case.name);
+    for plot in plots {
+        let (a, b) = (std::fs::read(dir.join(&plot)), std::fs::read(reference.join(&plot)));
+        assert!(a.is_ok() && a.ok() == b.ok(), "{}: {what}: {plot} differs", case.name);
+    }
     let (s, r) = (summary(dir), summary(reference));
     for key in FINAL_STATE {
         assert_eq!(s[key], r[key], "{}: {what}: summary.json {key}", case.name);
     }
-    assert!(
-        !dir.join("checkpoint.json").exists(),
-        "{}: a finished run keeps no checkpoint",
-        case.name
-    );
+    for file in ["checkpoint.json", "checkpoint-plots-0.bin", "checkpoint-plots-1.bin"] {
+        assert!(
+            !dir.join(file).exists(),
+            "{}: a finished run keeps no {file}",
+            case.name
+        );
+    }
 }
 
 fn success(out: &Output, what: &str) {
@@ -391,10 +405,61 @@ fn a_checkpoint_of_another_run_is_refused() {
     };
     refused(&["--set", "time.step=0.02"], "belongs to another problem");
     refused(&["--format", "npy"], "--format csv");
-    refused(&["--plot"], "not available with plots");
+    refused(&["--plot"], "the stopped run drew none");
     let elsewhere = tmp.path().join("nothing");
     std::fs::create_dir_all(&elsewhere).unwrap();
     let out = run_cmd(case, &problem, &resume_args(&elsewhere)).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot resume"));
+}
+
+/// A run with plots keeps their state in a side file of its checkpoint: a side file that is
+/// not the checkpoint's is refused (nothing changed), and so is dropping the plots on resume;
+/// with the file intact the run resumes to the uninterrupted run's plots.
+#[test]
+fn the_plot_state_of_a_checkpoint_is_checked() {
+    let case = &CASES[3];
+    assert!(case.args.contains(&"--plot"));
+    let tmp = tempfile::tempdir().unwrap();
+    let (problem, length) = calibrated(case, tmp.path());
+    let reference = tmp.path().join("reference");
+    success(
+        &run_cmd(case, &problem, &out_args(&reference)).output().unwrap(),
+        "reference",
+    );
+    let dir = tmp.path().join("stopped");
+    assert!(kill_after(
+        run_cmd(case, &problem, &out_args(&dir)),
+        Duration::from_secs_f64(length / 2.0)
+    ));
+    let cp: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("checkpoint.json")).unwrap()).unwrap();
+    let side = dir.join(format!("checkpoint-plots-{}.bin", cp["plots"]["slot"]));
+    let good = std::fs::read(&side).unwrap();
+    assert_eq!(good.len() as u64, 8 * cp["plots"]["words"].as_u64().unwrap());
+    let before = std::fs::read(dir.join("trajectory.csv")).unwrap();
+    let refused = |extra: &[&str], message: &str| {
+        let mut cmd = femvi();
+        cmd.arg("run")
+            .arg(&problem)
+            .args(["--quiet", "--resume"])
+            .arg(&dir)
+            .args(extra);
+        let out = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(message), "{err}");
+        assert_eq!(std::fs::read(dir.join("trajectory.csv")).unwrap(), before);
+    };
+    // The case's arguments without --plot.
+    let without: Vec<&str> = case.args.iter().copied().filter(|a| *a != "--plot").collect();
+    refused(&without, "cannot resume without plots");
+    let mut damaged = good.clone();
+    let last = damaged.len() - 1;
+    damaged[last] ^= 1;
+    std::fs::write(&side, &damaged).unwrap();
+    refused(case.args, "is not the one checkpoint.json was written with");
+    std::fs::write(&side, &good).unwrap();
+    let resumed = run_cmd(case, &problem, &resume_args(&dir)).output().unwrap();
+    success(&resumed, "resume with the side file intact");
+    assert_same_outputs(case, &dir, &reference, "killed, side file checked");
 }
