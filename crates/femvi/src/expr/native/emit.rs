@@ -5,18 +5,16 @@
 use super::super::dag::{Bin, Un};
 use super::super::program::F1;
 use super::super::tape::Instr;
-use super::functions::{acos, asin, atan, atan2, cos, cosh, exp, ln, powf, powi, sin, sinh, tan, tanh};
+use super::functions::{acos, asin, atan, atan2, cos, cosh, exp, ln, powf, sin, sinh, tan, tanh};
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{types, AbiParam, InstBuilder, Signature, Value};
 use cranelift_frontend::FunctionBuilder;
 
-/// Signatures of the Rust functions the code calls: f64 → f64, (f64, f64) → f64 and
-/// (f64, i32) → f64.
+/// Signatures of the Rust functions the code calls: f64 → f64 and (f64, f64) → f64.
 pub(super) struct Calls {
     pub(super) ptr: types::Type,
     pub(super) un: Signature,
     pub(super) bin: Signature,
-    pub(super) powi: Signature,
 }
 
 impl Calls {
@@ -26,9 +24,7 @@ impl Calls {
         un.returns.push(AbiParam::new(types::F64));
         let mut bin = un.clone();
         bin.params.push(AbiParam::new(types::F64));
-        let mut powi = un.clone();
-        powi.params.push(AbiParam::new(types::I32));
-        Self { ptr, un, bin, powi }
+        Self { ptr, un, bin }
     }
 
     /// Calls the function at `addr` with signature `sig` on `args`.
@@ -41,6 +37,34 @@ impl Calls {
 }
 
 /// The code of one instruction over the values of the registers so far.
+/// x^e as the unrolled loop of `dag::powi` (that of `f64::powi`): the same multiplications in
+/// the same order, so the same bits as the interpreter, inline instead of a call.
+pub(super) fn powi_inline(b: &mut FunctionBuilder, x: Value, e: i32) -> Value {
+    let (mut a, mut pow) = (x, e.unsigned_abs());
+    // None stands for r = 1 (1·a = a exactly, so the first product is a itself).
+    let mut r: Option<Value> = None;
+    loop {
+        if pow & 1 != 0 {
+            r = Some(match r {
+                None => a,
+                Some(r) => b.ins().fmul(r, a),
+            });
+        }
+        pow >>= 1;
+        if pow == 0 {
+            break;
+        }
+        a = b.ins().fmul(a, a);
+    }
+    let r = r.unwrap_or_else(|| b.ins().f64const(1.0));
+    if e < 0 {
+        let one = b.ins().f64const(1.0);
+        b.ins().fdiv(one, r)
+    } else {
+        r
+    }
+}
+
 pub(super) fn emit(b: &mut FunctionBuilder, calls: &Calls, regs: &[Value], ins: Instr) -> Option<Value> {
     let r = |a: u32| regs.get(a as usize).copied();
     Some(match ins {
@@ -86,10 +110,7 @@ fn emit_un(b: &mut FunctionBuilder, calls: &Calls, op: Un, x: Value) -> Option<V
             let (one, minus) = (b.ins().f64const(1.0), b.ins().f64const(-1.0));
             return Some(b.ins().select(positive, one, minus));
         }
-        Un::PowI(e) => {
-            let e = b.ins().iconst(types::I32, i64::from(e));
-            return calls.call(b, &calls.powi, powi as *const () as usize, &[x, e]);
-        }
+        Un::PowI(e) => return Some(powi_inline(b, x, e)),
         Un::PowF(bits) => {
             let y = b.ins().f64const(f64::from_bits(bits));
             return calls.call(b, &calls.bin, powf as *const () as usize, &[x, y]);

@@ -54,16 +54,8 @@ pub(super) fn program_fn2(f: F2) -> extern "C" fn(f64, f64) -> f64 {
     }
 }
 
-pub(super) extern "C" fn program_powi(x: f64, e: i32) -> f64 {
-    program::unary::<f64>(Op::PowI(e), x)
-}
-
 pub(super) extern "C" fn program_powf(x: f64, e: f64) -> f64 {
     program::unary::<f64>(Op::PowF(e), x)
-}
-
-pub(super) extern "C" fn powi(x: f64, e: i32) -> f64 {
-    eval_un(Un::PowI(e), x)
 }
 
 pub(super) extern "C" fn powf(x: f64, y: f64) -> f64 {

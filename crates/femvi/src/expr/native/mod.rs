@@ -155,8 +155,8 @@ pub(super) fn compile_program(ops: &[Op], n: usize) -> Option<Native> {
                     b.ins().fneg(x)
                 }
                 Op::PowI(e) => {
-                    let (x, e) = (stack.pop()?, b.ins().iconst(types::I32, i64::from(e)));
-                    calls.call(b, &calls.powi, functions::program_powi as *const () as usize, &[x, e])?
+                    let x = stack.pop()?;
+                    emit::powi_inline(b, x, e)
                 }
                 Op::PowF(e) => {
                     let (x, e) = (stack.pop()?, b.ins().f64const(e));

@@ -86,6 +86,12 @@ fn machine_code_equals_the_interpreter_for_every_operation() {
             &["x"],
         ),
         ("x_dot^4/12 + x^-3 + x^2.5 + x^(1/3) - sqrt(1 - x_dot^2/9)", &["x"]),
+        // Integer powers, unrolled inline (the loop of f64::powi): `same_value` compares them
+        // with the program's f64::powi.
+        (
+            "x_dot^2 + x^0*x^1 - x^3 + x^5 - x^7/9 + x^-1 - x^-2 + x^12/1e6 - (x/3)^31 + (x/3)^-64 + (x + 0.1)^-5",
+            &["x"],
+        ),
         (
             "-k*sqrt(1 - (x_dot^2 + y_dot^2)/100) + 1/sqrt(x^2 + y^2) + t*x",
             &["x", "y"],
