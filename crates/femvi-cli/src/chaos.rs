@@ -246,7 +246,7 @@ pub fn compute<L: Lagrangian + Clone + Sync>(
 }
 
 /// The indicators of one start of `problem` with the Lagrangian `lag`.
-fn one_point<L: Lagrangian + Clone>(
+fn one_point<L: Lagrangian + Clone + Sync>(
     lag: &L,
     problem: &Problem,
     start: Start,

@@ -54,7 +54,7 @@ impl Tables {
 
     /// The indicators of `problem` (its system as `lag`) from `start` under these tables; None
     /// for [`Tables::None`].
-    pub fn indicators<L: Lagrangian + Clone>(
+    pub fn indicators<L: Lagrangian + Clone + Sync>(
         &self,
         lag: &L,
         problem: &Problem,

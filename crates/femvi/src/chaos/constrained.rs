@@ -4,7 +4,8 @@
 //! step equations and of the momentum projection) and written in symplectic coordinates of
 //! that space (`constraints/chart.rs`), so that MEGNO, FLI and the spectrum are accumulated as
 //! for an unconstrained run of n − m degrees of freedom (`drive.rs`, `accumulate.rs`), and a
-//! conservative spectrum comes in ± pairs.
+//! conservative spectrum comes in ± pairs. The run is the one integrator with the
+//! constraints' term (`constraints/chaos_run.rs`: the steps of `femvi run`).
 
 use super::accumulate::apply;
 use super::drive::{drive, TangentRun};
@@ -49,7 +50,7 @@ use nalgebra::DMatrix;
 /// assert!((r.last.mean_megno - 2.0).abs() < 0.3);
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn constrained_indicators<L: Lagrangian, C: Constraints>(
+pub fn constrained_indicators<L: Lagrangian + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     constraints: &C,
     element: &Element,
@@ -57,13 +58,13 @@ pub fn constrained_indicators<L: Lagrangian, C: Constraints>(
     enforcement: Enforcement,
     chaos: &ChaosOptions,
 ) -> Result<ChaosReport> {
-    let run = ManifoldRun::new(problem, constraints, element, options, enforcement)?;
+    let run = ManifoldRun::new(problem, constraints, element, (options, enforcement))?;
     indicators_on(run, problem.lagrangian.dim(), chaos)
 }
 
 /// The indicators of `run` (n coordinates) from the initial vector of `chaos` projected onto
 /// the tangent space of T*N ([`constrained_indicators`]).
-pub(super) fn indicators_on<L: Lagrangian, C: Constraints>(
+pub(super) fn indicators_on<L: Lagrangian + Sync, C: Constraints + Sync>(
     run: ManifoldRun<'_, L, C>,
     n: usize,
     chaos: &ChaosOptions,
@@ -113,19 +114,19 @@ pub(super) fn indicators_on<L: Lagrangian, C: Constraints>(
 /// }
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn constrained_sensitivity<L: Lagrangian, C: Constraints>(
+pub fn constrained_sensitivity<L: Lagrangian + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     constraints: &C,
     element: &Element,
     options: &SolveOptions,
     enforcement: Enforcement,
 ) -> Result<(Vec<f64>, FinalNode)> {
-    let run = ManifoldRun::new(problem, constraints, element, options, enforcement)?;
+    let run = ManifoldRun::new(problem, constraints, element, (options, enforcement))?;
     sensitivity_of(run)
 }
 
 /// The sensitivity of the end of `run` to its start ([`constrained_sensitivity`]).
-pub(super) fn sensitivity_of<L: Lagrangian, C: Constraints>(
+pub(super) fn sensitivity_of<L: Lagrangian + Sync, C: Constraints + Sync>(
     mut run: ManifoldRun<'_, L, C>,
 ) -> Result<(Vec<f64>, FinalNode)> {
     let mut w = &run.chart.lift * &run.chart.reduce;
@@ -133,11 +134,12 @@ pub(super) fn sensitivity_of<L: Lagrangian, C: Constraints>(
         w = run.ambient_map()? * w;
     }
     let m = w.transpose().iter().copied().collect();
-    Ok((m, (run.t, run.q.clone(), run.p.clone())))
+    let (t, q, p) = run.node();
+    Ok((m, (t, q.to_vec(), p.to_vec())))
 }
 
 /// A constrained run as the chaos loop drives it.
-struct OnManifold<'a, L, C> {
+struct OnManifold<'a, L: Lagrangian, C> {
     run: ManifoldRun<'a, L, C>,
     tmp: Vec<f64>,
 }
@@ -158,12 +160,13 @@ impl<L: Lagrangian, C: Constraints> TangentRun for OnManifold<'_, L, C> {
         Ok(())
     }
     fn time(&self) -> f64 {
-        self.run.t
+        self.run.node().0
     }
     fn last_step(&self) -> f64 {
         self.run.last_step()
     }
     fn node(&self) -> FinalNode {
-        (self.run.t, self.run.q.clone(), self.run.p.clone())
+        let (t, q, p) = self.run.node();
+        (t, q.to_vec(), p.to_vec())
     }
 }

@@ -1,28 +1,32 @@
 //! The chaos indicators and the sensitivities of forced runs ([`crate::forces`]: discrete
-//! Lagrange–d'Alembert): tangent vectors carried by the forced step's tangent map (implicit
-//! differentiation of the forced step equations, `forces/tangent.rs`), accumulated as for a
-//! conservative run (`drive.rs`, `accumulate.rs`). The forced flow is not symplectic: a
+//! Lagrange–d'Alembert): the run is the one integrator with its force term
+//! ([`Integrator::with_force`], the steps of `femvi run`), its tangent vectors carried by the
+//! forced step's tangent map (implicit differentiation of the forced step equations,
+//! `step/term_tangent.rs`) and accumulated as for a conservative run (`drive.rs`,
+//! `accumulate.rs`). The forced flow is not symplectic: a
 //! dissipative run's spectrum sums to the mean of ln det of the step maps per unit time (for
 //! linear damping −c v on a mass m, −c/m), not to 0.
 
-use super::drive::{drive, TangentRun};
-use super::{initial_vector, ChaosOptions, ChaosReport, FinalNode};
+use super::{ChaosOptions, ChaosReport, FinalNode};
 use crate::discrete::Element;
 use crate::error::Result;
-use crate::forces::{Force, ForcedTangentRun};
+use crate::forces::Force;
 use crate::lagrangian::Lagrangian;
-use crate::solution::{Problem, SolveOptions};
+use crate::solution::{Problem, SolveOptions, Steps};
+use crate::step::Integrator;
 
 /// [`super::indicators`] for `problem` under the non-conservative force `force`: MEGNO, FLI,
 /// the largest Lyapunov exponent and, if asked, the spectrum of the forced discrete flow.
 ///
-/// The steps are those of [`crate::forces::solve_forced`] with `Method::Newton` (for a force
-/// independent of v, `solve_forced` by default takes the fixed point, equal to round-off); each
-/// step's tangent map comes from one more element Hessian, force Jacobian and LU of the s n
-/// Newton matrix at the converged step (`forces/tangent.rs`).
+/// The steps are those of [`crate::forces::solve_forced`] (of [`Integrator::with_force`]:
+/// dense Newton, or for a constant mass matrix and a force independent of v the fixed point,
+/// as `options.solver` asks); each step's tangent map comes from one more element Hessian,
+/// force Jacobian and LU of the s n Newton matrix at the converged step, whichever solver took
+/// it (`step/term_tangent.rs`). `options.max_steps` stops the run after that many steps.
 ///
 /// # Errors
-/// As [`crate::forces::solve_forced`]; an initial vector of the wrong length or zero.
+/// As [`crate::forces::solve_forced`]; time steps as variables (the forced energy
+/// equation's tangent map is not derived); an initial vector of the wrong length or zero.
 ///
 /// # Example
 ///
@@ -42,16 +46,15 @@ use crate::solution::{Problem, SolveOptions};
 /// assert!((r.last.lyapunov + 0.1).abs() < 0.01);
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn forced_indicators<L: Lagrangian, F: Force>(
+pub fn forced_indicators<L: Lagrangian + Sync, F: Force + Sync>(
     problem: &Problem<L>,
     force: &F,
     element: &Element,
     options: &SolveOptions,
     chaos: &ChaosOptions,
 ) -> Result<ChaosReport> {
-    let run = ForcedTangentRun::new(problem, force, element, options)?;
-    let u = initial_vector(chaos, 2 * problem.lagrangian.dim())?;
-    Ok(drive(&mut Forced { run, all: vec![] }, u, chaos))
+    let mut it = forced_integrator(problem, force, element, options)?;
+    super::indicators_limited(&mut it, chaos, options.max_steps)
 }
 
 /// The sensitivity of the final state of a forced run to the initial one,
@@ -74,56 +77,30 @@ pub fn forced_indicators<L: Lagrangian, F: Force>(
 /// assert!((m[0] * m[3] - m[1] * m[2] - (-0.6f64).exp()).abs() < 1e-9);
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn forced_sensitivity<L: Lagrangian, F: Force>(
+pub fn forced_sensitivity<L: Lagrangian + Sync, F: Force + Sync>(
     problem: &Problem<L>,
     force: &F,
     element: &Element,
     options: &SolveOptions,
 ) -> Result<(Vec<f64>, FinalNode)> {
-    let mut run = ForcedTangentRun::new(problem, force, element, options)?;
-    let d = 2 * problem.lagrangian.dim();
-    // The start directions as columns (column-major).
-    let mut w: Vec<f64> = (0..d * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
-    while run.step()? {
-        run.carry(&mut w)?;
-    }
-    let (t, q, p) = run.node();
-    let m = (0..d * d).map(|i| w[(i % d) * d + i / d]).collect();
-    Ok((m, (t, q.to_vec(), p.to_vec())))
+    let mut it = forced_integrator(problem, force, element, options)?;
+    super::sensitivity_on(&mut it, options.max_steps)
 }
 
-/// A forced run as the chaos loop drives it: `u` and `w` carried together (one Hessian and
-/// one LU per step).
-struct Forced<'a, L, F> {
-    run: ForcedTangentRun<'a, L, F>,
-    all: Vec<f64>,
-}
-
-impl<L: Lagrangian, F: Force> TangentRun for Forced<'_, L, F> {
-    fn advance(&mut self) -> Result<bool> {
-        self.run.step()
+/// The forced run of `problem` as `femvi run` takes it: the integrator with its force term.
+fn forced_integrator<'a, L: Lagrangian + Sync, F: Force + Sync>(
+    problem: &'a Problem<L>,
+    force: &'a F,
+    element: &'a Element,
+    options: &SolveOptions,
+) -> Result<Integrator<'a, L>> {
+    if matches!(options.steps, Steps::Energy { .. }) {
+        return Err(crate::error::invalid(
+            "time steps as variables (energy mode)",
+            "not supported for the tangent maps of forced runs",
+        ));
     }
-    fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()> {
-        if w.is_empty() {
-            return self.run.carry(u);
-        }
-        self.all.clear();
-        self.all.extend_from_slice(u);
-        self.all.extend_from_slice(w);
-        self.run.carry(&mut self.all)?;
-        let (a, b) = self.all.split_at(u.len());
-        u.copy_from_slice(a);
-        w.copy_from_slice(b);
-        Ok(())
-    }
-    fn time(&self) -> f64 {
-        self.run.node().0
-    }
-    fn last_step(&self) -> f64 {
-        self.run.last_step()
-    }
-    fn node(&self) -> FinalNode {
-        let (t, q, p) = self.run.node();
-        (t, q.to_vec(), p.to_vec())
-    }
+    let grid = crate::solution::grid(problem, &options.steps)?;
+    let start = problem.start.clone();
+    Integrator::with_force(&problem.lagrangian, element, grid, start, options.solver, force)
 }

@@ -11,7 +11,7 @@ use super::{ChaosOptions, ChaosReport, FinalNode};
 use crate::constraints::{Constraints, Enforcement, ManifoldRun};
 use crate::discrete::Element;
 use crate::error::{check_len, Result};
-use crate::forces::{Force, ForceTerm};
+use crate::forces::Force;
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, SolveOptions};
 
@@ -41,7 +41,7 @@ use crate::solution::{Problem, SolveOptions};
 /// assert!((r.last.lyapunov + 0.2).abs() < 0.02, "{}", r.last.lyapunov);
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn forced_constrained_indicators<L: Lagrangian, F: Force, C: Constraints>(
+pub fn forced_constrained_indicators<L: Lagrangian + Sync, F: Force + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     force: &F,
     constraints: &C,
@@ -82,7 +82,7 @@ pub fn forced_constrained_indicators<L: Lagrangian, F: Force, C: Constraints>(
 /// }
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn forced_constrained_sensitivity<L: Lagrangian, F: Force, C: Constraints>(
+pub fn forced_constrained_sensitivity<L: Lagrangian + Sync, F: Force + Sync, C: Constraints + Sync>(
     problem: &Problem<L>,
     force: &F,
     constraints: &C,
@@ -102,7 +102,7 @@ pub fn forced_constrained_sensitivity<L: Lagrangian, F: Force, C: Constraints>(
 
 /// `go` applied to the constrained run of `problem` under `force` (the force's dimension
 /// checked).
-fn forced_run<L: Lagrangian, F: Force, C: Constraints, R>(
+fn forced_run<L: Lagrangian + Sync, F: Force + Sync, C: Constraints + Sync, R>(
     problem: &Problem<L>,
     force: &F,
     constraints: &C,
@@ -110,8 +110,12 @@ fn forced_run<L: Lagrangian, F: Force, C: Constraints, R>(
     (options, enforcement): (&SolveOptions, Enforcement),
     go: impl FnOnce(ManifoldRun<'_, L, C>) -> Result<R>,
 ) -> Result<R> {
-    let n = problem.lagrangian.dim();
-    check_len("force", n, force.dim())?;
-    let term = ForceTerm::new(force, element, element.nodes().saturating_mul(n));
-    go(ManifoldRun::new(problem, constraints, element, options, enforcement)?.with_term(&term))
+    check_len("force", problem.lagrangian.dim(), force.dim())?;
+    go(ManifoldRun::forced(
+        problem,
+        constraints,
+        element,
+        (options, enforcement),
+        force,
+    )?)
 }

@@ -4,7 +4,8 @@
 //! indicators built on them — MEGNO, FLI, the largest Lyapunov exponent and the whole
 //! spectrum (`accumulate.rs`) — and the sensitivity of the final state to the initial one
 //! and to a parameter of the Lagrangian (`parameter.rs`). Forced runs ([`crate::forces`],
-//! `forced.rs`) and constrained runs on their manifold ([`crate::constraints`],
+//! `forced.rs`) are runs of the same integrator with its force term, their vectors carried
+//! by the forced step's map (`step/term_tangent.rs`); constrained runs on their manifold ([`crate::constraints`],
 //! `constrained.rs`), also both at once (`forced_constrained.rs`), have the same indicators,
 //! through the loop of `drive.rs`.
 //!
@@ -130,7 +131,7 @@ pub fn indicators<L: Lagrangian>(
     chaos: &ChaosOptions,
 ) -> Result<ChaosReport> {
     let mut it = integrator(problem, element, options)?;
-    indicators_on(&mut it, chaos)
+    indicators_limited(&mut it, chaos, options.max_steps)
 }
 
 /// [`indicators`] on an integrator set up by the caller (with steps as parameters), from its
@@ -139,19 +140,40 @@ pub fn indicators<L: Lagrangian>(
 /// # Errors
 /// An initial vector of the wrong length or zero.
 pub fn indicators_on<L: Lagrangian>(it: &mut Integrator<'_, L>, chaos: &ChaosOptions) -> Result<ChaosReport> {
-    let d = 2 * it.lagrangian().dim();
-    let u = initial_vector(chaos, d)?;
-    Ok(drive(&mut PlainRun { it, tmp: vec![0.0; d] }, u, chaos))
+    indicators_limited(it, chaos, None)
 }
 
-/// An integrator's run, its vectors carried by [`carry`].
+/// [`indicators_on`], stopping after `max_steps` steps if given.
+fn indicators_limited<L: Lagrangian>(
+    it: &mut Integrator<'_, L>,
+    chaos: &ChaosOptions,
+    max_steps: Option<usize>,
+) -> Result<ChaosReport> {
+    let d = 2 * it.lagrangian().dim();
+    let u = initial_vector(chaos, d)?;
+    let mut run = PlainRun {
+        it,
+        tmp: vec![0.0; d],
+        left: max_steps,
+    };
+    Ok(drive(&mut run, u, chaos))
+}
+
+/// An integrator's run (plain, or with forces), its vectors carried by [`carry`].
 struct PlainRun<'r, 'a, L: Lagrangian> {
     it: &'r mut Integrator<'a, L>,
     tmp: Vec<f64>,
+    /// Steps left before `SolveOptions::max_steps` stops the run (None: to the grid's end).
+    left: Option<usize>,
 }
 
 impl<L: Lagrangian> TangentRun for PlainRun<'_, '_, L> {
     fn advance(&mut self) -> Result<bool> {
+        match self.left.as_mut() {
+            Some(0) => return Ok(false),
+            Some(left) => *left -= 1,
+            None => {}
+        }
         self.it.step()
     }
     fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()> {
@@ -201,11 +223,20 @@ pub fn sensitivity<L: Lagrangian>(
     options: &SolveOptions,
 ) -> Result<(Vec<f64>, FinalNode)> {
     let mut it = integrator(problem, element, options)?;
+    sensitivity_on(&mut it, options.max_steps)
+}
+
+/// [`sensitivity`] of the run of `it` from its node to the end of its grid (or `max_steps`
+/// steps), plain or with forces.
+fn sensitivity_on<L: Lagrangian>(
+    it: &mut Integrator<'_, L>,
+    max_steps: Option<usize>,
+) -> Result<(Vec<f64>, FinalNode)> {
     let energy = it.energy_stats().is_some();
-    let mut product = ExtendedProduct::new(problem.lagrangian.dim(), energy);
+    let mut product = ExtendedProduct::new(it.lagrangian().dim(), energy);
     let mut steps = 0;
-    while options.max_steps.is_none_or(|m| steps < m) && it.step()? {
-        product.step(&mut it)?;
+    while max_steps.is_none_or(|m| steps < m) && it.step()? {
+        product.step(it)?;
         steps += 1;
     }
     let node = it.node();

@@ -1,5 +1,6 @@
 //! Tangent vectors through the last step in (q, p), whichever way the steps are chosen: with
-//! steps as parameters by `Integrator::tangent_map`; with time steps as variables (paper §3,
+//! steps as parameters by `Integrator::tangent_map`; under forces by the forced step's
+//! linearisation (`Integrator::term_tangent_apply`, `step/term_tangent.rs`); with time steps as variables (paper §3,
 //! autonomous L) by the (q, p) block of the extended map on (q, t; p, −E) (the paper's (3.6)),
 //! applied as one linearised solve per vector (`Integrator::extended_tangent_apply`: for
 //! degree ≥ 2 the assembled map has entries of size 1/g_h that a product would lose digits
@@ -34,6 +35,21 @@ pub(crate) fn carry<L: Lagrangian>(
 ) -> Result<()> {
     let n = it.lagrangian().dim();
     let d = 2 * n;
+    if it.has_term() {
+        // Forces: the vectors through the forced step's linearisation, u and w at once (one
+        // Hessian and one LU).
+        if w.is_empty() {
+            return it.term_tangent_apply(u);
+        }
+        let mut all = Vec::with_capacity(u.len() + w.len());
+        all.extend_from_slice(u);
+        all.extend_from_slice(w);
+        it.term_tangent_apply(&mut all)?;
+        let (a, b) = all.split_at(u.len());
+        u.copy_from_slice(a);
+        w.copy_from_slice(b);
+        return Ok(());
+    }
     if it.energy_stats().is_none() {
         let m = it.tangent_map()?;
         super::accumulate::apply(&m, d, u, tmp);
@@ -89,6 +105,9 @@ impl ExtendedProduct {
     /// Applies the last step's map (energy mode: by one linearised solve per column, see
     /// [`carry`]).
     pub(crate) fn step<L: Lagrangian>(&mut self, it: &mut Integrator<'_, L>) -> Result<()> {
+        if it.has_term() {
+            return it.term_tangent_apply(&mut self.w);
+        }
         if self.rows == 2 * self.n {
             let m = it.tangent_map()?;
             super::accumulate::apply(&m, self.rows, &mut self.w, &mut self.tmp);

@@ -1,43 +1,35 @@
-//! A constrained run taken step by step whose tangent vectors live on the manifold: the steps
-//! of `stepper.rs`, each step's ambient tangent map Φ (`tangent.rs`) and the symplectic
-//! coordinates of `chart.rs`, for [`crate::chaos::constrained_indicators`] and
-//! [`crate::chaos::constrained_sensitivity`].
+//! A constrained run whose tangent vectors live on the manifold, for
+//! [`crate::chaos::constrained_indicators`] and [`crate::chaos::constrained_sensitivity`]:
+//! the run is the one integrator with the constraints' term
+//! ([`Integrator::with_constraints`], with or without forces: the steps of `femvi run`); each
+//! step's ambient tangent map Φ is the term's (`tangent.rs`, through
+//! `Integrator::ambient_tangent_map`), and the symplectic coordinates of `chart.rs` at each
+//! node reduce it to the map on T*N. Nothing here takes a step itself.
 
 use super::chart::{chart, Chart};
 use super::layout::Enforcement;
-use super::start::begin;
-use super::stepper::Stepper;
+use super::start::check_options;
 use super::Constraints;
-use crate::bvp::ElementTerm;
 use crate::discrete::Element;
 use crate::error::{Error, Result, StepError, StepFailure};
+use crate::forces::Force;
 use crate::lagrangian::Lagrangian;
 use crate::solution::{Problem, SolveOptions};
-use crate::step::TimeGrid;
+use crate::step::Integrator;
 use nalgebra::DMatrix;
 
-/// A constrained run, its node and the chart at that node.
-pub(crate) struct ManifoldRun<'a, L, C> {
+/// A constrained run of the integrator and the chart at its node.
+pub(crate) struct ManifoldRun<'a, L: Lagrangian, C> {
+    it: Integrator<'a, L>,
     lag: &'a L,
     con: &'a C,
-    element: &'a Element,
-    grid: TimeGrid,
-    max_steps: Option<usize>,
-    stepper: Stepper,
-    pub q: Vec<f64>,
-    pub p: Vec<f64>,
-    v: Vec<f64>,
-    pub t: f64,
-    k: usize,
-    /// (t_k, h) of the last step.
-    last: Option<(f64, f64)>,
+    /// Steps left before `SolveOptions::max_steps` stops the run (None: to the grid's end).
+    left: Option<usize>,
     /// The chart at the current node.
     pub chart: Chart,
-    /// The discrete forces of a forced run ([`ManifoldRun::with_term`]).
-    term: Option<&'a dyn ElementTerm>,
 }
 
-impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
+impl<'a, L: Lagrangian + Sync, C: Constraints + Sync> ManifoldRun<'a, L, C> {
     /// The run of `problem` on `constraints` (checks as [`super::solve_constrained_with`]).
     ///
     /// # Errors
@@ -46,70 +38,70 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
         problem: &'a Problem<L>,
         con: &'a C,
         element: &'a Element,
-        options: &SolveOptions,
-        enforcement: Enforcement,
+        (options, enforcement): (&SolveOptions, Enforcement),
     ) -> Result<Self> {
-        let lag = &problem.lagrangian;
-        let (n, m) = (lag.dim(), con.count());
-        let start = begin(problem, con, element, options, enforcement)?;
-        let chart = chart(lag, con, problem.t0, &start.on.q, &start.on.p).ok_or_else(|| singular(0, problem.t0))?;
+        check_options(options)?;
+        let (lag, grid) = (&problem.lagrangian, crate::solution::grid(problem, &options.steps)?);
+        let (start, opts) = (problem.start.clone(), options.solver);
+        let it = Integrator::with_constraints(lag, element, grid, start, opts, con, enforcement)?;
+        Self::around(it, lag, con, options.max_steps)
+    }
+
+    /// The same run under `force`: the steps of [`super::solve_constrained_forced`] (the
+    /// discrete Lagrange–d'Alembert principle on the augmented action).
+    ///
+    /// # Errors
+    /// As [`super::solve_constrained_forced`]; a singular chart at the start.
+    pub(crate) fn forced<F: Force + Sync>(
+        problem: &'a Problem<L>,
+        con: &'a C,
+        element: &'a Element,
+        (options, enforcement): (&SolveOptions, Enforcement),
+        force: &'a F,
+    ) -> Result<Self> {
+        check_options(options)?;
+        let (lag, grid) = (&problem.lagrangian, crate::solution::grid(problem, &options.steps)?);
+        let (start, opts) = (problem.start.clone(), options.solver);
+        let it = Integrator::with_constraints_and_force(lag, element, grid, start, opts, con, enforcement, force)?;
+        Self::around(it, lag, con, options.max_steps)
+    }
+
+    fn around(it: Integrator<'a, L>, lag: &'a L, con: &'a C, max_steps: Option<usize>) -> Result<Self> {
+        let node = it.node();
+        let chart = chart(lag, con, node.t, node.q, node.p).ok_or_else(|| singular(0, node.t))?;
         Ok(Self {
+            it,
             lag,
             con,
-            element,
-            grid: start.grid,
-            max_steps: options.max_steps,
-            stepper: Stepper::new(element, start.layout, (n, m), options.solver, lag, false)?,
-            q: start.on.q,
-            p: start.on.p,
-            v: start.on.v,
-            t: problem.t0,
-            k: 0,
-            last: None,
+            left: max_steps,
             chart,
-            term: None,
         })
     }
+}
 
-    /// The same run under the discrete forces `term` (those of
-    /// [`super::solve_constrained_forced`]'s steps): its steps and tangent maps are those of
-    /// the discrete Lagrange–d'Alembert principle on the augmented action.
-    pub(crate) fn with_term(mut self, term: &'a dyn ElementTerm) -> Self {
-        self.term = Some(term);
-        self
-    }
-
+impl<L: Lagrangian, C: Constraints> ManifoldRun<'_, L, C> {
     /// Takes the next step: Ok(false) at the end of the grid or after `max_steps`.
     ///
     /// # Errors
     /// A failed step.
     pub(crate) fn step(&mut self) -> Result<bool> {
-        let Some((h, t1)) = self.grid.next(self.k, self.t) else {
-            return Ok(false);
-        };
-        if self.max_steps.is_some_and(|cap| self.k >= cap) {
-            return Ok(false);
+        match self.left.as_mut() {
+            Some(0) => return Ok(false),
+            Some(left) => *left -= 1,
+            None => {}
         }
-        let ends = (self.k, self.t, h, t1);
-        self.stepper.step(
-            self.lag,
-            self.con,
-            self.element,
-            ends,
-            &mut self.q,
-            &mut self.p,
-            &mut self.v,
-            self.term,
-        )?;
-        self.last = Some((self.t, h));
-        self.t = t1;
-        self.k += 1;
-        Ok(true)
+        self.it.step()
+    }
+
+    /// The current node (t, q, p).
+    pub(crate) fn node(&self) -> (f64, &[f64], &[f64]) {
+        let node = self.it.node();
+        (node.t, node.q, node.p)
     }
 
     /// Length of the last step (0 before the first).
     pub(crate) fn last_step(&self) -> f64 {
-        self.last.map_or(0.0, |(_, h)| h)
+        self.it.last_element().map_or(0.0, |e| e.h)
     }
 
     /// The last step's ambient tangent map Φ (2n square).
@@ -117,13 +109,7 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
     /// # Errors
     /// No step taken, or a singular linear system ([`Error::Step`]).
     pub(crate) fn ambient_map(&mut self) -> Result<DMatrix<f64>> {
-        let Some((t0, h)) = self.last else {
-            return Err(crate::error::invalid("tangent map", "no step has been taken"));
-        };
-        let (lag, con, element) = (self.lag, self.con, self.element);
-        self.stepper
-            .tangent_map(lag, con, element, (t0, h, self.t), &self.q, &self.v, self.term)
-            .ok_or_else(|| singular(self.k - 1, t0))
+        self.it.ambient_tangent_map()
     }
 
     /// The last step's map in the charts' symplectic coordinates, 2(n − m) square: from the
@@ -133,8 +119,9 @@ impl<'a, L: Lagrangian, C: Constraints> ManifoldRun<'a, L, C> {
     /// As [`ManifoldRun::ambient_map`]; a singular chart.
     pub(crate) fn reduced_map(&mut self) -> Result<DMatrix<f64>> {
         let phi = self.ambient_map()?;
-        let (t0, _) = self.last.unwrap_or((self.t, 0.0));
-        let next = chart(self.lag, self.con, self.t, &self.q, &self.p).ok_or_else(|| singular(self.k - 1, t0))?;
+        let node = self.it.node();
+        let (k, t) = (node.k, node.t);
+        let next = chart(self.lag, self.con, t, node.q, node.p).ok_or_else(|| singular(k.saturating_sub(1), t))?;
         let m = &next.reduce * phi * &self.chart.lift;
         self.chart = next;
         Ok(m)

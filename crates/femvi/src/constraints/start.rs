@@ -4,23 +4,14 @@
 //! (`project.rs`); and the typed errors of a step.
 
 use super::jet::ConstraintJet;
-use super::layout::{Enforcement, Layout};
 use super::limits::{MAX_COORDINATES, RANK_TOLERANCE, START_TOLERANCE};
 use super::project::Projector;
 use super::Constraints;
-use crate::discrete::Element;
 use crate::error::{check_len, invalid, Error, Result, StepError};
 use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
-use crate::solution::{Problem, SolveOptions, Steps};
+use crate::solution::{SolveOptions, Steps};
 use crate::solve::NewtonFailure;
 use crate::step::Start;
-
-/// A checked start of a constrained run.
-pub(super) struct Begun {
-    pub layout: Layout,
-    pub grid: crate::step::TimeGrid,
-    pub on: OnManifold,
-}
 
 /// A start on the manifold: q0, the momentum on T*N and its velocity.
 pub(super) struct OnManifold {
@@ -30,29 +21,6 @@ pub(super) struct OnManifold {
     pub v: Vec<f64>,
     /// ‖p0 − p̃0‖∞.
     pub projection: f64,
-}
-
-/// Checks a constrained problem (sizes, options, the start on the manifold, G(q0) regular)
-/// and projects its start momentum onto T*N.
-pub(super) fn begin<L: Lagrangian, C: Constraints>(
-    problem: &Problem<L>,
-    constraints: &C,
-    element: &Element,
-    options: &SolveOptions,
-    enforcement: Enforcement,
-) -> Result<Begun> {
-    check_options(options)?;
-    element.check_nondegenerate()?;
-    let layout = Layout::new(element, enforcement)?;
-    let grid = crate::solution::grid(problem, &options.steps)?;
-    let on = start_on_manifold(
-        &problem.lagrangian,
-        constraints,
-        &problem.start,
-        problem.t0,
-        options.solver,
-    )?;
-    Ok(Begun { layout, grid, on })
 }
 
 /// Checks a start against the constraints (sizes, finite g and G, on the manifold within

@@ -368,4 +368,13 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
     fn defect(&self) -> Option<f64> {
         self.defect
     }
+
+    fn ambient_tangent(&mut self, step: (f64, f64, f64)) -> Option<Option<nalgebra::DMatrix<f64>>> {
+        let (lag, con, element) = (self.lag, self.con, self.element);
+        let term = self.forcing.as_ref().map(|f| f.term());
+        Some(
+            self.stepper
+                .tangent_map(lag, con, element, step, &self.q, &self.v, term),
+        )
+    }
 }

@@ -46,8 +46,9 @@
 //! the Newton step, `fixed_point.rs` the fixed-point run for a constant mass matrix and a force
 //! independent of v, `solve.rs` the run ([`solve_forced`]), `energy.rs` (derivation and run)
 //! and `energy_step.rs` the energy mode (time steps from the forced energy equation, so that
-//! the discrete energy changes by exactly the discrete work), `tangent.rs` the step's tangent map (for
-//! [`crate::chaos::forced_indicators`]) and `bvp.rs` boundary value problems
+//! the discrete energy changes by exactly the discrete work), `term.rs` the force as a term of
+//! the one integrator (whose tangent map, for [`crate::chaos::forced_indicators`], is in
+//! `step/term_tangent.rs`) and `bvp.rs` boundary value problems
 //! with forces ([`solve_forced_bvp`]).
 
 mod bvp;
@@ -61,7 +62,6 @@ mod rayleigh;
 mod solve;
 mod step;
 mod sum;
-mod tangent;
 mod term;
 
 pub use bvp::solve_forced_bvp;
@@ -72,7 +72,6 @@ pub use linear::LinearForce;
 pub use rayleigh::Rayleigh;
 pub use solve::{solve_forced, solve_forced_with, EnergyBalance, ForcedSolution};
 pub use sum::Sum;
-pub(crate) use tangent::ForcedTangentRun;
 
 use crate::lagrangian::Scalar;
 

@@ -6,7 +6,6 @@
 //! [`Solution`] with the accumulated discrete work and the energy balance
 //! max |H_k − H_0 − W_k| (module docs of [`crate::forces`]).
 
-use super::step::Taken;
 use super::Force;
 use crate::discrete::Element;
 use crate::error::{check_len, finite_energy, invalid, Error, Result};
@@ -107,8 +106,6 @@ pub fn solve_forced<L: Lagrangian + Sync, F: Force + Sync>(
             t: problem.t0,
             q: q0,
             p: p0,
-            cq: vec![],
-            cp: vec![],
             work: 0.0,
         },
         v: v0,
@@ -300,27 +297,16 @@ pub(super) fn start<L: Lagrangian>(lag: &L, start: &Start, t0: f64) -> Result<(V
     }
 }
 
-/// The current node with the compensation terms of its sums (the energy mode's and the
-/// tangent run's own loops; the run on the integrator leaves them empty).
+/// The current node of a forced run on the integrator, as the recorder reads it.
 pub(super) struct Node {
     pub(super) k: usize,
     pub(super) t: f64,
     pub(super) q: Vec<f64>,
     pub(super) p: Vec<f64>,
-    pub(super) cq: Vec<f64>,
-    pub(super) cp: Vec<f64>,
     pub(super) work: f64,
 }
 
 impl Node {
-    pub(super) fn advance(&mut self, taken: &Taken, t_next: f64) {
-        compensated(&mut self.q, &mut self.cq, &taken.dq);
-        compensated(&mut self.p, &mut self.cp, &taken.dp);
-        self.work += taken.work + taken.time_work;
-        self.k += 1;
-        self.t = t_next;
-    }
-
     /// The integrator's current node and work.
     fn copy_from<L: Lagrangian>(&mut self, it: &Integrator<'_, L>) {
         let at = it.node();
@@ -329,16 +315,6 @@ impl Node {
         self.q.copy_from_slice(at.q);
         self.p.copy_from_slice(at.p);
         self.work = it.work();
-    }
-}
-
-/// x += dx with Kahan's compensation in `comp`.
-fn compensated(x: &mut [f64], comp: &mut [f64], dx: &[f64]) {
-    for ((x, c), d) in x.iter_mut().zip(comp.iter_mut()).zip(dx) {
-        let y = d - *c;
-        let t = *x + y;
-        *c = (t - *x) - y;
-        *x = t;
     }
 }
 

@@ -171,7 +171,7 @@ impl<'a, L: Lagrangian, F: Force> ForcedStep<'a, L, F> {
     }
 
     /// The last solved element's node increments Q^j − q_k (j = 0 … s, the first block zero),
-    /// for the step's tangent map (`tangent.rs`).
+    /// which the integrator keeps for the step's tangent map (`step/term_tangent.rs`).
     pub(super) fn increments(&self) -> &[f64] {
         &self.incr
     }

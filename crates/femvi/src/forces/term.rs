@@ -8,6 +8,7 @@
 //! the mechanical fixed point on the augmented force −∇V + F (`fixed_point.rs`), with the same
 //! starting values, so both give the same nodes bit for bit.
 
+use super::element::element_forces_jacobian;
 use super::fixed_point::{ElementWorkOf, WithForce};
 use super::solve::{fixed_point_fits, start};
 use super::step::{ForcedStep, Taken};
@@ -70,6 +71,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         hamiltonian(lag, t0, &q0, &p0, &mut v0, &mut PointDerivatives::new(n))?;
         let term: Box<dyn StepTerm + Send + 'a> = if fixed_point_fits(lag, force, opts.method)? {
             Box::new(FixedPointTerm {
+                jac: ForceJacobian::new(force, element, n),
                 fp: Box::new(FixedPointStep::new(element, n)?),
                 wrapped: WithForce::new(lag, force),
                 lag,
@@ -84,6 +86,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
             })
         } else {
             Box::new(NewtonTerm {
+                jac: ForceJacobian::new(force, element, n),
                 step: ForcedStep::new(lag, force, element, opts)?,
                 taken: Taken::default(),
                 v0,
@@ -100,7 +103,35 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
 }
 
 /// The forced step by dense Newton (`step.rs`).
+/// ∂F_d/∂Q of the discrete forces at an element ([`element_forces_jacobian`]), for the tangent
+/// map of a forced step (`step/term_tangent.rs`).
+struct ForceJacobian<'a, F> {
+    force: &'a F,
+    element: &'a Element,
+    fd: Vec<f64>,
+    fjac: Vec<f64>,
+}
+
+impl<'a, F: Force> ForceJacobian<'a, F> {
+    fn new(force: &'a F, element: &'a Element, n: usize) -> Self {
+        let w = element.nodes() * n;
+        Self {
+            force,
+            element,
+            fd: vec![0.0; w],
+            fjac: vec![0.0; w * w],
+        }
+    }
+
+    fn at(&mut self, el: ElementNodes<'_>) -> &[f64] {
+        let (t, h, base, incr) = (el.t, el.h, el.base, el.incr);
+        element_forces_jacobian(self.element, self.force, t, h, base, incr, &mut self.fd, &mut self.fjac);
+        &self.fjac
+    }
+}
+
 struct NewtonTerm<'a, L, F> {
+    jac: ForceJacobian<'a, F>,
     step: ForcedStep<'a, L, F>,
     taken: Taken,
     /// The velocity at the start node: the predictor of the first step.
@@ -142,10 +173,15 @@ impl<L: Lagrangian, F: Force> StepTerm for NewtonTerm<'_, L, F> {
     fn name(&self) -> &'static str {
         "forces"
     }
+
+    fn force_jacobian(&mut self, el: ElementNodes<'_>) -> Option<&[f64]> {
+        Some(self.jac.at(el))
+    }
 }
 
 /// The forced step by the mechanical fixed point on −∇V + F (`fixed_point.rs`).
 struct FixedPointTerm<'a, L, F> {
+    jac: ForceJacobian<'a, F>,
     fp: Box<FixedPointStep>,
     wrapped: WithForce<'a, L, F>,
     lag: &'a L,
@@ -199,5 +235,9 @@ impl<L: Lagrangian, F: Force> StepTerm for FixedPointTerm<'_, L, F> {
 
     fn name(&self) -> &'static str {
         "forces"
+    }
+
+    fn force_jacobian(&mut self, el: ElementNodes<'_>) -> Option<&[f64]> {
+        Some(self.jac.at(el))
     }
 }

@@ -68,6 +68,7 @@ pub(crate) mod state;
 mod tangent;
 pub(crate) mod term;
 mod term_history;
+mod term_tangent;
 
 pub use checkpoint::Checkpoint;
 pub use drive::{drive, DriveReport, Observer};

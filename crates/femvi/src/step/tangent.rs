@@ -10,13 +10,18 @@ use crate::error::{invalid, Error, Result, StepError, StepFailure};
 use crate::lagrangian::Lagrangian;
 
 impl<L: Lagrangian> Integrator<'_, L> {
-    /// solved element: with dQ^0 = dq, dQ^m = dq + dX^m,
+    /// The tangent map ∂(q_{k+1}, p_{k+1})/∂(q_k, p_k) of the last step (row-major 2n×2n), by
+    /// implicit differentiation of the step equations at the solved element: with
+    /// dQ^0 = dq, dQ^m = dq + dX^m,
     ///   Σ_{m≥1} H_jm dX^m = −δ_j0 dp − (Σ_m H_jm) dq  (j < s),
     ///   dq' = dq + dX^s,  dp' = Σ_m H_sm dQ^m,
-    /// where H is the element Hessian ∂²L_d/∂Q∂Q. Exact up to the solver's tolerance.
+    /// where H is the element Hessian ∂²L_d/∂Q∂Q. Exact up to the solver's tolerance. A run
+    /// with forces ([`Integrator::with_force`]) adds the discrete forces' derivative ∂F_d/∂Q
+    /// to H (`term_tangent.rs`); a constrained run's map lives on the manifold and is refused
+    /// here.
     ///
     /// # Errors
-    /// No step taken yet, or a singular step Jacobian.
+    /// No step taken yet, a constrained run, or a singular step Jacobian.
     ///
     /// # Example
     ///
@@ -34,11 +39,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
     /// ```
     pub fn tangent_map(&mut self) -> Result<Vec<f64>> {
         if self.term.is_some() {
-            // The map below linearises the conservative step equations only.
-            return Err(invalid(
-                "tangent map",
-                "not of a step with forces here (femvi::chaos::forced_indicators carries the forced step's map)",
-            ));
+            return self.term_tangent_map();
         }
         if !self.last.valid {
             return Err(invalid("tangent map", "no step has been taken"));
@@ -97,6 +98,16 @@ impl<L: Lagrangian> Integrator<'_, L> {
             }
         }
         Ok(out)
+    }
+
+    /// [`Integrator::tangent_map`] of a step under a force term (`term_tangent.rs`): the map
+    /// applied to the 2n unit vectors, row-major.
+    fn term_tangent_map(&mut self) -> Result<Vec<f64>> {
+        let d = 2 * self.state.n;
+        let mut w: Vec<f64> = (0..d * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
+        self.term_tangent_apply(&mut w)?;
+        // Column j of w is the image of e_j: transpose into row-major.
+        Ok((0..d * d).map(|i| w[(i % d) * d + i / d]).collect())
     }
 
     /// The tangent map of the last energy-mode step on extended phase space, in the canonical

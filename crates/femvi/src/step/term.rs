@@ -67,6 +67,21 @@ pub(crate) trait StepTerm {
         None
     }
 
+    /// The derivative ∂F_d/∂Q of the term's discrete forces in the nodal values of the element
+    /// `el` ((s+1)n square, row-major), for the tangent map of the step
+    /// (`term_tangent.rs`); None for a term whose steps are not the forced rows alone (the
+    /// constraints, whose map lives on the manifold).
+    fn force_jacobian(&mut self, _el: super::ElementNodes<'_>) -> Option<&[f64]> {
+        None
+    }
+
+    /// The ambient tangent map Φ (2n square) of the last step (t_k, h, t_{k+1}) of a
+    /// constrained run, on which the charts of T*N act (`chaos/constrained.rs`); None for a
+    /// term without constraints, Some(None) if the linearised step is singular.
+    fn ambient_tangent(&mut self, _step: (f64, f64, f64)) -> Option<Option<nalgebra::DMatrix<f64>>> {
+        None
+    }
+
     /// The largest symplecticity defect of the steps so far, if the term measures it (a
     /// constrained run for `femvi check`, on the manifold).
     fn defect(&self) -> Option<f64> {

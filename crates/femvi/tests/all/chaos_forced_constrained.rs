@@ -309,3 +309,77 @@ fn the_damped_oscillator_spectrum_is_the_closed_form() {
         );
     }
 }
+
+/// The one integrator's tangent map of a forced step (issue 33: `Integrator::tangent_map`
+/// with a force term, which it used to refuse) against central differences of single steps,
+/// whichever solver took the step: the Duffing oscillator's velocity-dependent friction takes
+/// Newton; a force of t and q alone on this mechanical L the fixed point, whose map must agree
+/// with the one the same step taken by Newton gives.
+#[test]
+fn the_integrators_tangent_map_of_a_forced_step_is_that_of_the_step() {
+    use femvi::{Integrator, Method, SolverOptions, TimeGrid};
+    let (problem, friction) = duffing();
+    let coords = vec!["x".to_string()];
+    let drive = ExprForces::new(&["0.3*cos(1.2*t) - 0.2*x^3"], &coords, &[]).unwrap();
+    let el = Element::with_order(4).unwrap();
+    let lag = &problem.lagrangian;
+    let (q0, p0, h, t0) = (1.2, 0.1, 0.05, 0.37);
+    fn one_step<F: femvi::forces::Force + Sync>(
+        lag: &ExprLagrangian,
+        el: &Element,
+        force: &F,
+        method: Method,
+        (t0, h, q, p): (f64, f64, f64, f64),
+    ) -> (Vec<f64>, Vec<f64>) {
+        let grid = TimeGrid::uniform(t0, h, t0 + h).unwrap();
+        let start = Start::Momentum { q: vec![q], p: vec![p] };
+        let opts = SolverOptions {
+            method,
+            ..SolverOptions::default()
+        };
+        let mut it = Integrator::with_force(lag, el, grid, start, opts, force).unwrap();
+        assert!(it.step().unwrap());
+        let m = it.tangent_map().unwrap();
+        let node = it.node();
+        (m, vec![node.q[0], node.p[0]])
+    }
+    for (name, method) in [
+        ("friction, Newton", Method::Auto),
+        ("drive", Method::Auto),
+        ("drive, Newton", Method::Newton),
+    ] {
+        let map = |q: f64, p: f64| {
+            if name.starts_with("friction") {
+                one_step(lag, &el, &friction, method, (t0, h, q, p))
+            } else {
+                one_step(lag, &el, &drive, method, (t0, h, q, p))
+            }
+        };
+        let (m, _) = map(q0, p0);
+        let eps = 1e-6;
+        let mut worst = 0.0f64;
+        for col in 0..2 {
+            let (dq, dp) = if col == 0 { (eps, 0.0) } else { (0.0, eps) };
+            let (_, plus) = map(q0 + dq, p0 + dp);
+            let (_, minus) = map(q0 - dq, p0 - dp);
+            for row in 0..2 {
+                let fd = (plus[row] - minus[row]) / (2.0 * eps);
+                worst = worst.max((m[row * 2 + col] - fd).abs());
+            }
+        }
+        eprintln!("{name}: max |map − central difference| = {worst:.2e}");
+        // Central differences at eps = 1e-6 carry O(eps²) ≈ 1e-12 truncation and
+        // O(1e-16/eps) ≈ 1e-10 rounding.
+        assert!(worst < 1e-8, "{name}: {worst:e}");
+        // Not the unforced map: the friction changes the determinant (e^{-δh} to O(h⁵)).
+        if name.starts_with("friction") {
+            let det = m[0] * m[3] - m[1] * m[2];
+            assert!((det - (-0.15 * h).exp()).abs() < 1e-7, "det {det}");
+        }
+    }
+    // The fixed point's step map equals Newton's to the solvers' tolerance.
+    let (a, _) = one_step(lag, &el, &drive, Method::Auto, (t0, h, q0, p0));
+    let (b, _) = one_step(lag, &el, &drive, Method::Newton, (t0, h, q0, p0));
+    let diff = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(diff < 1e-12, "fixed point against Newton: {diff:e}");
+}
