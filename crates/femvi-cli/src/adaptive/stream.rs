@@ -123,6 +123,11 @@ impl<'a> Writer<'a> {
         let Some(saved) = &cp.adaptive else {
             return Err("cannot resume: the checkpoint is not an adaptive run's".into());
         };
+        // The plots' side file is read and checked before any output is cut back.
+        let plot_sections = match (&cp.plots, s.out.plots) {
+            (Some(p), true) => Some(resume::load_plots(s.dir, p)?),
+            _ => None,
+        };
         recorder
             .restore(&saved.recorder)
             .map_err(|e| format!("cannot resume: {e}"))?;
@@ -150,12 +155,12 @@ impl<'a> Writer<'a> {
             ),
             (None, false) => return Err("cannot resume: the checkpoint has no events.csv state".into()),
         };
-        let kept = match &cp.plots {
-            Some(saved) if s.out.plots => {
-                let trace = load_plot_state(s.dir, saved, events.as_mut())?;
+        let kept = match plot_sections {
+            Some(sections) => {
+                let trace = load_plot_state(sections, events.as_mut())?;
                 Some(PlotTrace::from_words(columns_n(s.problem), &trace)?)
             }
-            _ => None,
+            None => None,
         };
         let mut me = Self::with(s, recorder, (csv, npy, events), failure, true);
         me.kept = kept;

@@ -257,13 +257,14 @@ pub fn save_plot_state(
     resume::save_plots(dir, slot, &sections)
 }
 
-/// Reads back what [`save_plot_state`] wrote: restores the Poincaré points of `events` and
-/// returns the trace's words.
+/// Splits what [`save_plot_state`] wrote (read back and checked by
+/// [`crate::resume::load_plots`], before any output is cut back): restores the Poincaré points
+/// of `events` and returns the trace's words.
 ///
 /// # Errors
-/// A message for the user: the side file is missing, damaged or not the checkpoint's.
-pub fn load_plot_state(dir: &Path, saved: &PlotsSaved, events: Option<&mut EventRows>) -> Result<Vec<u64>, String> {
-    let mut sections = resume::load_plots(dir, saved)?.into_iter();
+/// A message for the user: the sections are not those of a plot state.
+pub fn load_plot_state(sections: Vec<Vec<u64>>, events: Option<&mut EventRows>) -> Result<Vec<u64>, String> {
+    let mut sections = sections.into_iter();
     let (Some(trace), points, None) = (sections.next(), sections.next(), sections.next()) else {
         return Err("cannot resume: the checkpoint's plot state is damaged".into());
     };

@@ -179,6 +179,12 @@ impl<'a> Recorders<'a> {
         checkpoints: Checkpointing,
     ) -> Result<Self, String> {
         let failure = WriteFailure::default();
+        // The plots' side file is read and checked before any output is cut back, so that a
+        // refusal leaves the stopped run's files as they were.
+        let plot_sections = match (&cp.plots, out.plots) {
+            (Some(saved), true) => Some(resume::load_plots(dir, saved)?),
+            _ => None,
+        };
         let mut energy = resumed_energy(problem, fresh)?;
         // The tracker as it was after the checkpoint's node, which the resumed run shows
         // again first: that node's energy is not recomputed (`restored`).
@@ -218,9 +224,9 @@ impl<'a> Recorders<'a> {
             ),
             (None, false) => return Err("cannot resume: the checkpoint has no events.csv state".into()),
         };
-        let plots = match &cp.plots {
-            Some(saved) if out.plots => {
-                let trace = load_plot_state(dir, saved, events.as_mut())?;
+        let plots = match plot_sections {
+            Some(sections) => {
+                let trace = load_plot_state(sections, events.as_mut())?;
                 let f = out.plot_format;
                 Some(PlotData::resume(
                     problem,
@@ -231,7 +237,7 @@ impl<'a> Recorders<'a> {
                     &trace,
                 )?)
             }
-            _ => None,
+            None => None,
         };
         Ok(Recorders {
             progress: Progress::new(out.progress, problem),

@@ -436,7 +436,14 @@ fn the_plot_state_of_a_checkpoint_is_checked() {
     let side = dir.join(format!("checkpoint-plots-{}.bin", cp["plots"]["slot"]));
     let good = std::fs::read(&side).unwrap();
     assert_eq!(good.len() as u64, 8 * cp["plots"]["words"].as_u64().unwrap());
-    let before = std::fs::read(dir.join("trajectory.csv")).unwrap();
+    // Rows past the checkpoint, as a kill between checkpoints leaves them (a resume cuts them
+    // off): a refusal must leave them too, so the check below cannot pass by luck.
+    let csv = dir.join("trajectory.csv");
+    let mut text = std::fs::read(&csv).unwrap();
+    assert!(text.len() as u64 >= cp["csv_bytes"].as_u64().unwrap());
+    text.extend_from_slice(b"rows past the checkpoint\n");
+    std::fs::write(&csv, &text).unwrap();
+    let before = std::fs::read(&csv).unwrap();
     let refused = |extra: &[&str], message: &str| {
         let mut cmd = femvi();
         cmd.arg("run")
