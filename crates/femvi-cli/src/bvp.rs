@@ -1,6 +1,6 @@
 //! `femvi bvp`: solves a two-point boundary value problem by the discrete variational
 //! principle (the library's [`femvi::bvp::solve`]; with `[forces]`,
-//! [`femvi::forces::solve_forced_bvp`]; with `[constraints]`, `crate::constrained::bvp`),
+//! [`femvi::forces::solve_forced_bvp`]; with `[constraints]`, `crate::bvp_constrained`),
 //! from the straight line or from a trajectory file interpolated onto the mesh; writes
 //! trajectory.csv and summary.json and, with plots on, coordinates.svg (coordinates against
 //! t) and, with a moving mesh, steps.svg.
@@ -8,9 +8,11 @@
 pub use crate::bvp_output::BvpSummary;
 use crate::bvp_output::{guess_from_file, plots};
 use crate::plot::Format;
+use crate::problem::forces::ProblemForce;
 use crate::problem::BvpProblem;
-use femvi::bvp::{line_guess, node_times, BvpOptions};
+use femvi::bvp::{line_guess, node_times, BoundaryValues, BvpOptions, BvpSolution};
 use femvi::lagrangian::{hamiltonian, PointDerivatives};
+use femvi::Element;
 use femvi::Lagrangian;
 use std::path::Path;
 use std::time::Instant;
@@ -24,7 +26,7 @@ pub fn run(problem: &BvpProblem, dir: &Path) -> Result<BvpSummary, (String, u8)>
 /// [`run`], drawing the plots in format `plot` if given.
 pub fn run_plotted(problem: &BvpProblem, dir: &Path, plot: Option<Format>) -> Result<BvpSummary, (String, u8)> {
     if let Some(c) = &problem.terms.constraints {
-        return crate::constrained::bvp::run(problem, c, dir, plot);
+        return crate::bvp_constrained::run(problem, c, dir, plot);
     }
     crate::with_system!(&problem.system, l => run_with(l, problem, dir, plot))
 }
@@ -63,7 +65,7 @@ fn run_with<L: Lagrangian>(
         command_line: std::env::args().collect(),
         problem: problem.source.clone(),
     };
-    match crate::forced::solve_bvp(lag, problem.terms.force.as_ref(), el, bv, &guess, opts) {
+    match solve_bvp(lag, problem.terms.force.as_ref(), el, bv, &guess, opts) {
         Ok(sol) => {
             let n = lag.dim();
             let mut csv = csv::Writer::from_path(dir.join("trajectory.csv")).map_err(|e| (e.to_string(), 2))?;
@@ -102,4 +104,23 @@ fn run_with<L: Lagrangian>(
     let text = serde_json::to_string_pretty(&summary).map_err(|e| (e.to_string(), 2))?;
     std::fs::write(dir.join("summary.json"), text + "\n").map_err(io)?;
     Ok(summary)
+}
+
+/// The boundary value problem's solve under `force` if it has one, else the conservative
+/// [`femvi::bvp::solve`].
+///
+/// # Errors
+/// As the library's solvers.
+pub fn solve_bvp<L: Lagrangian>(
+    lag: &L,
+    force: Option<&ProblemForce>,
+    element: &Element,
+    bv: &BoundaryValues,
+    guess: &[f64],
+    options: BvpOptions,
+) -> femvi::Result<BvpSolution> {
+    match force {
+        Some(f) => femvi::forces::solve_forced_bvp(lag, f, element, bv, guess, options),
+        None => femvi::bvp::solve(lag, element, bv, guess, options),
+    }
 }

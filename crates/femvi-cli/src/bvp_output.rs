@@ -1,7 +1,7 @@
 //! What `femvi bvp` writes and reads besides the solve: summary.json's fields
 //! ([`BvpSummary`]), the plots of a solution ([`plots`]) and the guess read from a trajectory
 //! file ([`guess_from_file`]); shared by the unconstrained solve (`bvp.rs`) and the
-//! constrained one (`constrained/bvp.rs`), which `bvp.rs` dispatches to.
+//! constrained one (`bvp_constrained.rs`), which `bvp.rs` dispatches to.
 
 use crate::plot::{file, lines, Format, Series};
 use crate::problem::BvpProblem;

@@ -293,9 +293,6 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
         Ok(p) => p,
         Err(code) => return code,
     };
-    if let Some(f) = &problem.terms.force {
-        return forced_check(path, &problem, f, json, out);
-    }
     let report = match check::check(&problem) {
         Ok(r) => r,
         Err((msg, code)) => {
@@ -303,7 +300,13 @@ fn cmd_check(path: &std::path::Path, set: &[String], json: bool, out: Option<Pat
             return ExitCode::from(code);
         }
     };
-    emit_check(&report, json, out, check::print).unwrap_or(ExitCode::SUCCESS)
+    if let Some(code) = emit_check(&report, json, out, check::print) {
+        return code;
+    }
+    if report.error().is_some() {
+        return ExitCode::from(NUMERICAL);
+    }
+    ExitCode::SUCCESS
 }
 
 /// Writes a check report to `out`/check.json if asked and shows it (JSON or `print`); an
@@ -322,30 +325,6 @@ fn emit_check<T: serde::Serialize>(report: &T, json: bool, out: Option<PathBuf>,
         print(report);
     }
     None
-}
-
-/// `femvi check` on a problem with `[forces]`: the energy balance instead of symplecticity.
-fn forced_check(
-    path: &std::path::Path,
-    problem: &problem::Problem,
-    force: &problem::forces::ProblemForce,
-    json: bool,
-    out: Option<PathBuf>,
-) -> ExitCode {
-    let report = match femvi_cli::forced::check(problem, force) {
-        Ok(r) => r,
-        Err((msg, code)) => {
-            eprintln!("error: {}: {msg}", path.display());
-            return ExitCode::from(code);
-        }
-    };
-    if let Some(code) = emit_check(&report, json, out, femvi_cli::forced::print) {
-        return code;
-    }
-    if report.error.is_some() {
-        return ExitCode::from(NUMERICAL);
-    }
-    ExitCode::SUCCESS
 }
 
 /// What `femvi convergence` was asked for.

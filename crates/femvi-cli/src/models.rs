@@ -101,7 +101,7 @@ pub fn cmd_models(name: Option<&str>) -> ExitCode {
             println!("{:<20} coordinates: {shown}; symmetries: {symmetries}", "");
         }
         println!("\nWith non-conservative forces ([forces], expression problems):");
-        for (name, description, _) in crate::forced::models::FORCED_MODEL_FILES {
+        for (name, description, _) in crate::models_forced::FORCED_MODEL_FILES {
             println!("{name:<26} {description}");
         }
         println!("\nWith holonomic constraints ([constraints], problem files in Cartesian coordinates):");
@@ -111,7 +111,7 @@ pub fn cmd_models(name: Option<&str>) -> ExitCode {
         println!("\n`femvi models NAME` prints a complete problem file for NAME.");
         return ExitCode::SUCCESS;
     };
-    let forced = crate::forced::models::FORCED_MODEL_FILES
+    let forced = crate::models_forced::FORCED_MODEL_FILES
         .iter()
         .map(|(n, _, t)| (*n, *t));
     match MODEL_FILES.iter().copied().chain(forced).find(|(n, _)| *n == name) {
@@ -120,7 +120,7 @@ pub fn cmd_models(name: Option<&str>) -> ExitCode {
             ExitCode::SUCCESS
         }
         None => {
-            let forced = crate::forced::models::FORCED_MODEL_FILES.iter().map(|(n, _, _)| *n);
+            let forced = crate::models_forced::FORCED_MODEL_FILES.iter().map(|(n, _, _)| *n);
             let names: Vec<&str> = MODEL_FILES.iter().map(|(n, _)| *n).chain(forced).collect();
             eprintln!(
                 "error: unknown model '{name}'{}; built-in models: {}",

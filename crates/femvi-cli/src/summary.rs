@@ -241,7 +241,7 @@ pub fn write_summary(dir: &Path, s: &Summary) -> std::io::Result<()> {
 }
 
 /// The energy change of a forced run `s` (its `energy_report`), its energy `balance` and the
-/// work `work` at its kept nodes, into summary.json's fields (the docs of `crate::forced`; also
+/// work `work` at its kept nodes, into summary.json's fields (the docs of [`femvi::forces`]; also
 /// for forced constrained runs, `crate::constrained`).
 pub fn report_work(summary: &mut Summary, s: &femvi::Solution, balance: &femvi::forces::EnergyBalance, work: &[f64]) {
     let report = s.energy_report;

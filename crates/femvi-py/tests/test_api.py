@@ -98,6 +98,17 @@ def test_check_and_bvp():
     assert s.get("error") is None
 
 
+def test_check_of_a_forced_problem_reports_its_energy_balance():
+    # One check for every kind of problem: with [forces] the flow is not symplectic, and the
+    # report is the energy balance H - H0 = W (friction only: W < 0, and H falls by it).
+    report = femvi.check(EXAMPLES / "forces" / "damped-oscillator.toml")
+    assert "symplecticity_defect" not in report and report["error"] is None
+    assert report["final_work"] < 0 and report["energy_last"] < report["energy_first"]
+    change = report["energy_last"] - report["energy_first"]
+    assert abs(change - report["final_work"]) <= report["max_energy_balance_error"] + 1e-15
+    assert report["max_rel_energy_balance_error"] < 1e-6
+
+
 def test_events_from_python():
     def x_zero(t, q, v):
         return q[0]

@@ -10,9 +10,8 @@
 //! with plots, Poincaré plots as for fixed steps; plots with `--plot` (`plots.rs`). The run
 //! is the library's integrator on L_g driven with the library's adaptive recorder inside a
 //! writer that streams the rows, checkpoints and resumes (`stream.rs`). `femvi check`
-//! measures the step map in s and the physical energy (`check.rs`).
+//! measures the step map in s and the physical energy (`check/adaptive.rs`).
 
-pub mod check;
 mod plots;
 pub mod stream;
 
@@ -42,7 +41,7 @@ pub fn estimated_rows(problem: &Problem, settings: &AdaptiveTime) -> Option<f64>
 }
 
 /// The monitors a problem file can name.
-enum AnyMonitor {
+pub(crate) enum AnyMonitor {
     Kepler(KeplerMonitor),
     NBody(NBodyMonitor),
     Expr(ExprMonitor),
@@ -75,7 +74,7 @@ impl Monitor for AnyMonitor {
 }
 
 /// The monitor named in `[time] monitor`, or the model's default.
-fn monitor(problem: &Problem, name: Option<&str>) -> Result<AnyMonitor, String> {
+pub(crate) fn monitor(problem: &Problem, name: Option<&str>) -> Result<AnyMonitor, String> {
     let nbody = || match &problem.system {
         System::Gravity(l) => Ok(AnyMonitor::NBody(NBodyMonitor::new(
             l.potential.masses.len(),

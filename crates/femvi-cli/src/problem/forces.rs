@@ -3,7 +3,7 @@
 //! (`dissipation = "0.5*c*x_dot^2"`, F = −∂R/∂v), in t, the coordinates, their `_dot`
 //! velocities and the `[system]` parameters. Compiled once when the problem is loaded (errors
 //! point into the file) into [`super::Terms::force`], which the commands that run it use
-//! ([`crate::forced`]).
+//! (`femvi run`, `check`, `bvp`, `chaos`, `ensemble`).
 
 use super::errors::{bad, InputError, Source};
 use femvi::expr::ExprError;

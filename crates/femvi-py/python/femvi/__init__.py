@@ -299,7 +299,8 @@ def model_problem(name: str) -> str:
 
 
 def check(problem: Any, overrides: Optional[Mapping[str, Any]] = None, **kw: Any) -> Dict[str, Any]:
-    """``femvi check``'s report (symplecticity, energy and momentum drift, ...) as a dict.
+    """``femvi check``'s report (symplecticity, energy and momentum drift, ...) as a dict; for a
+    problem with ``[forces]``, whose flow is not symplectic, the energy balance H - H0 = W.
 
     >>> import femvi
     >>> report = femvi.check(femvi.model_problem("kepler"), t_span=(0.0, 10.0), dt=0.05)
