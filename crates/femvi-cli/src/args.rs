@@ -1,5 +1,7 @@
 //! The command line of `femvi` (clap): its subcommands and options, whose doc comments are
-//! the `--help` text.
+//! the `--help` text. They are written for the terminal (TOML tables in brackets, `<name>`
+//! placeholders), not as rustdoc, whose link and HTML checks are off here.
+#![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -23,8 +25,8 @@ pub enum Command {
     /// complete, summary.json says "interrupted by SIGINT at step k, t = ...", a checkpoint
     /// (checkpoint.json) is written and the exit code is 130, 143 or 129. A stopped or killed
     /// run continues with `femvi run PROBLEM --resume DIR` from its last checkpoint, with the
-    /// outputs an uninterrupted run writes, byte for byte (not for [[events]], plots, a
-    /// time-dependent Lagrangian or one without a constant mass matrix). Rows reach the disk
+    /// outputs an uninterrupted run writes, byte for byte, events.csv and the plots included,
+    /// for every kind of problem (forces, constraints, energy mode, adaptive). Rows reach the disk
     /// at least every second; a run that would write more than --max-output or the free space
     /// is refused before it starts; a run stops (exit 1) at the first non-finite state.
     #[command(verbatim_doc_comment)]

@@ -1,6 +1,6 @@
 //! What `femvi bvp` writes and reads besides the solve: summary.json's fields
-//! ([`BvpSummary`]), the plots of a solution ([`plots`]) and the guess read from a trajectory
-//! file ([`guess_from_file`]); shared by the unconstrained solve (`bvp.rs`) and the
+//! ([`BvpSummary`]), the plots of a solution (`plots`) and the guess read from a trajectory
+//! file (`guess_from_file`); shared by the unconstrained solve (`bvp.rs`) and the
 //! constrained one (`bvp_constrained.rs`), which `bvp.rs` dispatches to.
 
 use crate::plot::{file, lines, Format, Series};

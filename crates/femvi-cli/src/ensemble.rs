@@ -365,7 +365,7 @@ pub struct EnsembleArgs {
     /// The second half of each state row is v0 instead of p0.
     #[arg(long)]
     pub velocity: bool,
-    /// A parameter of [system] parameters over the members: NAME=LO:HI:N.
+    /// A parameter of the system table's parameters over the members: NAME=LO:HI:N.
     #[arg(long)]
     pub param: Option<String>,
     /// Threads (default: all cores).

@@ -1,5 +1,5 @@
 //! How a run of `femvi run` ended ([`Outcome`]) and the summary.json written at its end
-//! ([`finish`], [`interrupted`]): shared by the run of a plain Lagrangian (`run.rs`) and the
+//! (`finish`, `interrupted`): shared by the run of a plain Lagrangian (`run.rs`) and the
 //! runs of the terms (`forced`, `constrained`, `adaptive`, `events.rs`), which `run.rs`
 //! dispatches to, so that none of them imports the dispatcher.
 

@@ -135,6 +135,23 @@ fn plots_file(slot: u8) -> String {
 ///
 /// # Errors
 /// The write failed.
+///
+/// # Example
+///
+/// ```
+/// use femvi_cli::resume::{load_plots, save_plots};
+/// let dir = std::env::temp_dir().join(format!("femvi-doc-plots-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir)?;
+/// let sections = vec![vec![1, 2, 3], vec![], vec![u64::MAX]];
+/// let saved = save_plots(&dir, 1, &sections)?;
+/// assert_eq!((saved.slot, saved.words), (1, 7));
+/// assert_eq!(load_plots(&dir, &saved).unwrap(), sections);
+/// // A side file changed since: refused.
+/// std::fs::write(dir.join("checkpoint-plots-1.bin"), [0u8; 56])?;
+/// assert!(load_plots(&dir, &saved).is_err());
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok::<(), std::io::Error>(())
+/// ```
 pub fn save_plots(dir: &Path, slot: u8, sections: &[Vec<u64>]) -> std::io::Result<PlotsSaved> {
     let words: Vec<u64> = sections
         .iter()

@@ -1,6 +1,6 @@
 //! `femvi check`, one command for every kind of problem: [`check`] looks at the problem's
 //! terms and runs the check that fits them, returning one [`Report`].
-//! - A plain problem: the library's [`femvi::diagnostics::check`] as a serializable report
+//! - A plain problem: the library's [`femvi::diagnostics::check()`] as a serializable report
 //!   (here). Two things the CLI adds: for a time-dependent Lagrangian the energy figures are
 //!   labelled as changes of a quantity that is not conserved (`energy_conserved`), and the
 //!   time-reversal test is skipped (null, with a note) for a Lagrangian that is not

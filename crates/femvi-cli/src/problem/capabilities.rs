@@ -167,8 +167,8 @@ fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
 /// Err if `terms` refuse `what` (named `name` in the message when it is a command).
 ///
 /// # Errors
-/// The refusal, with its reason: "`name` does not support [forces] (reason)" for a command,
-/// "plots are not available with [forces]: reason" for an option.
+/// The refusal, with its reason: "`name` does not support \[forces\] (reason)" for a command,
+/// "plots are not available with \[forces\]: reason" for an option.
 ///
 /// # Example
 ///

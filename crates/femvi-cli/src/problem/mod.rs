@@ -2,10 +2,10 @@
 //! library types. Errors carry the file name, line and column of the offending text.
 //!
 //! Each table has a module of its own with its serde struct and the check that turns it into
-//! library values: [`system`], [`initial`], [`boundary`], [`scheme`], [`time`], [`solver`],
-//! [`output`], [`symmetries`] and [`events`]. A new table joins with a module, a field of [`ProblemFile`]
+//! library values: `system`, `initial`, `boundary`, `scheme`, `time`, `solver`,
+//! `output`, `symmetries` and [`events`]. A new table joins with a module, a field of [`ProblemFile`]
 //! and a call in `build`, whose order of calls is the order in which a file with several
-//! mistakes reports them. [`errors`] holds the messages' positions and "did you mean" hints.
+//! mistakes reports them. `errors` holds the messages' positions and "did you mean" hints.
 //!
 //! A problem comes from a file or standard input (`-`), and `--set key.path=value` overrides
 //! ([`overrides`]) are applied to its text before anything is checked: [`load_with`],
@@ -112,7 +112,7 @@ pub struct Problem {
     pub symmetries: Vec<Symmetry>,
     /// Built-in model name, if any, and its resolved parameters.
     pub model: Option<(String, Vec<f64>)>,
-    /// [output] plots = true.
+    /// `[output] plots = true`.
     pub plots: bool,
     /// `[time] accuracy`: the step femvi chose and what it rests on.
     pub auto_step: Option<femvi::step::auto::StepChoice>,

@@ -6,10 +6,10 @@
 //! call-free twin [`Recorders::each_node_lean`] where the energy is ½|p|² + V); the outputs,
 //! the progress bar, flushes, time-based checkpoints and the stop signals are looked at when a
 //! chunk ends ([`Recorders::boundary`]). The nodes, rows and summary are those of
-//! [`femvi::step::drive`] with the same recorders, bit for bit; only the moments a signal is
+//! [`femvi::step::drive()`] with the same recorders, bit for bit; only the moments a signal is
 //! noticed and a time-based checkpoint is written move to the chunks' ends. Energy mode, whose
 //! discrete energy is checked at every node too, goes a step at a time through
-//! [`femvi::step::drive`].
+//! [`femvi::step::drive()`].
 
 use super::Recorders;
 use femvi::step::{drive, DriveReport, Observer};
@@ -54,7 +54,7 @@ impl Cap {
 }
 
 /// Steps `it` (a run of `lag`) to the end of its grid in chunks, recording it with `rec`;
-/// the report of [`femvi::step::drive`]: a failure of a step or of the recorders stops the
+/// the report of [`femvi::step::drive()`]: a failure of a step or of the recorders stops the
 /// run, the integrator stays at the last good node, and the recorders' `finish` still runs.
 pub fn drive_in_chunks<L: Lagrangian>(lag: &L, it: &mut Integrator<'_, L>, rec: &mut Recorders<'_>) -> DriveReport {
     if !rec.chunked() {

@@ -65,7 +65,7 @@ impl Decimation {
 const MAX_VALUES: usize = 1 << 22;
 
 /// Most nodes a [`PlotTrace`] keeps for a system with n coordinates: 65 536, fewer when a
-/// node's 2n + 3 values would take more than [`MAX_VALUES`] in all, and at least 16.
+/// node's 2n + 3 values would take more than `MAX_VALUES` (2²²) in all, and at least 16.
 pub fn max_nodes(n: usize) -> usize {
     (MAX_VALUES / (2 * n + 3)).clamp(16, 1 << 16)
 }
@@ -84,6 +84,21 @@ fn keep_even<T: Copy>(v: &mut Vec<T>, width: usize) {
 }
 
 /// The nodes of a trajectory kept for its plots (the module documentation).
+///
+/// # Example
+///
+/// ```
+/// use femvi_cli::record::{PlotTrace, TraceNode};
+/// let mut trace = PlotTrace::new(1);
+/// for k in 0..3 {
+///     let t = 0.5 * k as f64;
+///     trace.offer(TraceNode { t, q: &[t.cos()], p: &[-t.sin()], rel_energy: 0.0, residual: None }, k == 2);
+/// }
+/// assert_eq!(trace.t, [0.0, 0.5, 1.0]);
+/// assert!(trace.steps[0].is_nan() && trace.steps[2] == 0.5);
+/// // Its words give it back, bit for bit.
+/// assert_eq!(PlotTrace::from_words(1, &trace.words()).unwrap().words(), trace.words());
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlotTrace {
     n: usize,

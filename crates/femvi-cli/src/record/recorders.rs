@@ -269,7 +269,7 @@ impl<'a> Recorders<'a> {
         })
     }
 
-    /// The observers for [`femvi::step::drive`] or [`femvi::solution::solve_with`]: this one.
+    /// The observers for [`femvi::step::drive()`] or [`femvi::solution::solve_with`]: this one.
     pub fn observers<L: Lagrangian>(&mut self) -> Vec<&mut dyn Observer<L>> {
         vec![self]
     }
