@@ -23,15 +23,16 @@ fn extended_index(i: usize, n: usize) -> usize {
 }
 
 /// Carries `u` (one vector of length 2n) and `w` (2n-long vectors, column-major, possibly
-/// none) through the last step's tangent map. In energy mode each vector is extended by
+/// none) through the last step's tangent map; `tmp` (2n) and `all` are workspace kept by the
+/// caller across steps. In energy mode each vector is extended by
 /// dt = dE = 0 and solved through the linearised step (`Integrator::extended_tangent_apply`)
 /// rather than multiplied by the assembled block, whose entries of size 1/g_h (degree ≥ 2)
 /// would cost digits.
 pub(crate) fn carry<L: Lagrangian>(
     it: &mut Integrator<'_, L>,
-    u: &mut [f64],
-    w: &mut [f64],
+    (u, w): (&mut [f64], &mut [f64]),
     tmp: &mut [f64],
+    all: &mut Vec<f64>,
 ) -> Result<()> {
     let n = it.lagrangian().dim();
     let d = 2 * n;
@@ -41,10 +42,10 @@ pub(crate) fn carry<L: Lagrangian>(
         if w.is_empty() {
             return it.term_tangent_apply(u);
         }
-        let mut all = Vec::with_capacity(u.len() + w.len());
+        all.clear();
         all.extend_from_slice(u);
         all.extend_from_slice(w);
-        it.term_tangent_apply(&mut all)?;
+        it.term_tangent_apply(all)?;
         let (a, b) = all.split_at(u.len());
         u.copy_from_slice(a);
         w.copy_from_slice(b);
