@@ -95,9 +95,11 @@ fn forced_integrator<'a, L: Lagrangian + Sync, F: Force + Sync>(
     options: &SolveOptions,
 ) -> Result<Integrator<'a, L>> {
     if matches!(options.steps, Steps::Energy { .. }) {
+        // The capability table's refusal (forces, chaos in energy mode), with its reason.
         return Err(crate::error::invalid(
             "time steps as variables (energy mode)",
-            "not supported for the tangent maps of forced runs",
+            "the tangent map of the forced energy equation is not derived (with forces the step \
+             size depends on the state through the energy balance); use steps as parameters",
         ));
     }
     let grid = crate::solution::grid(problem, &options.steps)?;
