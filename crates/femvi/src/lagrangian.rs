@@ -5,6 +5,7 @@
 //! mechanical structure, L = ½vᵀMv − V(t, q) with constant M ([`Mechanical`]): then the fast
 //! solvers need only the force −∇V, which the user may hand-code for large systems.
 
+mod directional;
 mod legendre;
 mod mass;
 mod mechanical;
@@ -113,6 +114,25 @@ pub trait Lagrangian {
         for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
             self.force(ti, qi, oi);
         }
+    }
+
+    /// The derivative of [`Lagrangian::force`] along dq, (∂f/∂q)(t, q)·dq (for a mechanical
+    /// Lagrangian −∇²V dq), into `out`: the tangent maps of mechanical steps take one such
+    /// product per quadrature point and vector (`step/tangent_mechanical.rs`). The default
+    /// differentiates [`Lagrangian::value`] twice (n hyper-dual passes at v = 0); mechanical
+    /// systems override it.
+    ///
+    /// ```
+    /// use femvi::{models, Lagrangian};
+    /// // Kepler: f = −q/|q|³; along q itself the derivative is 2q/|q|³.
+    /// let kepler = models::kepler(1.0)?;
+    /// let mut out = [0.0; 2];
+    /// kepler.force_derivative(0.0, &[2.0, 0.0], &[2.0, 0.0], &mut out);
+    /// assert!((out[0] - 0.5).abs() < 1e-15 && out[1] == 0.0);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        directional::lagrangian_default(self, t, q, dq, out);
     }
 
     /// If L = ½vᵀMv + A(t, q)·v − V(t, q) with a constant positive definite mass matrix M
@@ -260,6 +280,13 @@ pub trait Potential {
         for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
             self.force(ti, qi, oi);
         }
+    }
+
+    /// The derivative of [`Potential::force`] along dq, −∇²V(t, q)·dq, into `out` (see
+    /// [`Lagrangian::force_derivative`]). Default: n hyper-dual passes over
+    /// [`Potential::value`]; override it with a hand-coded product for speed.
+    fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        directional::potential_default(self, t, q, dq, out);
     }
 
     /// The Jacobian of the force, −∇²V, row-major n×n into `out`. Default: hyper-dual AD.

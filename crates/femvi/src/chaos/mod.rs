@@ -153,7 +153,6 @@ fn indicators_limited<L: Lagrangian>(
     let u = initial_vector(chaos, d)?;
     let mut run = PlainRun {
         it,
-        tmp: vec![0.0; d],
         all: Vec::new(),
         left: max_steps,
     };
@@ -163,7 +162,6 @@ fn indicators_limited<L: Lagrangian>(
 /// An integrator's run (plain, or with forces), its vectors carried by [`carry`].
 struct PlainRun<'r, 'a, L: Lagrangian> {
     it: &'r mut Integrator<'a, L>,
-    tmp: Vec<f64>,
     /// Workspace of a forced run's carry: u and w side by side (reused, no allocation per step).
     all: Vec<f64>,
     /// Steps left before `SolveOptions::max_steps` stops the run (None: to the grid's end).
@@ -180,7 +178,7 @@ impl<L: Lagrangian> TangentRun for PlainRun<'_, '_, L> {
         self.it.step()
     }
     fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()> {
-        carry(self.it, (u, w), &mut self.tmp, &mut self.all)
+        carry(self.it, (u, w), &mut self.all)
     }
     fn time(&self) -> f64 {
         self.it.node().t

@@ -1,6 +1,7 @@
-//! Tangent vectors through the last step in (q, p), whichever way the steps are chosen: with
-//! steps as parameters by `Integrator::tangent_map`; under forces by the forced step's
-//! linearisation (`Integrator::term_tangent_apply`, `step/term_tangent.rs`); with time steps as variables (paper §3,
+//! Tangent vectors through the last step in (q, p), whichever way the steps are chosen, all
+//! through `Integrator::tangent_apply`: with steps as parameters by the mechanical tangent
+//! (`step/tangent_mechanical.rs`) or `Integrator::tangent_map`; under forces by the forced
+//! step's linearisation (`step/term_tangent.rs`); with time steps as variables (paper §3,
 //! autonomous L) by the (q, p) block of the extended map on (q, t; p, −E) (the paper's (3.6)),
 //! applied as one linearised solve per vector (`Integrator::extended_tangent_apply`: for
 //! degree ≥ 2 the assembled map has entries of size 1/g_h that a product would lose digits
@@ -23,56 +24,24 @@ fn extended_index(i: usize, n: usize) -> usize {
 }
 
 /// Carries `u` (one vector of length 2n) and `w` (2n-long vectors, column-major, possibly
-/// none) through the last step's tangent map; `tmp` (2n) and `all` are workspace kept by the
-/// caller across steps. In energy mode each vector is extended by
-/// dt = dE = 0 and solved through the linearised step (`Integrator::extended_tangent_apply`)
-/// rather than multiplied by the assembled block, whose entries of size 1/g_h (degree ≥ 2)
-/// would cost digits.
+/// none) through the last step's tangent map ([`Integrator::tangent_apply`]: one call for
+/// both, so that a route with a per-step setup, such as the dense map or the forced step's
+/// Hessian, makes it once); `all` is workspace kept by the caller across steps.
 pub(crate) fn carry<L: Lagrangian>(
     it: &mut Integrator<'_, L>,
     (u, w): (&mut [f64], &mut [f64]),
-    tmp: &mut [f64],
     all: &mut Vec<f64>,
 ) -> Result<()> {
-    let n = it.lagrangian().dim();
-    let d = 2 * n;
-    if it.has_term() {
-        // Forces: the vectors through the forced step's linearisation, u and w at once (one
-        // Hessian and one LU).
-        if w.is_empty() {
-            return it.term_tangent_apply(u);
-        }
-        all.clear();
-        all.extend_from_slice(u);
-        all.extend_from_slice(w);
-        it.term_tangent_apply(all)?;
-        let (a, b) = all.split_at(u.len());
-        u.copy_from_slice(a);
-        w.copy_from_slice(b);
-        return Ok(());
+    if w.is_empty() {
+        return it.tangent_apply(u);
     }
-    if it.energy_stats().is_none() {
-        let m = it.tangent_map()?;
-        super::accumulate::apply(&m, d, u, tmp);
-        if !w.is_empty() {
-            super::accumulate::apply(&m, d, w, tmp);
-        }
-        return Ok(());
-    }
-    let de = d + 2;
-    let count = 1 + w.len() / d;
-    let mut ext = vec![0.0; count * de];
-    for (k, col) in std::iter::once(&*u).chain(w.chunks_exact(d)).enumerate() {
-        for (i, x) in col.iter().enumerate() {
-            ext[k * de + extended_index(i, n)] = *x;
-        }
-    }
-    it.extended_tangent_apply(&mut ext)?;
-    for (k, col) in std::iter::once(u).chain(w.chunks_exact_mut(d)).enumerate() {
-        for (i, x) in col.iter_mut().enumerate() {
-            *x = ext[k * de + extended_index(i, n)];
-        }
-    }
+    all.clear();
+    all.extend_from_slice(u);
+    all.extend_from_slice(w);
+    it.tangent_apply(all)?;
+    let (a, b) = all.split_at(u.len());
+    u.copy_from_slice(a);
+    w.copy_from_slice(b);
     Ok(())
 }
 
@@ -84,7 +53,6 @@ pub(crate) struct ExtendedProduct {
     /// Rows per column: 2n, or 2n + 2 in energy mode.
     rows: usize,
     w: Vec<f64>,
-    tmp: Vec<f64>,
 }
 
 impl ExtendedProduct {
@@ -95,24 +63,14 @@ impl ExtendedProduct {
             let i = if energy { extended_index(j, n) } else { j };
             w[j * rows + i] = 1.0;
         }
-        Self {
-            n,
-            rows,
-            w,
-            tmp: vec![0.0; rows],
-        }
+        Self { n, rows, w }
     }
 
     /// Applies the last step's map (energy mode: by one linearised solve per column, see
     /// [`carry`]).
     pub(crate) fn step<L: Lagrangian>(&mut self, it: &mut Integrator<'_, L>) -> Result<()> {
-        if it.has_term() {
-            return it.term_tangent_apply(&mut self.w);
-        }
         if self.rows == 2 * self.n {
-            let m = it.tangent_map()?;
-            super::accumulate::apply(&m, self.rows, &mut self.w, &mut self.tmp);
-            Ok(())
+            it.tangent_apply(&mut self.w)
         } else {
             it.extended_tangent_apply(&mut self.w)
         }

@@ -80,6 +80,10 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         self.potential.forces(t, q, out);
     }
 
+    fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        self.potential.force_derivative(t, q, dq, out);
+    }
+
     fn force_radius(&self) -> Option<usize> {
         self.potential.force_radius()
     }

@@ -61,6 +61,28 @@ impl Potential for FpuPotential {
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
         self.force_range(t, q, 0..self.n, out);
     }
+    fn force_derivative(&self, _t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        // δf_i = V''(d_i) δd_i − V''(d_{i−1}) δd_{i−1}, V''(d) = 1 + 2αd + 3βd².
+        let n = self.n.min(q.len()).min(dq.len());
+        let ddv = |d: f64| 1.0 + 2.0 * self.alpha * d + 3.0 * self.beta * d * d;
+        let at = |v: &[f64], i: usize| if i < n { v[i] } else { 0.0 };
+        // Bond b joins q_{b−1} and q_b (q_{−1} = q_n = 0).
+        let bond = |b: usize| {
+            let (l, dl) = if b == 0 {
+                (0.0, 0.0)
+            } else {
+                (at(q, b - 1), at(dq, b - 1))
+            };
+            ddv(at(q, b) - l) * (at(dq, b) - dl)
+        };
+        let mut prev = bond(0);
+        for (i, o) in out.iter_mut().enumerate().take(n) {
+            let next = bond(i + 1);
+            *o = next - prev;
+            prev = next;
+        }
+    }
+
     fn force_radius(&self) -> Option<usize> {
         Some(1)
     }

@@ -35,6 +35,9 @@ impl Potential for HarmonicPotential {
     fn force(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         out[0] = -self.k * q[0];
     }
+    fn force_derivative(&self, _t: f64, _q: &[f64], dq: &[f64], out: &mut [f64]) {
+        out[0] = -self.k * dq[0];
+    }
 }
 
 /// V = −m g l cos θ.
@@ -73,6 +76,9 @@ impl Potential for PendulumPotential {
     }
     fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         out[0] = -self.mgl * libm::cos(q[0]);
+    }
+    fn force_derivative(&self, _t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        out[0] = -self.mgl * libm::cos(q[0]) * dq[0];
     }
 }
 
@@ -121,6 +127,14 @@ impl Potential for KeplerPotential {
         out[2] = out[1];
         out[3] = k * (1.0 + c * q[1] * q[1]);
     }
+    fn force_derivative(&self, _t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        // −μ (dq − 3 q (q·dq)/r²) / r³.
+        let r2 = q[0] * q[0] + q[1] * q[1];
+        let k = -self.mu / (r2 * r2.sqrt());
+        let c = -3.0 * (q[0] * dq[0] + q[1] * dq[1]) / r2;
+        out[0] = k * (dq[0] + c * q[0]);
+        out[1] = k * (dq[1] + c * q[1]);
+    }
 }
 
 /// V = (x² + y²)/2 + x²y − y³/3.
@@ -142,6 +156,18 @@ impl Potential for HenonHeilesPotential {
         let (x, y) = (q[0], q[1]);
         out[0] = -(x + 2.0 * x * y);
         out[1] = -(y + x * x - y * y);
+    }
+    fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+        let (x, y) = (q[0], q[1]);
+        out[0] = -(1.0 + 2.0 * y);
+        out[1] = -2.0 * x;
+        out[2] = -2.0 * x;
+        out[3] = -(1.0 - 2.0 * y);
+    }
+    fn force_derivative(&self, _t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        let (x, y) = (q[0], q[1]);
+        out[0] = -(1.0 + 2.0 * y) * dq[0] - 2.0 * x * dq[1];
+        out[1] = -2.0 * x * dq[0] - (1.0 - 2.0 * y) * dq[1];
     }
 }
 

@@ -84,6 +84,9 @@ pub struct Integrator<'a, L: Lagrangian> {
     pub(super) term: Option<Box<dyn StepTerm + Send + 'a>>,
     /// The discrete work of the term accumulated from t0 (0 without a term).
     pub(super) work: f64,
+    /// The mechanical tangent's tables and workspace, made at the first tangent map
+    /// (`tangent_mechanical.rs`).
+    pub(super) mech_tangent: Option<Box<super::tangent_mechanical::MechanicalTangent>>,
 }
 
 impl<'a, L: Lagrangian> Integrator<'a, L> {
@@ -123,6 +126,7 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             energy: None,
             term: None,
             work: 0.0,
+            mech_tangent: None,
             grid,
         };
         me.start(start)?;

@@ -56,3 +56,4 @@ mod solution;
 mod solver;
 mod streaming;
 mod symplectic;
+mod tangent_routes;

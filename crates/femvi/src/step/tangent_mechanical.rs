@@ -1,0 +1,243 @@
+//! Tangent vectors through a step of a mechanical Lagrangian L = ½vᵀMv − V(t, q) in the
+//! structure of the fixed-point step (issue 39: tangent maps at the cost of a step). The step
+//! solves (`fixed_point.rs`, DESIGN.md §2), with u = M⁻¹p_k and f_i = f(t_k + c_i h, q_k + Y_i),
+//!
+//!   Y_l = h a_l u + h² Σ_i B_li M⁻¹ f_i,
+//!   q_{k+1} = q_k + h α_s u + h² Σ_i β_si M⁻¹ f_i,   p_{k+1} = p_k + h Σ_i b_i f_i,
+//!
+//! which is the element's Euler–Lagrange system rewritten, whichever solver took the step.
+//! Differentiating at the solved stages, with J_i = ∂f/∂q at stage i and g_i = J_i (δq + δY_i),
+//!
+//!   δY_l = h a_l δu + h² Σ_i B_li M⁻¹ g_i,   δu = M⁻¹ δp,
+//!   δq_{k+1} = δq + h α_s δu + h² Σ_i β_si M⁻¹ g_i,   δp_{k+1} = δp + h Σ_i b_i g_i:
+//!
+//! the variational equations solved by the step's own iteration, on products J_i·x
+//! ([`crate::Lagrangian::force_derivative`]: the model's or the compiled expression's code)
+//! instead of the dense element Hessian and its LU. When B is strictly lower triangular (the
+//! trapezoid rule: Störmer–Verlet, whose map this is the variational Störmer–Verlet of) one
+//! sweep in order solves it exactly, r products per vector; otherwise the sweeps repeat
+//! until the stages stop changing (the step's tolerance), and a vector whose sweeps do not
+//! converge within the step's iteration cap sends the whole step back to the dense map
+//! (`tangent.rs`). Equal to the dense map up to the tolerance and rounding.
+
+use super::fixed_point::FixedPointTables;
+use super::integrator::Integrator;
+use crate::discrete::Element;
+use crate::error::Result;
+use crate::lagrangian::{Lagrangian, MassMatrix};
+
+/// The tables and workspace of the mechanical tangent (kept by the integrator across steps).
+#[derive(Debug, Clone)]
+pub(crate) struct MechanicalTangent {
+    tab: FixedPointTables,
+    /// Quadrature weights b_i.
+    weights: Vec<f64>,
+    /// B strictly lower triangular: one ordered sweep is exact.
+    lower: bool,
+    /// Stage times and positions of the last step (r, r×n).
+    t: Vec<f64>,
+    q: Vec<f64>,
+    /// Per vector: δu, the stage displacements δY and their next iterate, g_i and M⁻¹ g_i,
+    /// and a point's argument δq + δY_i.
+    du: Vec<f64>,
+    dy: Vec<f64>,
+    dy_next: Vec<f64>,
+    g: Vec<f64>,
+    z: Vec<f64>,
+    x: Vec<f64>,
+}
+
+impl MechanicalTangent {
+    /// Tables of `element` for n coordinates; None for a degenerate element (the dense map
+    /// then reports it).
+    pub(crate) fn new(element: &Element, n: usize) -> Option<Self> {
+        let tab = FixedPointTables::new(element).ok()?;
+        let r = element.points();
+        let lower = (0..r).all(|l| (l..r).all(|i| tab.b[l * r + i] == 0.0));
+        Some(Self {
+            tab,
+            weights: element.rule.weights.clone(),
+            lower,
+            t: vec![0.0; r],
+            q: vec![0.0; r * n],
+            du: vec![0.0; n],
+            dy: vec![0.0; r * n],
+            dy_next: vec![0.0; r * n],
+            g: vec![0.0; r * n],
+            z: vec![0.0; r * n],
+            x: vec![0.0; n],
+        })
+    }
+
+    /// The stages of the element [t0, t0 + h] with nodes `base` + `incr[j]`.
+    fn set_stages(&mut self, element: &Element, t0: f64, h: f64, base: &[f64], incr: &[f64]) {
+        let (n, w) = (base.len(), element.nodes());
+        for (l, (tl, ql)) in self.t.iter_mut().zip(self.q.chunks_exact_mut(n.max(1))).enumerate() {
+            *tl = t0 + element.rule.nodes[l] * h;
+            ql.copy_from_slice(base);
+            for (j, dj) in incr.chunks_exact(n.max(1)).enumerate().take(w) {
+                let a = element.phi(l, j);
+                ql.iter_mut().zip(dj).for_each(|(x, d)| *x += a * d);
+            }
+        }
+    }
+
+    /// g_i = J_i (δq + δY_i) and z_i = M⁻¹ g_i at stage i.
+    fn stage<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, i: usize, dq: &[f64]) {
+        let n = dq.len();
+        let span = i * n..(i + 1) * n;
+        for ((x, a), b) in self.x.iter_mut().zip(dq).zip(&self.dy[span.clone()]) {
+            *x = a + b;
+        }
+        lag.force_derivative(self.t[i], &self.q[span.clone()], &self.x, &mut self.g[span.clone()]);
+        if mass.is_identity() {
+            self.z[span.clone()].copy_from_slice(&self.g[span]);
+        } else {
+            mass.solve(&self.g[span.clone()], &mut self.z[span]);
+        }
+    }
+
+    /// One vector (δq, δp) through the step, in place; false if the sweeps did not converge
+    /// within `max_iterations` (the vector is then left as it was).
+    #[allow(clippy::too_many_arguments)]
+    fn carry<L: Lagrangian>(
+        &mut self,
+        lag: &L,
+        mass: &MassMatrix,
+        h: f64,
+        tolerance: f64,
+        max_iterations: usize,
+        v: &mut [f64],
+    ) -> bool {
+        let n = v.len() / 2;
+        let r = self.t.len();
+        let (dq, dp) = v.split_at_mut(n);
+        mass.solve(dp, &mut self.du);
+        let rows = |l: usize| l * n..(l + 1) * n;
+        if self.lower {
+            for l in 0..r {
+                displacement(&self.tab, &self.du, &self.z, (l, h), 0..l, &mut self.dy[rows(l)]);
+                self.stage(lag, mass, l, dq);
+            }
+        } else {
+            for l in 0..r {
+                displacement(&self.tab, &self.du, &self.z, (l, h), 0..0, &mut self.dy[rows(l)]);
+            }
+            if !self.sweeps(lag, mass, h, dq, tolerance, max_iterations) {
+                return false;
+            }
+        }
+        // δq' = δq + h α_s δu + h² Σ β_si z_i, δp' = δp + h Σ b_i g_i.
+        let s = self.tab.alpha.len();
+        let ha = h * self.tab.alpha[s - 1];
+        for c in 0..n {
+            let mut aq = ha * self.du[c];
+            let mut ap = 0.0;
+            for i in 0..r {
+                aq += h * h * self.tab.beta[(s - 1) * r + i] * self.z[i * n + c];
+                ap += h * self.weights[i] * self.g[i * n + c];
+            }
+            dq[c] += aq;
+            dp[c] += ap;
+        }
+        true
+    }
+
+    /// Jacobi sweeps on the stage displacements until they stop changing: the increments at
+    /// most `tolerance` times the vector's scale, or, below 10³ times that, no longer
+    /// decreasing (the rounding floor). Leaves δY with its g and z.
+    fn sweeps<L: Lagrangian>(
+        &mut self,
+        lag: &L,
+        mass: &MassMatrix,
+        h: f64,
+        dq: &[f64],
+        tolerance: f64,
+        max_iterations: usize,
+    ) -> bool {
+        let (n, r) = (dq.len(), self.t.len());
+        let mut prev = f64::INFINITY;
+        for _ in 0..max_iterations {
+            for i in 0..r {
+                self.stage(lag, mass, i, dq);
+            }
+            for l in 0..r {
+                let out = &mut self.dy_next[l * n..(l + 1) * n];
+                displacement(&self.tab, &self.du, &self.z, (l, h), 0..r, out);
+            }
+            let change = self
+                .dy_next
+                .iter()
+                .zip(&self.dy)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            let scale = self.dy_next.iter().chain(dq).fold(0.0f64, |m, x| m.max(x.abs()));
+            let floor = tolerance * scale.max(f64::MIN_POSITIVE);
+            if change <= floor || (change <= 1e3 * floor && change >= prev) {
+                // Accept the displacements this sweep started from: g and z are theirs, and
+                // the sweep moved them by at most the tolerance.
+                return true;
+            }
+            std::mem::swap(&mut self.dy, &mut self.dy_next);
+            prev = change;
+        }
+        false
+    }
+}
+
+/// δY_l = h a_l δu + h² Σ_{i ∈ from} B_li z_i into `out` (row l of the r×n displacements; z
+/// holds r rows of that length).
+fn displacement(
+    tab: &FixedPointTables,
+    du: &[f64],
+    z: &[f64],
+    (l, h): (usize, f64),
+    from: std::ops::Range<usize>,
+    out: &mut [f64],
+) {
+    let (n, r) = (out.len(), tab.a.len());
+    let ha = h * tab.a[l];
+    for (o, u) in out.iter_mut().zip(du) {
+        *o = ha * u;
+    }
+    for i in from {
+        let c = h * h * tab.b[l * r + i];
+        if c != 0.0 {
+            let zi = &z[i * n..(i + 1) * n];
+            out.iter_mut().zip(zi).for_each(|(o, z)| *o += c * z);
+        }
+    }
+}
+
+impl<L: Lagrangian> Integrator<'_, L> {
+    /// Carries `vectors` (each (δq, δp), 2n long) through the last step by the mechanical
+    /// tangent (module docs); Ok(false), vectors unchanged, when it does not apply (no mass
+    /// matrix, a degenerate element) or its sweeps did not converge.
+    pub(crate) fn mechanical_tangent_apply(&mut self, vectors: &mut [f64]) -> Result<bool> {
+        let n = self.state.n;
+        let Some(mass) = self.lag.mass_matrix() else {
+            return Ok(false);
+        };
+        if n == 0 || self.element.degree() == 0 {
+            return Ok(false);
+        }
+        if self.mech_tangent.is_none() {
+            self.mech_tangent = MechanicalTangent::new(&self.element, n).map(Box::new);
+        }
+        let Some(mt) = self.mech_tangent.as_deref_mut() else {
+            return Ok(false);
+        };
+        let (t0, h) = (self.last.t, self.last.h);
+        mt.set_stages(&self.element, t0, h, &self.last.base, &self.last.incr);
+        let (tol, cap) = (self.opts.tolerance, self.opts.max_iterations);
+        let saved = (!mt.lower).then(|| vectors.to_vec());
+        for v in vectors.chunks_exact_mut(2 * n) {
+            if !mt.carry(&*self.lag, mass, h, tol, cap, v) {
+                if let Some(saved) = saved {
+                    vectors.copy_from_slice(&saved);
+                }
+                return Ok(false);
+            }
+        }
+        Ok(true)
+    }
+}
