@@ -135,6 +135,24 @@ pub trait Lagrangian {
         directional::lagrangian_default(self, t, q, dq, out);
     }
 
+    /// The Jacobian of [`Lagrangian::force`], ∂f/∂q (row-major n×n, for a mechanical
+    /// Lagrangian −∇²V), into `out` and true, if the Lagrangian computes it directly; false
+    /// (the default), nothing written, if not. The tangent maps of small mechanical systems
+    /// form it once per quadrature point and step and then multiply, where
+    /// [`Lagrangian::force_derivative`] would evaluate the model at every product.
+    ///
+    /// ```
+    /// use femvi::{models, Lagrangian};
+    /// let hh = models::henon_heiles();
+    /// let mut jac = [0.0; 4];
+    /// assert!(hh.force_jacobian(0.0, &[0.0, 0.0], &mut jac));
+    /// assert_eq!(jac, [-1.0, 0.0, 0.0, -1.0]);
+    /// ```
+    fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) -> bool {
+        let _ = (t, q, out);
+        false
+    }
+
     /// If L = ½vᵀMv + A(t, q)·v − V(t, q) with a constant positive definite mass matrix M
     /// (gyroscopic: magnetic fields, rotating frames), that matrix; then `Method::Auto` solves
     /// the steps by fixed-point iteration on [`Lagrangian::gyroscopic_terms`]

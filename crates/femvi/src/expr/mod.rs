@@ -188,6 +188,24 @@ impl Lagrangian for ExprLagrangian {
         }
     }
 
+    /// From the compiled Hessian (its q block at v = 0), for a mechanical expression whose
+    /// Hessian tape was built; false otherwise.
+    fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) -> bool {
+        let n = self.dim();
+        if self.fast.mass.is_none() || self.fast.second.is_none() || q.len() != n || out.len() != n * n {
+            return false;
+        }
+        let mut d = PointDerivatives::new(n);
+        self.second_derivatives(t, q, &vec![0.0; n], false, &mut d);
+        let w = d.width();
+        for (i, row) in out.chunks_exact_mut(n).enumerate() {
+            for (j, o) in row.iter_mut().enumerate() {
+                *o = d.hess[(1 + i) * w + 1 + j];
+            }
+        }
+        true
+    }
+
     fn gyroscopic_mass(&self) -> Option<&MassMatrix> {
         self.fast.gyro_mass.as_ref()
     }

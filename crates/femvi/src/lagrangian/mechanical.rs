@@ -80,6 +80,11 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         self.potential.forces(t, q, out);
     }
 
+    fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) -> bool {
+        self.potential.force_jacobian(t, q, out);
+        true
+    }
+
     fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
         self.potential.force_derivative(t, q, dq, out);
     }

@@ -13,7 +13,9 @@
 //!
 //! the variational equations solved by the step's own iteration, on products J_i·x
 //! ([`crate::Lagrangian::force_derivative`]: the model's or the compiled expression's code)
-//! instead of the dense element Hessian and its LU. When B is strictly lower triangular (the
+//! instead of the dense element Hessian and its LU; for n ≤ [`JACOBIAN_MAX_DIM`], when the
+//! Lagrangian computes ∂f/∂q itself ([`crate::Lagrangian::force_jacobian`]), J_i is formed
+//! once per stage and step and the products are matrix–vector products. When B is strictly lower triangular (the
 //! trapezoid rule: Störmer–Verlet, whose map this is the variational Störmer–Verlet of) one
 //! sweep in order solves it exactly, r products per vector; otherwise the sweeps repeat
 //! until the stages stop changing (the step's tolerance), and a vector whose sweeps do not
@@ -26,6 +28,10 @@ use crate::discrete::Element;
 use crate::error::Result;
 use crate::lagrangian::{Lagrangian, MassMatrix};
 
+/// The largest n for which the stage Jacobians are formed (r n² numbers per step) rather than
+/// the model evaluated at every product.
+pub(crate) const JACOBIAN_MAX_DIM: usize = 16;
+
 /// The tables and workspace of the mechanical tangent (kept by the integrator across steps).
 #[derive(Debug, Clone)]
 pub(crate) struct MechanicalTangent {
@@ -37,6 +43,19 @@ pub(crate) struct MechanicalTangent {
     /// Stage times and positions of the last step (r, r×n).
     t: Vec<f64>,
     q: Vec<f64>,
+    /// The tables scaled by the last step's h: h a_l, h² B_li, h α_s, h² β_si, h b_i.
+    ha: Vec<f64>,
+    h2b: Vec<f64>,
+    h_alpha: f64,
+    h2_beta: Vec<f64>,
+    hw: Vec<f64>,
+    /// M = I: z is g and is not kept apart.
+    identity: bool,
+    /// The vectors as they came, to restore when the sweeps fail.
+    saved: Vec<f64>,
+    /// The stage Jacobians J_i (r × n×n, row-major), when `formed`.
+    jac: Vec<f64>,
+    formed: bool,
     /// Per vector: δu, the stage displacements δY and their next iterate, g_i and M⁻¹ g_i,
     /// and a point's argument δq + δY_i.
     du: Vec<f64>,
@@ -60,6 +79,15 @@ impl MechanicalTangent {
             lower,
             t: vec![0.0; r],
             q: vec![0.0; r * n],
+            jac: Vec::new(),
+            formed: false,
+            ha: vec![0.0; r],
+            h2b: vec![0.0; r * r],
+            h_alpha: 0.0,
+            h2_beta: vec![0.0; r],
+            hw: vec![0.0; r],
+            identity: false,
+            saved: Vec::new(),
             du: vec![0.0; n],
             dy: vec![0.0; r * n],
             dy_next: vec![0.0; r * n],
@@ -69,9 +97,20 @@ impl MechanicalTangent {
         })
     }
 
-    /// The stages of the element [t0, t0 + h] with nodes `base` + `incr[j]`.
+    /// The stages of the element [t0, t0 + h] with nodes `base` + `incr[j]`, and the tables
+    /// scaled by h.
     fn set_stages(&mut self, element: &Element, t0: f64, h: f64, base: &[f64], incr: &[f64]) {
         let (n, w) = (base.len(), element.nodes());
+        let (r, s) = (self.t.len(), self.tab.alpha.len());
+        for l in 0..r {
+            self.ha[l] = h * self.tab.a[l];
+            self.hw[l] = h * self.weights[l];
+            self.h2_beta[l] = h * h * self.tab.beta[(s - 1) * r + l];
+            for i in 0..r {
+                self.h2b[l * r + i] = h * h * self.tab.b[l * r + i];
+            }
+        }
+        self.h_alpha = h * self.tab.alpha[s - 1];
         for (l, (tl, ql)) in self.t.iter_mut().zip(self.q.chunks_exact_mut(n.max(1))).enumerate() {
             *tl = t0 + element.rule.nodes[l] * h;
             ql.copy_from_slice(base);
@@ -82,6 +121,22 @@ impl MechanicalTangent {
         }
     }
 
+    /// Forms the stage Jacobians if n is small and `lag` computes them.
+    fn form_jacobians<L: Lagrangian>(&mut self, lag: &L, n: usize) {
+        self.formed = false;
+        if n > JACOBIAN_MAX_DIM {
+            return;
+        }
+        let r = self.t.len();
+        self.jac.resize(r * n * n, 0.0);
+        for (i, ji) in self.jac.chunks_exact_mut(n * n).enumerate() {
+            if !lag.force_jacobian(self.t[i], &self.q[i * n..(i + 1) * n], ji) {
+                return;
+            }
+        }
+        self.formed = true;
+    }
+
     /// g_i = J_i (δq + δY_i) and z_i = M⁻¹ g_i at stage i.
     fn stage<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, i: usize, dq: &[f64]) {
         let n = dq.len();
@@ -89,10 +144,15 @@ impl MechanicalTangent {
         for ((x, a), b) in self.x.iter_mut().zip(dq).zip(&self.dy[span.clone()]) {
             *x = a + b;
         }
-        lag.force_derivative(self.t[i], &self.q[span.clone()], &self.x, &mut self.g[span.clone()]);
-        if mass.is_identity() {
-            self.z[span.clone()].copy_from_slice(&self.g[span]);
+        if self.formed {
+            let ji = &self.jac[i * n * n..(i + 1) * n * n];
+            for (g, row) in self.g[span.clone()].iter_mut().zip(ji.chunks_exact(n)) {
+                *g = row.iter().zip(&self.x).map(|(a, b)| a * b).sum();
+            }
         } else {
+            lag.force_derivative(self.t[i], &self.q[span.clone()], &self.x, &mut self.g[span.clone()]);
+        }
+        if !self.identity {
             mass.solve(&self.g[span.clone()], &mut self.z[span]);
         }
     }
@@ -104,7 +164,6 @@ impl MechanicalTangent {
         &mut self,
         lag: &L,
         mass: &MassMatrix,
-        h: f64,
         tolerance: f64,
         max_iterations: usize,
         v: &mut [f64],
@@ -116,26 +175,26 @@ impl MechanicalTangent {
         let rows = |l: usize| l * n..(l + 1) * n;
         if self.lower {
             for l in 0..r {
-                displacement(&self.tab, &self.du, &self.z, (l, h), 0..l, &mut self.dy[rows(l)]);
+                let z = if self.identity { &self.g } else { &self.z };
+                displacement((&self.ha, &self.h2b), &self.du, z, l, 0..l, &mut self.dy[rows(l)]);
                 self.stage(lag, mass, l, dq);
             }
         } else {
             for l in 0..r {
-                displacement(&self.tab, &self.du, &self.z, (l, h), 0..0, &mut self.dy[rows(l)]);
+                displacement((&self.ha, &self.h2b), &self.du, &[], l, 0..0, &mut self.dy[rows(l)]);
             }
-            if !self.sweeps(lag, mass, h, dq, tolerance, max_iterations) {
+            if !self.sweeps(lag, mass, dq, tolerance, max_iterations) {
                 return false;
             }
         }
         // δq' = δq + h α_s δu + h² Σ β_si z_i, δp' = δp + h Σ b_i g_i.
-        let s = self.tab.alpha.len();
-        let ha = h * self.tab.alpha[s - 1];
+        let z = if self.identity { &self.g } else { &self.z };
         for c in 0..n {
-            let mut aq = ha * self.du[c];
+            let mut aq = self.h_alpha * self.du[c];
             let mut ap = 0.0;
             for i in 0..r {
-                aq += h * h * self.tab.beta[(s - 1) * r + i] * self.z[i * n + c];
-                ap += h * self.weights[i] * self.g[i * n + c];
+                aq += self.h2_beta[i] * z[i * n + c];
+                ap += self.hw[i] * self.g[i * n + c];
             }
             dq[c] += aq;
             dp[c] += ap;
@@ -150,7 +209,6 @@ impl MechanicalTangent {
         &mut self,
         lag: &L,
         mass: &MassMatrix,
-        h: f64,
         dq: &[f64],
         tolerance: f64,
         max_iterations: usize,
@@ -163,7 +221,8 @@ impl MechanicalTangent {
             }
             for l in 0..r {
                 let out = &mut self.dy_next[l * n..(l + 1) * n];
-                displacement(&self.tab, &self.du, &self.z, (l, h), 0..r, out);
+                let z = if self.identity { &self.g } else { &self.z };
+                displacement((&self.ha, &self.h2b), &self.du, z, l, 0..r, out);
             }
             let change = self
                 .dy_next
@@ -184,23 +243,22 @@ impl MechanicalTangent {
     }
 }
 
-/// δY_l = h a_l δu + h² Σ_{i ∈ from} B_li z_i into `out` (row l of the r×n displacements; z
-/// holds r rows of that length).
+/// δY_l = h a_l δu + h² Σ_{i ∈ from} B_li z_i into `out` (row l of the r×n displacements)
+/// with the scaled tables `ha`, `h2b` (r×r); z holds r rows of n.
 fn displacement(
-    tab: &FixedPointTables,
+    (ha, h2b): (&[f64], &[f64]),
     du: &[f64],
     z: &[f64],
-    (l, h): (usize, f64),
+    l: usize,
     from: std::ops::Range<usize>,
     out: &mut [f64],
 ) {
-    let (n, r) = (out.len(), tab.a.len());
-    let ha = h * tab.a[l];
+    let (n, r) = (out.len(), ha.len());
     for (o, u) in out.iter_mut().zip(du) {
-        *o = ha * u;
+        *o = ha[l] * u;
     }
     for i in from {
-        let c = h * h * tab.b[l * r + i];
+        let c = h2b[l * r + i];
         if c != 0.0 {
             let zi = &z[i * n..(i + 1) * n];
             out.iter_mut().zip(zi).for_each(|(o, z)| *o += c * z);
@@ -228,13 +286,16 @@ impl<L: Lagrangian> Integrator<'_, L> {
         };
         let (t0, h) = (self.last.t, self.last.h);
         mt.set_stages(&self.element, t0, h, &self.last.base, &self.last.incr);
+        mt.form_jacobians(&*self.lag, n);
         let (tol, cap) = (self.opts.tolerance, self.opts.max_iterations);
-        let saved = (!mt.lower).then(|| vectors.to_vec());
+        mt.identity = mass.is_identity();
+        if !mt.lower {
+            mt.saved.clear();
+            mt.saved.extend_from_slice(vectors);
+        }
         for v in vectors.chunks_exact_mut(2 * n) {
-            if !mt.carry(&*self.lag, mass, h, tol, cap, v) {
-                if let Some(saved) = saved {
-                    vectors.copy_from_slice(&saved);
-                }
+            if !mt.carry(&*self.lag, mass, tol, cap, v) {
+                vectors.copy_from_slice(&mt.saved);
                 return Ok(false);
             }
         }

@@ -1,8 +1,9 @@
 //! The routes of `Integrator::tangent_apply` against the dense map (`Integrator::tangent_map`,
 //! implicit differentiation of the element equations with the element Hessian): the
 //! mechanical tangent (the variational equations in the fixed-point step's structure, on the
-//! force's directional derivative) on several systems, degrees and quadratures, whichever
-//! solver took the steps; and its symplecticity, a property neither route assumes.
+//! force's directional derivative, or for small n on the stage Jacobians) on several
+//! systems, degrees and quadratures, whichever solver took the steps; and its
+//! symplecticity, a property neither route assumes.
 
 use femvi::expr::ExprLagrangian;
 use femvi::{
@@ -78,11 +79,14 @@ fn the_mechanical_tangent_is_the_dense_map() {
         q: vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.6, 0.01],
         p: (0..9).map(|i| masses[i / 3] * vel[i]).collect(),
     };
+    // n = 8 forms the stage Jacobians, n = 20 (above JACOBIAN_MAX_DIM = 16) takes the
+    // force's directional derivative at every product.
     let fpu = models::fpu(8, 0.25, 0.5).unwrap();
-    let fpu_start = || Start::Momentum {
-        q: (0..8).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect(),
-        p: vec![0.0; 8],
+    let fpu_start = |n: usize| Start::Momentum {
+        q: (0..n).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect(),
+        p: vec![0.0; n],
     };
+    let fpu20 = models::fpu(20, 0.25, 0.5).unwrap();
     for (name, el) in elements() {
         let methods: &[Method] = if el.degree() == 1 {
             &[Method::Auto, Method::FixedPoint, Method::Newton]
@@ -97,7 +101,8 @@ fn the_mechanical_tangent_is_the_dense_map() {
                     "star + two planets",
                     worst(&planets, &el, method, planets_start(), 0.03),
                 ),
-                ("fpu", worst(&fpu, &el, method, fpu_start(), 0.1)),
+                ("fpu", worst(&fpu, &el, method, fpu_start(8), 0.1)),
+                ("fpu n = 20", worst(&fpu20, &el, method, fpu_start(20), 0.1)),
             ];
             for (system, e) in cases {
                 assert!(e < 1e-12, "{system}, {name}, {method:?}: {e:e}");
