@@ -132,7 +132,7 @@ pub trait Lagrangian {
     /// # Ok::<(), femvi::Error>(())
     /// ```
     fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
-        directional::lagrangian_default(self, t, q, dq, out);
+        force_derivative_by_ad(self, t, q, dq, out);
     }
 
     /// The Jacobian of [`Lagrangian::force`], ∂f/∂q (row-major n×n, for a mechanical
@@ -238,6 +238,12 @@ pub trait Lagrangian {
     fn second_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         out.second_by_ad(self, t, q, v, with_t);
     }
+}
+
+/// The default of [`Lagrangian::force_derivative`]: ∂²L/∂q∂q · dq at v = 0 by n hyper-dual
+/// passes over [`Lagrangian::value`] (for implementations that fall back to it).
+pub(crate) fn force_derivative_by_ad<L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+    directional::lagrangian_default(lag, t, q, dq, out);
 }
 
 /// A potential V(t, q) for a mechanical Lagrangian. As for [`Lagrangian`], the library calls

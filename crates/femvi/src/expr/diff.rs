@@ -1,6 +1,7 @@
 //! Symbolic differentiation on the expression graph: the gradient by reverse mode (adjoints
 //! accumulated from the root down, one pass for all variables) and derivatives with respect to
-//! one variable by forward mode (used on the gradient for the Hessian), with the chain rule of
+//! one variable or along a direction by forward mode (used on the gradient for the Hessian and
+//! for the force's directional derivative), with the chain rule of
 //! every operation the parser knows. New nodes go through the simplifying constructors of
 //! [`Dag`], so derivatives share subexpressions with the expression and with each other.
 
@@ -12,11 +13,20 @@ impl Dag {
     /// The derivatives of `roots` with respect to variable `var` (forward mode over the nodes
     /// they depend on, each derivative built once); None beyond the node budget.
     pub(super) fn derivative(&mut self, roots: &[Id], var: usize) -> Option<Vec<Id>> {
+        let one = self.constant(1.0);
+        self.directional(roots, &|i| (i == var).then_some(one))
+    }
+
+    /// The derivatives of `roots` along the direction that moves variable i at the rate
+    /// `seed(i)` (a node; None: 0), by forward mode: with seed(i) = 1 for one variable this
+    /// is [`Dag::derivative`]; with seed(q_j) = v_j, the directional derivative in q along v.
+    /// None beyond the node budget.
+    pub(super) fn directional(&mut self, roots: &[Id], seed: &dyn Fn(usize) -> Option<Id>) -> Option<Vec<Id>> {
         let order = self.reachable(roots);
         let zero = self.constant(0.0);
         let mut d: HashMap<Id, Id> = HashMap::with_capacity(order.len());
         for &a in &order {
-            let da = self.derivative_of(a, var, &d, zero);
+            let da = self.derivative_of(a, seed, &d, zero);
             d.insert(a, da);
             if self.len() > NODE_BUDGET {
                 return None;
@@ -105,17 +115,11 @@ impl Dag {
     }
 
     /// The derivative of node `a` given those of its children in `d`.
-    fn derivative_of(&mut self, a: Id, var: usize, d: &HashMap<Id, Id>, zero: Id) -> Id {
+    fn derivative_of(&mut self, a: Id, seed: &dyn Fn(usize) -> Option<Id>, d: &HashMap<Id, Id>, zero: Id) -> Id {
         let dd = |x: Id| d.get(&x).copied().unwrap_or(zero);
         match self.nodes()[a as usize] {
             Node::Const(_) => zero,
-            Node::Var(i) => {
-                if i as usize == var {
-                    self.constant(1.0)
-                } else {
-                    zero
-                }
-            }
+            Node::Var(i) => seed(i as usize).unwrap_or(zero),
             Node::Un(op, x) => {
                 let dx = dd(x);
                 if dx == zero {

@@ -111,6 +111,29 @@ fn mass_matrix(n: usize, diag: Vec<f64>, off: &[(usize, usize, f64)]) -> Option<
     MassMatrix::dense(n, m).ok()
 }
 
+/// The tape of the force's derivative along v, (∂f/∂q)·v with f = ∂c0/∂q, over (t, q, v)
+/// (n outputs), for a mechanical `program` (built on first use by
+/// [`crate::Lagrangian::force_derivative`] of [`super::ExprLagrangian`]); None if the
+/// expression is not mechanical or the graph outgrows its budget.
+pub(super) fn force_derivative_tape(program: &Program, n: usize) -> Option<Tape> {
+    let mut dag = Dag::default();
+    let root = dag.add_program(program.ops())?;
+    let exp = structure::expand(&mut dag, root, n)?;
+    if !exp.c1.is_empty() {
+        return None;
+    }
+    let force = match exp.c0 {
+        Some(c0) => dag.gradient(c0, 1 + n)?,
+        None => {
+            let zero = dag.constant(0.0);
+            return Some(Tape::new(&dag, &vec![zero; n], n));
+        }
+    };
+    let dirs: Vec<Id> = (0..n).map(|j| dag.var(1 + n + j)).collect();
+    let outs = dag.directional(force.get(1..)?, &|i| (1..=n).contains(&i).then(|| dirs[i - 1]))?;
+    Some(Tape::new(&dag, &outs, n))
+}
+
 /// The tape of ∂c0/∂q (c0 None means 0).
 fn force_tape(dag: &mut Dag, c0: Option<Id>, n: usize) -> Option<Tape> {
     let grad = match c0 {
