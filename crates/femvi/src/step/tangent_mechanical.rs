@@ -14,8 +14,9 @@
 //! the variational equations solved by the step's own iteration, on products J_i·x
 //! ([`crate::Lagrangian::force_derivative`]: the model's or the compiled expression's code)
 //! instead of the dense element Hessian and its LU; for n ≤ [`JACOBIAN_MAX_DIM`], when the
-//! Lagrangian computes ∂f/∂q itself ([`crate::Lagrangian::force_jacobian`]), J_i is formed
-//! once per stage and step and the products are matrix–vector products. When B is strictly lower triangular (the
+//! Lagrangian computes ∂f/∂q itself ([`crate::Lagrangian::force_jacobian`]) and a step takes
+//! at least n/2 products per stage (vectors × sweeps, the sweeps counted on the step before),
+//! J_i is formed once per stage and step and the products are matrix–vector products. When B is strictly lower triangular (the
 //! trapezoid rule: Störmer–Verlet, whose map this is the variational Störmer–Verlet of) one
 //! sweep in order solves it exactly, r products per vector; otherwise the sweeps repeat
 //! until the stages stop changing (the step's tolerance), and a vector whose sweeps do not
@@ -55,6 +56,10 @@ pub(crate) struct MechanicalTangent {
     /// The stage Jacobians J_i (r × n×n, row-major), when `formed`.
     jac: Vec<f64>,
     formed: bool,
+    /// Sweeps per vector on the last step (to choose between the two kinds of product), and
+    /// the count on the current one.
+    sweeps_per_vector: f64,
+    sweeps_total: usize,
     /// Per vector: δu, the stage displacements δY, g_i and M⁻¹ g_i (r×n), a point's argument
     /// δq + δY_i, and the node increments of the end update (s×n, twice).
     du: Vec<f64>,
@@ -84,6 +89,8 @@ impl MechanicalTangent {
             saved: Vec::new(),
             jac: Vec::new(),
             formed: false,
+            sweeps_per_vector: if lower { 1.0 } else { 4.0 },
+            sweeps_total: 0,
             du: vec![0.0; n],
             dy: vec![0.0; r * n],
             g: vec![0.0; r * n],
@@ -111,10 +118,11 @@ impl MechanicalTangent {
         }
     }
 
-    /// Forms the stage Jacobians if n is small and `lag` computes them.
-    fn form_jacobians<L: Lagrangian>(&mut self, lag: &L, n: usize) {
+    /// Forms the stage Jacobians if n is small, `vectors` are expected to take at least n/2
+    /// products per stage, and `lag` computes them.
+    fn form_jacobians<L: Lagrangian>(&mut self, lag: &L, n: usize, vectors: usize) {
         self.formed = false;
-        if n > JACOBIAN_MAX_DIM {
+        if n > JACOBIAN_MAX_DIM || 2.0 * vectors as f64 * self.sweeps_per_vector < n as f64 {
             return;
         }
         let r = self.t.len();
@@ -171,8 +179,9 @@ impl MechanicalTangent {
             for (l, row) in self.dy.chunks_exact_mut(n).enumerate() {
                 row.iter_mut().zip(&self.du).for_each(|(y, u)| *y = self.st.ha[l] * u);
             }
-            if !self.sweeps(lag, mass, dq, limits) {
-                return false;
+            match self.sweeps(lag, mass, dq, limits) {
+                Some(count) => self.sweeps_total += count,
+                None => return false,
             }
         }
         // δq' = δq + h α_s δu + h² Σ β_si z_i, δp' = δp + h Σ b_i g_i, the coefficients'
@@ -209,30 +218,30 @@ impl MechanicalTangent {
     /// decreasing (the rounding floor); with `polish`, as the step's polish
     /// ([`crate::SolverOptions::polish`]), on while they still decrease (at most three more
     /// sweeps), since a truncated iteration's error accumulates over a run (the whole-run map
-    /// of `tests/all/chaos.rs` lost its symplecticity to 2.1e-10 against 4.9e-12 at a
-    /// hundredth of the tolerance). g and z are left at the displacements the last sweep
-    /// started from, which it moved by at most that much.
-    fn sweeps<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, dq: &[f64], limits: Limits) -> bool {
+    /// of `tests/all/chaos.rs` kept its symplecticity to 2.1e-10 without the polish, 7.5e-12
+    /// with it). Returns the sweeps, None if they did not converge. g and z are left at the
+    /// displacements the last sweep started from, which it moved by at most that much.
+    fn sweeps<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, dq: &[f64], limits: Limits) -> Option<usize> {
         let (n, r) = (dq.len(), self.t.len());
         let dq_size = dq.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let (mut prev, mut extra) = (f64::INFINITY, None);
-        for _ in 0..limits.max_iterations {
+        for sweep in 1..=limits.max_iterations {
             for i in 0..r {
                 self.stage(lag, mass, i, dq);
             }
             let z = if self.identity { &self.g } else { &self.z };
             let (change, size, sum) = affine(r, n, &self.st.ha, &self.du, &self.st.h2b, r, z, &mut self.dy, true);
             if sum.is_nan() {
-                return false;
+                return None;
             }
             let floor = limits.tolerance * size.max(dq_size).max(f64::MIN_POSITIVE);
             let stalled = change >= prev;
             match extra {
-                Some(left) if stalled || left == 0 => return true,
+                Some(left) if stalled || left == 0 => return Some(sweep),
                 Some(left) => extra = Some(left - 1),
                 None if change <= floor || (change <= 1e3 * floor && stalled) => {
                     if !limits.polish || stalled || change == 0.0 {
-                        return true;
+                        return Some(sweep);
                     }
                     extra = Some(POLISH_SWEEPS - 1);
                 }
@@ -240,7 +249,7 @@ impl MechanicalTangent {
             }
             prev = change;
         }
-        extra.is_some()
+        extra.map(|_| limits.max_iterations)
     }
 }
 
@@ -275,7 +284,9 @@ impl<L: Lagrangian> Integrator<'_, L> {
         };
         let (t0, h) = (self.last.t, self.last.h);
         mt.set_stages(&self.element, t0, h, &self.last.base, &self.last.incr);
-        mt.form_jacobians(&*self.lag, n);
+        let count = vectors.len() / (2 * n);
+        mt.form_jacobians(&*self.lag, n, count);
+        mt.sweeps_total = 0;
         mt.identity = mass.is_identity();
         if !mt.lower {
             mt.saved.clear();
@@ -291,6 +302,9 @@ impl<L: Lagrangian> Integrator<'_, L> {
                 vectors.copy_from_slice(&mt.saved);
                 return Ok(false);
             }
+        }
+        if !mt.lower && count > 0 {
+            mt.sweeps_per_vector = mt.sweeps_total as f64 / count as f64;
         }
         Ok(true)
     }
