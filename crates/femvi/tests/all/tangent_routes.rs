@@ -178,3 +178,27 @@ fn the_mechanical_tangent_is_symplectic() {
         assert!(defect < 1e-12 * scale * scale, "{name}: {defect:e} (scale {scale:e})");
     }
 }
+
+/// Refusals: vectors of the wrong length, and no step taken yet.
+#[test]
+fn tangent_apply_refuses_what_it_cannot_carry() {
+    let lag = models::kepler(1.0).unwrap();
+    let el = trapezoid();
+    let grid = TimeGrid::uniform(0.0, 0.1, 1.0).unwrap();
+    let start = Start::Momentum {
+        q: vec![1.0, 0.0],
+        p: vec![0.0, 1.0],
+    };
+    let mut it = Integrator::new(&lag, &el, grid, start, SolverOptions::default()).unwrap();
+    let mut v = vec![1.0, 0.0, 0.0, 0.0];
+    assert!(it.tangent_apply(&mut v).is_err(), "before the first step");
+    it.step().unwrap();
+    let mut short = vec![1.0, 0.0, 0.0];
+    assert!(matches!(
+        it.tangent_apply(&mut short),
+        Err(femvi::Error::Dimension { .. })
+    ));
+    assert_eq!(short, [1.0, 0.0, 0.0]);
+    assert!(it.tangent_apply(&mut v).is_ok());
+    assert!(it.tangent_apply(&mut []).is_ok());
+}
