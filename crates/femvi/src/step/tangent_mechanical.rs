@@ -27,9 +27,8 @@
 //! tolerance and rounding.
 
 use super::fixed_point::{affine, FixedPointTables, StepTables};
-use super::integrator::Integrator;
+use super::options::SolverOptions;
 use crate::discrete::Element;
-use crate::error::Result;
 use crate::lagrangian::{Lagrangian, MassMatrix};
 
 /// The largest n for which the stage Jacobians are formed (r n² numbers per step) rather than
@@ -264,48 +263,50 @@ struct Limits {
     polish: bool,
 }
 
-impl<L: Lagrangian> Integrator<'_, L> {
-    /// Carries `vectors` (each (δq, δp), 2n long) through the last step by the mechanical
-    /// tangent (module docs); Ok(false), vectors unchanged, when it does not apply (no mass
-    /// matrix, a degenerate element) or its sweeps did not converge.
-    pub(crate) fn mechanical_tangent_apply(&mut self, vectors: &mut [f64]) -> Result<bool> {
-        let n = self.state.n;
-        let Some(mass) = self.lag.mass_matrix() else {
-            return Ok(false);
-        };
-        if n == 0 || self.element.degree() == 0 {
-            return Ok(false);
-        }
-        if self.mech_tangent.is_none() {
-            self.mech_tangent = MechanicalTangent::new(&self.element, n).map(Box::new);
-        }
-        let Some(mt) = self.mech_tangent.as_deref_mut() else {
-            return Ok(false);
-        };
-        let (t0, h) = (self.last.t, self.last.h);
-        mt.set_stages(&self.element, t0, h, &self.last.base, &self.last.incr);
-        let count = vectors.len() / (2 * n);
-        mt.form_jacobians(&*self.lag, n, count);
-        mt.sweeps_total = 0;
-        mt.identity = mass.is_identity();
-        if !mt.lower {
-            mt.saved.clear();
-            mt.saved.extend_from_slice(vectors);
+/// The last step as the mechanical tangent needs it: its element [t0, t0 + h] with nodes
+/// `base` + `incr[j]` (row-major (s+1)×n increments).
+pub(crate) struct StepElement<'e> {
+    pub(crate) t0: f64,
+    pub(crate) h: f64,
+    pub(crate) base: &'e [f64],
+    pub(crate) incr: &'e [f64],
+}
+
+impl MechanicalTangent {
+    /// Carries `vectors` (each (δq, δp), 2n long) through the step `el` of `lag` (mass
+    /// matrix `mass`) discretised by `element`, in place (module docs); false, vectors
+    /// unchanged, if its sweeps did not converge within the solver's limits.
+    pub(crate) fn apply<L: Lagrangian>(
+        &mut self,
+        (lag, mass, element): (&L, &MassMatrix, &Element),
+        el: StepElement<'_>,
+        opts: &SolverOptions,
+        vectors: &mut [f64],
+    ) -> bool {
+        let n = el.base.len();
+        self.set_stages(element, el.t0, el.h, el.base, el.incr);
+        let count = vectors.len() / (2 * n).max(1);
+        self.form_jacobians(lag, n, count);
+        self.sweeps_total = 0;
+        self.identity = mass.is_identity();
+        if !self.lower {
+            self.saved.clear();
+            self.saved.extend_from_slice(vectors);
         }
         let limits = Limits {
-            tolerance: self.opts.tolerance,
-            max_iterations: self.opts.max_iterations,
-            polish: self.opts.polish,
+            tolerance: opts.tolerance,
+            max_iterations: opts.max_iterations,
+            polish: opts.polish,
         };
         for v in vectors.chunks_exact_mut(2 * n) {
-            if !mt.carry(&*self.lag, mass, limits, v) {
-                vectors.copy_from_slice(&mt.saved);
-                return Ok(false);
+            if !self.carry(lag, mass, limits, v) {
+                vectors.copy_from_slice(&self.saved);
+                return false;
             }
         }
-        if !mt.lower && count > 0 {
-            mt.sweeps_per_vector = mt.sweeps_total as f64 / count as f64;
+        if !self.lower && count > 0 {
+            self.sweeps_per_vector = self.sweeps_total as f64 / count as f64;
         }
-        Ok(true)
+        true
     }
 }
