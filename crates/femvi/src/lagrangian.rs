@@ -309,6 +309,21 @@ pub trait Potential {
     /// The derivative of [`Potential::force`] along dq, −∇²V(t, q)·dq, into `out` (see
     /// [`Lagrangian::force_derivative`]). Default: n hyper-dual passes over
     /// [`Potential::value`]; override it with a hand-coded product for speed.
+    ///
+    /// ```
+    /// use femvi::{models, Potential};
+    /// // The FPU chain's hand-coded product against its Jacobian (hyper-dual AD).
+    /// let chain = models::fpu(3, 0.25, 0.0)?.potential;
+    /// let (q, dq) = ([0.1, -0.2, 0.3], [1.0, 0.5, -0.5]);
+    /// let (mut out, mut jac) = ([0.0; 3], [0.0; 9]);
+    /// chain.force_derivative(0.0, &q, &dq, &mut out);
+    /// chain.force_jacobian(0.0, &q, &mut jac);
+    /// for i in 0..3 {
+    ///     let want: f64 = (0..3).map(|j| jac[i * 3 + j] * dq[j]).sum();
+    ///     assert!((out[i] - want).abs() < 1e-14);
+    /// }
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
         directional::potential_default(self, t, q, dq, out);
     }
