@@ -12,16 +12,8 @@
 
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
+use crate::step::tangent_apply::extended_index;
 use crate::step::Integrator;
-
-/// Index of (q, p) component i (i < 2n) among the extended variables (q, t, p, −E).
-fn extended_index(i: usize, n: usize) -> usize {
-    if i < n {
-        i
-    } else {
-        i + 1
-    }
-}
 
 /// Carries `u` (one vector of length 2n) and `w` (2n-long vectors, column-major, possibly
 /// none) through the last step's tangent map ([`Integrator::tangent_apply`]: one call for
@@ -47,7 +39,7 @@ pub(crate) fn carry<L: Lagrangian>(
 
 /// The product of a run's step maps applied to the 2n start directions (dq, dp) — in energy
 /// mode on extended phase space, so that the carried energy's dependence on the start (fixed
-/// by the first element) is followed. Column-major, as `accumulate::apply` expects.
+/// by the first element) is followed. Column-major, as `Integrator::tangent_apply` expects.
 pub(crate) struct ExtendedProduct {
     n: usize,
     /// Rows per column: 2n, or 2n + 2 in energy mode.

@@ -215,17 +215,30 @@ impl Lagrangian for ExprLagrangian {
     /// Hessian tape was built; false otherwise.
     fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) -> bool {
         let n = self.dim();
-        if self.fast.mass.is_none() || self.fast.second.is_none() || q.len() != n || out.len() != n * n {
+        let (Some(tape), Some(_)) = (&self.fast.second, &self.fast.mass) else {
+            return false;
+        };
+        if q.len() != n || out.len() != n * n {
             return false;
         }
-        let mut d = PointDerivatives::new(n);
-        self.second_derivatives(t, q, &vec![0.0; n], false, &mut d);
-        let w = d.width();
-        for (i, row) in out.chunks_exact_mut(n).enumerate() {
-            for (j, o) in row.iter_mut().enumerate() {
-                *o = d.hess[(1 + i) * w + 1 + j];
+        // The q block of the Hessian at v = 0, read straight from the tape's outputs (no
+        // scratch: this runs at every stage of every step of a tangent map).
+        let (stack, heap);
+        let zeros: &[f64] = if n <= 32 {
+            stack = [0.0; 32];
+            &stack[..n]
+        } else {
+            heap = vec![0.0; n];
+            &heap
+        };
+        hessian_outputs(tape, (t, q, zeros), 2 * n + 1, |entry| {
+            if let SecondOutput::Hessian(a, b, x) = entry {
+                if (1..=n).contains(&a) && (1..=n).contains(&b) {
+                    out[(a - 1) * n + b - 1] = x;
+                    out[(b - 1) * n + a - 1] = x;
+                }
             }
-        }
+        });
         true
     }
 
@@ -283,21 +296,12 @@ impl Lagrangian for ExprLagrangian {
         }
         let width = out.width();
         debug_assert_eq!(m, width * width);
-        // Outputs: L, the gradient, then the upper triangle row by row.
-        let (mut a, mut b) = (0, 0);
-        tape.eval(t, q, v, |j, x| {
-            if j == 0 {
-                out.value = x;
-            } else if j <= width {
-                out.grad[j - 1] = x;
-            } else {
+        hessian_outputs(tape, (t, q, v), width, |entry| match entry {
+            SecondOutput::Value(x) => out.value = x,
+            SecondOutput::Gradient(i, x) => out.grad[i] = x,
+            SecondOutput::Hessian(a, b, x) => {
                 out.hess[a * width + b] = x;
                 out.hess[b * width + a] = x;
-                b += 1;
-                if b == width {
-                    a += 1;
-                    b = a;
-                }
             }
         });
         if !with_t || self.autonomous {
@@ -331,6 +335,33 @@ impl Lagrangian for ExprLagrangian {
             }
         })
     }
+}
+
+/// One output of the Hessian tape (`Fast::second`): L, ∂L/∂z_i, or ∂²L/∂z_a∂z_b (a ≤ b).
+enum SecondOutput {
+    Value(f64),
+    Gradient(usize, f64),
+    Hessian(usize, usize, f64),
+}
+
+/// Evaluates the Hessian tape at (t, q, v) over z of `width` = 2n + 1 variables and hands
+/// each output to `f`: L, the gradient, then the upper triangle row by row.
+fn hessian_outputs(tape: &tape::Tape, (t, q, v): (f64, &[f64], &[f64]), width: usize, mut f: impl FnMut(SecondOutput)) {
+    let (mut a, mut b) = (0, 0);
+    tape.eval(t, q, v, |j, x| {
+        if j == 0 {
+            f(SecondOutput::Value(x));
+        } else if j <= width {
+            f(SecondOutput::Gradient(j - 1, x));
+        } else {
+            f(SecondOutput::Hessian(a, b, x));
+            b += 1;
+            if b == width {
+                a += 1;
+                b = a;
+            }
+        }
+    });
 }
 
 /// The value from machine code, for q and v of at most 16 entries (copied to f64 arrays);

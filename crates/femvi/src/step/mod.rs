@@ -66,7 +66,7 @@ pub(crate) mod solver;
 mod start;
 pub(crate) mod state;
 mod tangent;
-mod tangent_apply;
+pub(crate) mod tangent_apply;
 mod tangent_mechanical;
 pub(crate) mod term;
 mod term_history;

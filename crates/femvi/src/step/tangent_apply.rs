@@ -9,6 +9,16 @@ use super::tangent_mechanical::{MechanicalTangent, StepElement};
 use crate::error::{invalid, Error, Result};
 use crate::lagrangian::Lagrangian;
 
+/// Index of (q, p) component i (i < 2n) among the extended variables (q, t, p, −E) of
+/// [`Integrator::extended_tangent_map`].
+pub(crate) fn extended_index(i: usize, n: usize) -> usize {
+    if i < n {
+        i
+    } else {
+        i + 1
+    }
+}
+
 impl<L: Lagrangian> Integrator<'_, L> {
     /// Carries `vectors` (each (δq, δp) of length 2n, one after another) through the tangent
     /// map of the last step, in place: the one entry for tangent vectors of every run whose
@@ -113,7 +123,7 @@ impl<L: Lagrangian> Integrator<'_, L> {
     fn energy_block_apply(&mut self, vectors: &mut [f64]) -> Result<()> {
         let n = self.state.n;
         let (d, de) = (2 * n, 2 * n + 2);
-        let at = |i: usize| if i < n { i } else { i + 1 };
+        let at = |i: usize| extended_index(i, n);
         let count = vectors.len() / d;
         let mut ext = vec![0.0; count * de];
         for (k, col) in vectors.chunks_exact(d).enumerate() {
