@@ -28,6 +28,7 @@ pub mod forces;
 pub mod lagrangian;
 pub mod models;
 pub mod optimize;
+pub mod rotation;
 pub mod solution;
 pub mod solve;
 pub mod step;

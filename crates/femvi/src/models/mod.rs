@@ -19,6 +19,7 @@ mod fpu;
 mod gravity;
 pub mod outer_solar_system;
 mod relativistic;
+mod rigid;
 mod simple;
 
 pub use constrained::{chain, Chain, UniformGravity};
@@ -27,6 +28,7 @@ pub use forced::{forced_oscillator, ForcedPotential};
 pub use fpu::{fpu, FpuPotential};
 pub use gravity::{n_body, outer_solar_system, GravityPotential};
 pub use relativistic::RelativisticKepler;
+pub use rigid::RigidBody;
 pub use simple::{
     harmonic, henon_heiles, kepler, pendulum, HarmonicPotential, HenonHeilesPotential, KeplerPotential,
     PendulumPotential,

@@ -51,6 +51,7 @@ mod optimize_constraints;
 mod optimize_ends;
 mod paper_formulas;
 mod rattle_exact;
+mod rotations;
 mod setup_scale;
 mod solution;
 mod solver;

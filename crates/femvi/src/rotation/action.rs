@@ -1,0 +1,94 @@
+//! The discrete action of a Lie-group Galerkin element (module docs of [`super`]): on
+//! [t_k, t_k + h] each rotation is R(τ) = R_k exp(η̂) exp(ζ̂(τ)) with ζ(τ) = Σ_j ζ^j ℓ_j(τ),
+//! ζ^0 = 0, and each ordinary coordinate q(τ) = q_k + Σ_j d^j ℓ_j(τ); the body angular velocity
+//! is w(τ) = (1/h) dexp_{−ζ(τ)} ζ′(τ), and the action h Σ_i b_i L(t_i, R(c_i), R ŵ(c_i), …) is
+//! the Lagrangian on the embedding (the entries of R and Ṙ = R ŵ) at the quadrature points.
+//!
+//! The variables are z = (e, x^1, …, x^s), each a vector of the layout's slots: e holds the
+//! variation η of the chart's centre R_k (and d^0 for the ordinary coordinates), x^j the node
+//! ξ^j (and d^j). The last node is ζ^s = ξ^s − dexp_{ξ^s}⁻¹ η, which keeps
+//! R_{k+1} = R_k exp(ξ̂^s) fixed to first order in η, so ∂S/∂η at η = 0 is the derivative of
+//! the discrete Lagrangian L_d(R_k, R_{k+1}) in its first argument (left-trivialised), chart
+//! and all; only first derivatives in e are ever taken.
+
+use super::layout::Rotations;
+use super::so3::{dexp, dexp_inv, exp, hat, mul, Mat3};
+use crate::discrete::Element;
+use crate::lagrangian::{Lagrangian, Scalar};
+
+/// What the action of a step needs besides its variables.
+pub(crate) struct StepData<'a> {
+    /// t_k and h.
+    pub t0: f64,
+    pub h: f64,
+    /// The node q_k (rotation blocks and ordinary coordinates).
+    pub q: &'a [f64],
+}
+
+/// The action S(z) of the element from the node in `data` (module docs).
+pub(crate) fn action<D: Scalar, L: Lagrangian>(
+    lag: &L,
+    element: &Element,
+    layout: &Rotations,
+    data: &StepData<'_>,
+    z: &[D],
+) -> D {
+    let (s, ne, n) = (element.degree(), layout.slots(), layout.dim());
+    if z.len() != ne * (s + 1) || data.q.len() != n {
+        return D::from(f64::NAN);
+    }
+    let zero = D::from(0.0);
+    // Each rotation's centre R_k exp(η̂) and its nodes ζ^0 = 0, ζ^1 … ζ^s.
+    let mut centres: Vec<Mat3<D>> = Vec::with_capacity(layout.count());
+    let mut nodes: Vec<[D; 3]> = Vec::with_capacity(layout.count() * (s + 1));
+    for (r, &o) in layout.offsets().iter().enumerate() {
+        let rk: Mat3<D> = std::array::from_fn(|k| D::from(data.q[o + k]));
+        let eta: [D; 3] = std::array::from_fn(|c| z[3 * r + c]);
+        centres.push(mul(&rk, &exp(&eta)));
+        nodes.push([zero; 3]);
+        for j in 1..=s {
+            let xi: [D; 3] = std::array::from_fn(|c| z[j * ne + 3 * r + c]);
+            if j < s {
+                nodes.push(xi);
+            } else {
+                let back = dexp_inv(&xi, &eta);
+                nodes.push(std::array::from_fn(|c| xi[c] - back[c]));
+            }
+        }
+    }
+    let mut q = vec![zero; n];
+    let mut v = vec![zero; n];
+    let inv_h = 1.0 / data.h;
+    let mut sum = zero;
+    for i in 0..element.points() {
+        for (slot, &c) in layout.ordinary().iter().enumerate() {
+            let (mut y, mut dy) = (D::from(data.q[c]), zero);
+            for j in 0..=s {
+                let d = z[j * ne + 3 * layout.count() + slot];
+                y += d * element.phi(i, j);
+                dy += d * element.dphi(i, j);
+            }
+            q[c] = y;
+            v[c] = dy * inv_h;
+        }
+        for (r, &o) in layout.offsets().iter().enumerate() {
+            let (mut zeta, mut dzeta) = ([zero; 3], [zero; 3]);
+            for (j, node) in nodes[r * (s + 1)..(r + 1) * (s + 1)].iter().enumerate().skip(1) {
+                let (a, d) = (element.phi(i, j), element.dphi(i, j));
+                for c in 0..3 {
+                    zeta[c] += node[c] * a;
+                    dzeta[c] += node[c] * d;
+                }
+            }
+            let rot = mul(&centres[r], &exp(&zeta));
+            let minus = zeta.map(|x| -x);
+            let w = dexp(&minus, &dzeta).map(|x| x * inv_h);
+            let rdot = mul(&rot, &hat(&w));
+            q[o..o + 9].copy_from_slice(&rot);
+            v[o..o + 9].copy_from_slice(&rdot);
+        }
+        let t = D::from(data.t0 + data.h * element.rule.nodes[i]);
+        sum += lag.value(t, &q, &v) * element.rule.weights[i];
+    }
+    sum * data.h
+}

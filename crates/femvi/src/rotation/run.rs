@@ -1,0 +1,146 @@
+//! [`Integrator::with_rotations`]: a run whose configuration holds rotations, stepped by the
+//! Lie-group element (`term.rs`) with every part of an ordinary run.
+
+use super::layout::Rotations;
+use super::so3::{hat, mul, orthogonality_defect, Mat3};
+use super::term::{block, body_momentum, embedded_momentum, RotationTerm};
+use crate::discrete::Element;
+use crate::error::{check_len, invalid, Result};
+use crate::lagrangian::{Lagrangian, PointDerivatives};
+use crate::step::{Integrator, Method, SolverOptions, Start, TimeGrid};
+
+/// How far from orthogonal (max |RᵀR − 1|) a start's rotation may be.
+pub const ORTHOGONALITY_TOLERANCE: f64 = 1e-12;
+
+/// The embedded velocity Ṙ = R ŵ of a body angular velocity w (the nine entries of the
+/// start's v for a rotation block).
+///
+/// # Example
+/// ```
+/// use femvi::rotation::embedded_velocity;
+/// let identity = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+/// let v = embedded_velocity(&identity, &[0.0, 0.0, 2.0]);
+/// assert_eq!(v[3], 2.0); // spinning about z: the x axis moves towards y
+/// ```
+pub fn embedded_velocity(r: &Mat3<f64>, w: &[f64; 3]) -> Mat3<f64> {
+    mul(r, &hat(w))
+}
+
+/// The rotation R and body angular momentum Π of the block at `offset` of a node (q, p).
+///
+/// # Example
+/// ```
+/// use femvi::rotation::{body_state, embedded_velocity};
+/// use femvi::{models::RigidBody, Lagrangian, lagrangian::PointDerivatives};
+/// let body = RigidBody::free([1.0, 2.0, 3.0])?;
+/// let r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+/// let v = embedded_velocity(&r, &[0.5, 1.0, 0.3]);
+/// let mut d = PointDerivatives::new(9);
+/// body.first_derivatives(0.0, &r, &v, false, &mut d);
+/// let (_, pi) = body_state(&r, d.l_v(), 0);
+/// assert!((pi[1] - 2.0).abs() < 1e-15); // Π = I w
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn body_state(q: &[f64], p: &[f64], offset: usize) -> (Mat3<f64>, [f64; 3]) {
+    let r = block(q, offset);
+    (r, body_momentum(&r, &block(p, offset)))
+}
+
+impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
+    /// Sets up a run of `lag` whose coordinates hold the rotations of `rotations`, stepped by
+    /// the Lie-group Galerkin element of `element`'s degree and quadrature (module docs of
+    /// [`crate::rotation`]): each rotation stays on SO(3) to round-off, and the flow is
+    /// symplectic on T*SO(3). `lag` is the Lagrangian on the embedding (the entries of R and
+    /// Ṙ = R ŵ), as [`crate::models::RigidBody`] writes it. The start's rotations must be
+    /// orthogonal (to [`ORTHOGONALITY_TOLERANCE`]); a start momentum (or the momentum of a
+    /// start velocity) is projected onto T*SO(3): P = ½ R Π̂ with Π = 2 vee(RᵀP). The steps
+    /// are solved by Newton's method on the nodes in the algebra.
+    ///
+    /// # Errors
+    /// Sizes; a rotation that is not orthogonal; a start from (q0, q1); an explicit or
+    /// fixed-point method; as [`Integrator::new`].
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::rotation::{body_state, embedded_velocity, Rotations};
+    /// use femvi::{models::RigidBody, Element, Integrator, SolverOptions, Start, TimeGrid};
+    ///
+    /// let body = RigidBody::free([1.0, 2.0, 3.0])?;
+    /// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+    /// let element = Element::with_order(4)?;
+    /// let grid = TimeGrid::uniform(0.0, 0.01, 1.0)?;
+    /// let mut it = Integrator::with_rotations(&body, &element, grid, start, SolverOptions::default(), Rotations::new(9, &[0])?)?;
+    /// while it.step()? {}
+    /// let node = it.node();
+    /// let (_, pi) = body_state(node.q, node.p, 0);
+    /// let norm = (pi[0] * pi[0] + pi[1] * pi[1] + pi[2] * pi[2]).sqrt();
+    /// assert!((norm - (0.25f64 + 4.0 + 0.81).sqrt()).abs() < 1e-14);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_rotations(
+        lag: &'a L,
+        element: &'a Element,
+        grid: TimeGrid,
+        start: Start,
+        opts: SolverOptions,
+        rotations: Rotations,
+    ) -> Result<Self> {
+        opts.validate()?;
+        element.check_nondegenerate()?;
+        let n = lag.dim();
+        check_len("rotation layout", n, rotations.dim())?;
+        if matches!(opts.method, Method::Explicit | Method::FixedPoint) {
+            return Err(invalid(
+                "method",
+                "runs with rotations are solved by Newton's method in the algebra; choose auto or newton",
+            ));
+        }
+        let (q, p) = match start {
+            Start::Velocity { q, v } => {
+                check_len("initial q", n, q.len())?;
+                check_len("initial v", n, v.len())?;
+                if !q.iter().chain(&v).all(|x| x.is_finite()) {
+                    return Err(invalid("initial state", "contains a non-finite number"));
+                }
+                let mut d = PointDerivatives::new(n);
+                lag.first_derivatives(grid.t0(), &q, &v, false, &mut d);
+                let p = d.l_v().to_vec();
+                (q, p)
+            }
+            Start::Momentum { q, p } => {
+                check_len("initial q", n, q.len())?;
+                check_len("initial p", n, p.len())?;
+                (q, p)
+            }
+            Start::Positions { .. } => {
+                return Err(invalid(
+                    "start",
+                    "a run with rotations starts from (R0, w0) or (R0, p0), not from two positions",
+                ))
+            }
+        };
+        let mut p = p;
+        for &o in rotations.offsets() {
+            let r = block(&q, o);
+            let defect = orthogonality_defect(&r);
+            if defect.is_nan() || defect > ORTHOGONALITY_TOLERANCE {
+                return Err(invalid(
+                    "initial rotation",
+                    format!(
+                        "the block at coordinate {o} is not a rotation: max |R^T R - 1| = {defect:.3e} (at most {ORTHOGONALITY_TOLERANCE:e})"
+                    ),
+                ));
+            }
+            let pi = body_momentum(&r, &block(&p, o));
+            p[o..o + 9].copy_from_slice(&embedded_momentum(&r, &pi));
+        }
+        let term = Box::new(RotationTerm::new(lag, element, rotations, opts));
+        let plain = SolverOptions {
+            method: Method::Auto,
+            ..opts
+        };
+        Integrator::with_term(lag, element, grid, Start::Momentum { q, p }, plain, term)
+    }
+}
