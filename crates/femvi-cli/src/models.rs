@@ -29,6 +29,8 @@ pub const MODEL_FILES: &[(&str, &str)] = &[
         "double-pendulum",
         include_str!("../../../examples/models/double-pendulum.toml"),
     ),
+    ("rigid-body", include_str!("../../../examples/models/rigid-body.toml")),
+    ("heavy-top", include_str!("../../../examples/models/heavy-top.toml")),
     (
         "spherical-pendulum",
         include_str!("../../../examples/constrained/spherical-pendulum.toml"),

@@ -61,7 +61,11 @@ pub fn load(path: &Path) -> Result<Problem, String> {
 
 /// [`load`] that accepts every problem `femvi run` does (for `solve`).
 pub fn load_any(path: &Path) -> Result<Problem, String> {
-    problem::load(path).map_err(|e| e.to_string())
+    let problem = problem::load(path).map_err(|e| e.to_string())?;
+    problem
+        .refuse(Use::Python, "femvi.solve")
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(problem)
 }
 
 /// Runs a loaded problem. Err: the library rejected it (message as the command prints it).

@@ -73,6 +73,16 @@ pub trait Lagrangian {
         out.iter_mut().zip(d.l_q()).for_each(|(o, f)| *o = *f);
     }
 
+    /// For a Lagrangian on the embedding of one rotation ([`crate::rotation`]): Some((I, has_V))
+    /// if L = ½ Σ_a I_a w_a² − V(R) with the principal moments I = (I₁, I₂, I₃) about the body
+    /// axes and a potential V whose gradient [`Lagrangian::force`] gives (−∂V/∂R at v = 0;
+    /// `has_V` false for a free body). The Lie-group element then takes its degree-1 steps by
+    /// a fixed-point iteration on the body's equations (`rotation/body.rs`) instead of Newton
+    /// with automatic derivatives. Default: None.
+    fn rigid_body(&self) -> Option<([f64; 3], bool)> {
+        None
+    }
+
     /// If the force is local with radius r (component i of [`Lagrangian::force`] depends on
     /// q_j only for |i − j| ≤ r: chains, lattices), that radius. If [`Lagrangian::force_range`]
     /// is implemented too, [`crate::Integrator::advance`] steps long chains with M = I in

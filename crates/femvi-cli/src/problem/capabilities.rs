@@ -22,6 +22,9 @@ pub enum Term {
     /// `[forces]` in `[time] mode = "energy"` (time steps as variables): the forced energy
     /// equation sets each step (`Integrator::with_force_energy`).
     ForcesInEnergyMode,
+    /// `[system] rotations` (or a rigid-body model): Lie-group elements
+    /// (`Integrator::with_rotations`).
+    Rotations,
 }
 
 impl Term {
@@ -32,6 +35,7 @@ impl Term {
             Term::Constraints => "[constraints]",
             Term::Adaptive => "[time] mode = \"adaptive\"",
             Term::ForcesInEnergyMode => "[forces] in [time] mode = \"energy\"",
+            Term::Rotations => "[system] rotations",
         }
     }
 }
@@ -66,6 +70,8 @@ pub enum Use {
     EnergyMode,
     /// A Python potential (`femvi.solve(..., potential=...)`).
     PythonPotential,
+    /// A problem file solved from Python (`femvi.solve`, `femvi.ensemble`, `femvi.load`).
+    Python,
     /// Another term in the same problem.
     With(Term),
 }
@@ -85,11 +91,13 @@ impl Use {
             Use::SaveatOrDense => "saveat, dense output and events in Python are",
             Use::EnergyMode => "[time] mode = \"energy\" is",
             Use::PythonPotential => "a Python potential is",
+            Use::Python => "solving it from Python is",
             Use::With(t) => match t {
                 Term::Forces => "[forces] are",
                 Term::Constraints => "[constraints] are",
                 Term::Adaptive => "[time] mode = \"adaptive\" is",
                 Term::ForcesInEnergyMode => "[forces] in [time] mode = \"energy\" are",
+                Term::Rotations => "[system] rotations are",
             },
         })
     }
@@ -152,6 +160,28 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     ),
 ];
 
+/// Why the uses of [`ROTATIONS_REFUSED`] are refused: they would step the nine entries of each
+/// rotation as free coordinates, off SO(3).
+const ON_COORDINATES: &str = "this use still steps the nine entries of a rotation as free coordinates, off SO(3); \
+     the Lie-group element runs through `femvi run` (issue 37)";
+
+/// The uses that a problem with rotations does not go through yet.
+pub const ROTATIONS_REFUSED: &[Use] = &[
+    Use::Convergence,
+    Use::ConvergenceL2,
+    Use::Ensemble,
+    Use::Chaos,
+    Use::ChaosInEnergyMode,
+    Use::Check,
+    Use::SaveatOrDense,
+    Use::EnergyMode,
+    Use::PythonPotential,
+    Use::Python,
+    Use::With(Term::Forces),
+    Use::With(Term::Constraints),
+    Use::With(Term::Adaptive),
+];
+
 /// The terms of `terms` that are present.
 fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
     [
@@ -159,6 +189,7 @@ fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
         (Term::Constraints, terms.constraints.is_some()),
         (Term::Adaptive, terms.adaptive.is_some()),
         (Term::ForcesInEnergyMode, terms.force.is_some() && terms.energy_mode),
+        (Term::Rotations, terms.rotations.is_some()),
     ]
     .into_iter()
     .filter_map(|(t, on)| on.then_some(t))
@@ -184,7 +215,9 @@ fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
 /// ```
 pub fn check(terms: &Terms, what: Use, name: &str) -> Result<(), String> {
     for term in present(terms) {
-        if let Some((_, _, why)) = REFUSED.iter().find(|(t, u, _)| *t == term && *u == what) {
+        let rotations = (term == Term::Rotations && ROTATIONS_REFUSED.contains(&what)).then_some(ON_COORDINATES);
+        let listed = REFUSED.iter().find(|(t, u, _)| *t == term && *u == what).map(|r| r.2);
+        if let Some(why) = rotations.or(listed) {
             return Err(match what.subject() {
                 Some(subject) => format!("{subject} not available with {}: {why}", term.label()),
                 None => format!("{name} does not support {} ({why})", term.label()),

@@ -22,6 +22,7 @@ mod initial;
 mod optimal;
 mod output;
 pub mod overrides;
+pub mod rotations;
 mod scheme;
 mod solver;
 mod symmetries;
@@ -341,11 +342,24 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
         Some(f) => Some(f.resolve(&system.coordinates, &parameters, src)?),
         None => None,
     };
+    let rotations = match system.rotations.len() {
+        0 => None,
+        m => {
+            let offsets: Vec<usize> = (0..m).map(|r| 9 * r).collect();
+            Some(femvi::rotation::Rotations::new(n, &offsets).map_err(|e| src.error(e))?)
+        }
+    };
+    if rotations.is_some() && want_bvp {
+        return Err(src.error(
+            "[system] rotations: boundary value and optimal control problems on SO(3) are not solved yet (femvi run takes initial value problems with rotations)",
+        ));
+    }
     let terms = Terms {
         force,
         constraints,
         adaptive: None,
         energy_mode: false,
+        rotations,
     };
     let common = Common {
         name,
@@ -418,7 +432,12 @@ fn build_ivp(
     let t0 = init.t0();
     let energy = tt.energy(src)?;
     let grid = tt.grid(t0, src)?;
-    let start = init.start(&c.system.coordinates, src)?;
+    let start = init.start(&c.system.coordinates, &c.system.rotations, src)?;
+    if !c.system.rotations.is_empty() && tt.accuracy.is_some() {
+        return Err(src.error(
+            "[time] accuracy is not available with rotations: the automatic choice of h is made for coordinates, not for Lie-group elements; give `step` or `steps`",
+        ));
+    }
     let (grid, auto_step) = match tt.choose_step(&c.system.system, &c.element, &start, t0, c.options, src)? {
         Some((grid, choice)) => (grid, Some(choice)),
         None => (grid, None),

@@ -22,6 +22,10 @@ pub struct SystemTable {
     pub lagrangian: Option<toml::Spanned<String>>,
     /// A built-in model name (`femvi models` lists them).
     pub model: Option<String>,
+    /// Names of rotations (configuration variables in SO(3), [`femvi::rotation`]): each X
+    /// adds the coordinates X11 … X33 (the entries of X, row-major) before `coordinates`, and
+    /// the expression may use X_w1, X_w2, X_w3 (the body angular velocity, Ẋ = X ŵ).
+    pub rotations: Option<Vec<String>>,
 }
 
 /// The system a problem describes: built-in or from an expression.
@@ -44,6 +48,8 @@ pub enum System {
     Fpu(femvi::Mechanical<models::FpuPotential>),
     /// Built-in "n-body" and "outer-solar-system".
     Gravity(femvi::Mechanical<models::GravityPotential>),
+    /// Built-in "rigid-body" and "heavy-top".
+    Rigid(models::RigidBody),
 }
 
 /// Dispatches `$body` with `$l` bound to the concrete Lagrangian of a [`System`].
@@ -60,6 +66,7 @@ macro_rules! with_system {
             $crate::problem::System::Forced($l) => $body,
             $crate::problem::System::Fpu($l) => $body,
             $crate::problem::System::Gravity($l) => $body,
+            $crate::problem::System::Rigid($l) => $body,
         }
     };
 }
@@ -72,6 +79,8 @@ pub struct Resolved {
     pub coordinates: Vec<String>,
     /// Built-in model name, if any, and its resolved parameters.
     pub model: Option<(String, Vec<f64>)>,
+    /// The rotations' names; their blocks of nine are the first coordinates.
+    pub rotations: Vec<String>,
 }
 
 impl SystemTable {
@@ -109,11 +118,19 @@ impl SystemTable {
                 )));
             }
         }
+        let rotations: Vec<String> = models::rotations(model).iter().map(|s| s.to_string()).collect();
+        if self.rotations.as_ref().is_some_and(|given| *given != rotations) {
+            return Err(src.error(format!(
+                "model '{model}' has rotations [{}]; [system] rotations disagree (leave them out)",
+                rotations.join(", ")
+            )));
+        }
         let system = built_in(model, &p).map_err(|e| src.error(format!("model {model}: {e}")))?;
         Ok(Resolved {
             system,
             coordinates: coords,
             model: Some((model.to_string(), p)),
+            rotations,
         })
     }
 
@@ -124,19 +141,35 @@ impl SystemTable {
         params: &[(String, f64)],
         src: &Source,
     ) -> Result<Resolved, InputError> {
-        let coords = self
-            .coordinates
-            .clone()
-            .ok_or_else(|| src.error("[system] with a `lagrangian` needs `coordinates` (a list of names)"))?;
+        let rotations = self.rotations.clone().unwrap_or_default();
+        let mut coords: Vec<String> = rotations.iter().flat_map(|x| super::rotations::entries(x)).collect();
+        match (&self.coordinates, rotations.is_empty()) {
+            (Some(c), _) => coords.extend(c.iter().cloned()),
+            (None, false) => {}
+            (None, true) => {
+                return Err(src.error("[system] with a `lagrangian` needs `coordinates` (a list of names)"));
+            }
+        }
         check_coordinate_names(&coords, src)?;
         if let Some((k, v)) = params.iter().find(|(_, v)| !v.is_finite()) {
             return Err(src.error(format!("parameter '{k}' = {v} is not finite")));
         }
-        let lag = ExprLagrangian::new(expr.get_ref(), &coords, params).map_err(|e| expr_error(src, expr, &e))?;
+        let lag = if rotations.is_empty() {
+            ExprLagrangian::new(expr.get_ref(), &coords, params).map_err(|e| expr_error(src, expr, &e))?
+        } else {
+            let text = super::rotations::embed(expr.get_ref(), &rotations);
+            ExprLagrangian::new(&text, &coords, params).map_err(|e| {
+                src.error(format!(
+                    "in the lagrangian (with the rotations' X_w written out): {}",
+                    e.message
+                ))
+            })?
+        };
         Ok(Resolved {
             system: System::Expr(lag),
             coordinates: coords,
             model: None,
+            rotations,
         })
     }
 }
@@ -172,6 +205,13 @@ fn built_in(model: &str, p: &[f64]) -> femvi::Result<System> {
         "fpu" => System::Fpu(models::fpu(p[0] as usize, p[1], p[2])?),
         "n-body" => System::Gravity(models::n_body(p[2], p[3..].to_vec(), p[1] as usize)?),
         "outer-solar-system" => System::Gravity(models::outer_solar_system()),
+        "rigid-body" => System::Rigid(models::RigidBody::free([p[0], p[1], p[2]])?),
+        "heavy-top" => System::Rigid(models::RigidBody::heavy_top(
+            [p[0], p[1], p[2]],
+            p[3],
+            p[4],
+            [p[5], p[6], p[7]],
+        )?),
         _ => System::DoublePendulum(models::DoublePendulum {
             m1: p[0],
             m2: p[1],

@@ -30,4 +30,7 @@ pub struct Terms {
     pub adaptive: Option<AdaptiveTime>,
     /// `[time] mode = "energy"`: time steps as variables (the energy equation sets each step).
     pub energy_mode: bool,
+    /// `[system] rotations` (or a rigid-body model): the rotation blocks, stepped by the
+    /// Lie-group element (`femvi::Integrator::with_rotations`).
+    pub rotations: Option<femvi::rotation::Rotations>,
 }

@@ -26,4 +26,5 @@ mod optimize;
 mod problem_input;
 mod problem_reference;
 mod resume;
+mod rotations;
 mod stopped_runs;

@@ -27,7 +27,7 @@ struct Case {
     args: &'static [&'static str],
 }
 
-const CASES: [Case; 13] = [
+const CASES: [Case; 14] = [
     Case {
         name: "explicit",
         end: 20.0,
@@ -120,6 +120,14 @@ const CASES: [Case; 13] = [
         end: 20.0,
         toml: "name = \"constrained-forced\"\n[system]\ncoordinates = [\"x\", \"y\", \"z\"]\nparameters = { c = 0.3, f0 = 0.5, w = 2.5 }\nlagrangian = \"0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z\"\n[constraints]\nholonomic = [\"x^2 + y^2 + z^2 - 1\"]\n[forces]\ndissipation = \"0.5*c*(x_dot^2 + y_dot^2 + z_dot^2)\"\ngeneralized = [\"f0*cos(w*t)\", \"0\", \"0\"]\n[initial]\nq = [0.6, 0.0, -0.8]\nv = [0.3, 1.5, 0.225]\n[scheme]\ndegree = 2\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 3\n",
         args: &["--checkpoint-every-seconds", "0.05"],
+    },
+    // Rotations (issue 37): the Lie-group element's carried momenta and guess are in the
+    // checkpoint; an event on an entry of R.
+    Case {
+        name: "rotations",
+        end: 20.0,
+        toml: "name = \"rotations\"\n[system]\nmodel = \"heavy-top\"\nparameters = { chi1 = 0.1, chi2 = 0.2 }\n[initial]\nR_quaternion = [0.9689124217106447, 0.24740395925452294, 0.0, 0.0]\nR_w = [0.5, 1.0, 0.3]\n[scheme]\ndegree = 2\n[time]\nstep = 0.01\nend = {end}\n[output]\nevery = 3\n[[events]]\nname = \"level\"\nwhen = \"R33 - 0.5\"\n",
+        args: &["--format", "csv,npy", "--checkpoint-every-steps", "97"],
     },
 ];
 

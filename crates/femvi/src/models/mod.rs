@@ -136,7 +136,46 @@ pub const MODELS: &[ModelInfo] = &[
         coordinates: &["theta1", "theta2"],
         parameters: &[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 1.0)],
     },
+    ModelInfo {
+        name: "rigid-body",
+        description: "free rigid body with principal moments I1, I2, I3; rotation R (body to space), L = sum I_a R_w_a^2/2 (stepped by Lie-group elements)",
+        coordinates: &ROTATION,
+        parameters: &[("I1", 1.0), ("I2", 2.0), ("I3", 3.0)],
+    },
+    ModelInfo {
+        name: "heavy-top",
+        description: "heavy top on a fixed point: moments I1, I2, I3 about it, mass m, gravity g along -z, centre of mass (chi1, chi2, chi3) in the body; L = sum I_a R_w_a^2/2 - m g e3.(R chi)",
+        coordinates: &ROTATION,
+        parameters: &[
+            ("I1", 1.0),
+            ("I2", 2.0),
+            ("I3", 3.0),
+            ("m", 1.0),
+            ("g", 9.81),
+            ("chi1", 0.0),
+            ("chi2", 0.0),
+            ("chi3", 0.5),
+        ],
+    },
 ];
+
+/// The coordinates of a model's rotation R: its entries, row-major.
+pub const ROTATION: [&str; 9] = ["R11", "R12", "R13", "R21", "R22", "R23", "R31", "R32", "R33"];
+
+/// The names of the rotations of `model` (those stepped by [`crate::rotation`]): `["R"]` for
+/// the rigid bodies, none for the others.
+///
+/// # Example
+/// ```
+/// assert_eq!(femvi::models::rotations("heavy-top"), ["R"]);
+/// assert!(femvi::models::rotations("kepler").is_empty());
+/// ```
+pub fn rotations(model: &str) -> &'static [&'static str] {
+    match model {
+        "rigid-body" | "heavy-top" => &["R"],
+        _ => &[],
+    }
+}
 
 /// Looks up a model's metadata.
 pub fn info(name: &str) -> Option<&'static ModelInfo> {

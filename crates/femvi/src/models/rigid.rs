@@ -112,4 +112,19 @@ impl Lagrangian for RigidBody {
     fn is_autonomous(&self) -> bool {
         true
     }
+
+    fn rigid_body(&self) -> Option<([f64; 3], bool)> {
+        Some((
+            self.inertia,
+            self.weight != 0.0 && self.centre.iter().any(|c| *c != 0.0),
+        ))
+    }
+
+    /// ∂L̃/∂R at Ṙ = 0: −∂V/∂R, which is −m g χ_j in row 3 and zero elsewhere.
+    fn force(&self, _t: f64, _q: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        for (o, c) in out.iter_mut().skip(6).zip(self.centre) {
+            *o = -self.weight * c;
+        }
+    }
 }

@@ -42,6 +42,7 @@
 //! nine-by-nine Hessian in Ṙ is regular without changing the motion.
 
 mod action;
+mod body;
 mod layout;
 mod run;
 pub mod so3;

@@ -6,6 +6,7 @@
 //! Lagrangian (module docs of [`super`]); it is set, not summed ([`StepTerm::momentum`]).
 
 use super::action::StepData;
+use super::body::BodyStep;
 use super::layout::Rotations;
 use super::so3::{exp, hat, mul, vee, Mat3};
 use super::step::LieStep;
@@ -60,12 +61,16 @@ pub(crate) struct RotationTerm<'a, L> {
     p: Vec<f64>,
     /// The node with its rotations brought back onto SO(3) (`onto_group`).
     q: Vec<f64>,
+    /// The degree-1 fixed point of a rigid body (`body.rs`), where it applies.
+    body: Option<BodyStep>,
 }
 
 impl<'a, L: Lagrangian> RotationTerm<'a, L> {
     pub(crate) fn new(lag: &'a L, element: &'a Element, layout: Rotations, opts: SolverOptions) -> Self {
         let step = LieStep::new(&layout, element);
         let (ne, n) = (layout.slots(), layout.dim());
+        let single = layout.offsets() == [0] && n == 9;
+        let body = if single { BodyStep::new(lag, element) } else { None };
         Self {
             lag,
             element,
@@ -75,6 +80,7 @@ impl<'a, L: Lagrangian> RotationTerm<'a, L> {
             mom: vec![0.0; ne],
             p: vec![0.0; n],
             q: vec![0.0; n],
+            body,
         }
     }
 }
@@ -122,17 +128,32 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
             h,
             q: &self.q,
         };
-        let iterations = self
-            .step
-            .solve(
-                self.lag,
-                self.element,
-                &self.layout,
-                &data,
-                &self.mom,
-                (self.opts, state.k),
-            )
-            .map_err(Error::Step)?;
+        let iterations = match self.body.as_mut() {
+            Some(body) => {
+                let step = &mut self.step;
+                let scale = if step.h_prev > 0.0 { h / step.h_prev } else { 0.0 };
+                let mut xi = [step.x[0] * scale, step.x[1] * scale, step.x[2] * scale];
+                let (mu, rk) = ([self.mom[0], self.mom[1], self.mom[2]], block(&self.q, 0));
+                let (sweeps, next) = body
+                    .solve(self.lag, (state.t, h, &rk), &mu, &mut xi, (self.opts, state.k))
+                    .map_err(Error::Step)?;
+                step.x.copy_from_slice(&xi);
+                step.end.copy_from_slice(&next);
+                step.h_prev = h;
+                sweeps
+            }
+            None => self
+                .step
+                .solve(
+                    self.lag,
+                    self.element,
+                    &self.layout,
+                    &data,
+                    &self.mom,
+                    (self.opts, state.k),
+                )
+                .map_err(Error::Step)?,
+        };
         // The element's nodal increments, row 0 zero.
         out.incr[..n].iter_mut().for_each(|v| *v = 0.0);
         for j in 1..=s {
