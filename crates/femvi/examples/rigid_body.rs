@@ -14,6 +14,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let steps: usize = args.get(1).map_or(Ok(1000), |s| s.parse())?;
     let h: f64 = args.get(2).map_or(Ok(0.01), |s| s.parse())?;
     let degree: usize = args.get(3).map_or(Ok(1), |s| s.parse())?;
+    let track = args.get(4).is_some_and(|a| a == "energy");
     let body = RigidBody::free([1.0, 2.0, 3.0])?;
     let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
     let start = Start::Velocity {
@@ -34,6 +35,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pi0 = norm(body_state(it.node().q, it.node().p, 0).1);
     let e0 = it.energy()?;
     let (mut orth, mut dpi) = (0.0f64, 0.0f64);
+    let mut halves = [0.0f64; 2];
     let mut taken = 0;
     while taken < steps && it.step()? {
         taken += 1;
@@ -41,6 +43,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (r, pi) = body_state(node.q, node.p, 0);
         orth = orth.max(orthogonality_defect(&r));
         dpi = dpi.max((norm(pi) / pi0 - 1.0).abs());
+        if track {
+            let half = usize::from(2 * taken > steps);
+            halves[half] = halves[half].max((it.energy()? / e0 - 1.0).abs());
+        }
     }
     let node = it.node();
     let (r, pi) = body_state(node.q, node.p, 0);
@@ -55,5 +61,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "max |R^T R - 1| {orth:.3e}  max |Pi| change {dpi:.3e}  energy change {:.3e}",
         (it.energy()? / e0 - 1.0).abs()
     );
+    if track {
+        println!("max energy error: first half {:.3e}, second half {:.3e}", halves[0], halves[1]);
+    }
     Ok(())
 }
