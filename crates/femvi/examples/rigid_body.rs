@@ -62,7 +62,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (it.energy()? / e0 - 1.0).abs()
     );
     if track {
-        println!("max energy error: first half {:.3e}, second half {:.3e}", halves[0], halves[1]);
+        println!(
+            "max energy error: first half {:.3e}, second half {:.3e}",
+            halves[0], halves[1]
+        );
     }
     Ok(())
 }

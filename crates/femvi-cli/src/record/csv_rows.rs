@@ -129,6 +129,9 @@ impl<L: Lagrangian> Observer<L> for CsvRows {
             self.row.extend(at.multipliers.iter().map(|&x| num(x)));
             self.row.push(num(at.residual));
         }
+        for body in it.node_rotations().unwrap_or_default() {
+            self.row.extend(body.w.iter().chain(&body.pi).map(|&x| num(x)));
+        }
         self.writer
             .write_record(&self.row)
             .map_err(|e| femvi::Error::Observer(e.to_string()))

@@ -56,7 +56,27 @@ pub fn columns(problem: &Problem) -> Vec<String> {
         header.extend((1..=femvi::constraints::Constraints::count(c)).map(|l| format!("lambda_{l}")));
         header.push("residual".into());
     }
+    for x in rotation_names(problem) {
+        // The body angular velocity and momentum of each rotation.
+        header.extend((1..=3).map(|c| format!("{x}_w{c}")));
+        header.extend((1..=3).map(|c| format!("p_{x}{c}")));
+    }
     header
+}
+
+/// The names of the problem's rotations: the coordinate name of each block's first entry
+/// (X11) without its index.
+pub fn rotation_names(problem: &Problem) -> Vec<String> {
+    let Some(r) = &problem.terms.rotations else {
+        return Vec::new();
+    };
+    r.offsets()
+        .iter()
+        .map(|&o| {
+            let first = problem.coordinates.get(o).map(String::as_str).unwrap_or("R11");
+            first.strip_suffix("11").unwrap_or(first).to_string()
+        })
+        .collect()
 }
 
 /// Which nodes a trajectory output keeps: every `every`-th (node 0 among them) and the last,

@@ -158,6 +158,11 @@ impl NpyRows {
             }
             self.push(at.residual)?;
         }
+        for body in it.node_rotations().unwrap_or_default() {
+            for &x in body.w.iter().chain(&body.pi) {
+                self.push(x)?;
+            }
+        }
         self.rows += 1;
         Ok(())
     }

@@ -51,6 +51,7 @@ fn free_body_example_stays_on_so3_and_keeps_its_momentum() {
     let (header, rows) = rows(out.path());
     assert_eq!(header[2..5], ["R11", "R12", "R13"]);
     assert_eq!((header[11].as_str(), header[20].as_str()), ("p_R11", "energy"));
+    assert_eq!(header[21..], ["R_w1", "R_w2", "R_w3", "p_R1", "p_R2", "p_R3"]);
     assert_eq!(rows.len(), 201);
     let norm = |p: [f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
     let pi0 = norm(body_momentum(&rows[0]));
@@ -76,6 +77,19 @@ fn free_body_example_stays_on_so3_and_keeps_its_momentum() {
             row[1],
             row[20]
         );
+        // The body columns: Π as read back from P here, and w = 𝕀⁻¹Π for the free body.
+        let pi = body_momentum(row);
+        for c in 0..3 {
+            assert!((row[24 + c] - pi[c]).abs() < 1e-15, "p_R{} at t = {}", c + 1, row[1]);
+            let w = pi[c] / [1.0, 2.0, 3.0][c];
+            assert!(
+                (row[21 + c] - w).abs() < 1e-14,
+                "R_w{} at t = {}: {} against {w}",
+                c + 1,
+                row[1],
+                row[21 + c]
+            );
+        }
     }
 }
 

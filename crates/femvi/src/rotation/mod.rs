@@ -50,4 +50,4 @@ mod step;
 mod term;
 
 pub use layout::Rotations;
-pub use run::{body_state, embedded_velocity, ORTHOGONALITY_TOLERANCE};
+pub use run::{body_state, embedded_velocity, BodyState, ORTHOGONALITY_TOLERANCE};

@@ -46,6 +46,39 @@ pub fn body_state(q: &[f64], p: &[f64], offset: usize) -> (Mat3<f64>, [f64; 3]) 
     (r, body_momentum(&r, &block(p, offset)))
 }
 
+/// A rotation's state at a node, in the body frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyState {
+    /// The body angular velocity w (Ṙ = R ŵ), from the inverse Legendre transform of the
+    /// node's momentum (NaN where it does not converge).
+    pub w: [f64; 3],
+    /// The body angular momentum Π = 2 vee(RᵀP).
+    pub pi: [f64; 3],
+}
+
+impl<L: Lagrangian> Integrator<'_, L> {
+    /// The body angular velocity and momentum of each rotation at the current node, for a run
+    /// of [`Integrator::with_rotations`]; None for other runs.
+    ///
+    /// # Example
+    /// ```
+    /// use femvi::rotation::{embedded_velocity, Rotations};
+    /// use femvi::{models::RigidBody, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let body = RigidBody::free([1.0, 2.0, 3.0])?;
+    /// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+    /// let (element, grid) = (Element::with_order(2)?, TimeGrid::uniform(0.0, 0.01, 0.1)?);
+    /// let it = Integrator::with_rotations(&body, &element, grid, start, SolverOptions::default(), Rotations::new(9, &[0])?)?;
+    /// let at = it.node_rotations().expect("a run with rotations");
+    /// assert!((at[0].w[1] - 1.0).abs() < 1e-15 && (at[0].pi[1] - 2.0).abs() < 1e-15);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn node_rotations(&self) -> Option<Vec<BodyState>> {
+        let node = self.node();
+        self.term_rotation_states(node.t, node.q, node.p)
+    }
+}
+
 impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
     /// Sets up a run of `lag` whose coordinates hold the rotations of `rotations`, stepped by
     /// the Lie-group Galerkin element of `element`'s degree and quadrature (module docs of

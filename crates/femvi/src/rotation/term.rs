@@ -8,11 +8,12 @@
 use super::action::StepData;
 use super::body::BodyStep;
 use super::layout::Rotations;
-use super::so3::{exp, hat, mul, vee, Mat3};
+use super::run::BodyState;
+use super::so3::{exp, hat, mul, mul_tn, vee, Mat3};
 use super::step::LieStep;
 use crate::discrete::Element;
 use crate::error::{Error, Result};
-use crate::lagrangian::Lagrangian;
+use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
 use crate::step::checkpoint::{Reader, Words};
 use crate::step::state::{Increments, LastElement, RunState};
 use crate::step::term::StepTerm;
@@ -213,5 +214,30 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
 
     fn momentum(&self) -> Option<&[f64]> {
         Some(&self.p)
+    }
+
+    fn rotation_states(&self, t: f64, q: &[f64], p: &[f64]) -> Option<Vec<BodyState>> {
+        let n = self.layout.dim();
+        let mut v = vec![0.0; n];
+        let mut work = PointDerivatives::new(n);
+        let solved = velocity_from_momentum(self.lag, t, q, p, &mut v, &mut work).is_ok();
+        let states = self
+            .layout
+            .offsets()
+            .iter()
+            .map(|&o| {
+                let r = block(q, o);
+                let w = if solved {
+                    vee(&mul_tn(&r, &block(&v, o)))
+                } else {
+                    [f64::NAN; 3]
+                };
+                BodyState {
+                    w,
+                    pi: body_momentum(&r, &block(p, o)),
+                }
+            })
+            .collect();
+        Some(states)
     }
 }

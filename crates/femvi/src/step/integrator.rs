@@ -166,6 +166,11 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.term.as_ref().and_then(|term| term.constraints(t, q))
     }
 
+    /// The term's body states of the rotations at (t, q, p) (`crate::rotation`).
+    pub(crate) fn term_rotation_states(&self, t: f64, q: &[f64], p: &[f64]) -> Option<Vec<crate::rotation::BodyState>> {
+        self.term.as_ref().and_then(|term| term.rotation_states(t, q, p))
+    }
+
     /// The largest symplecticity defect on the manifold of the steps so far, for a
     /// constrained run set up to measure it (`femvi check`).
     pub(crate) fn term_discrete_energy(&self) -> Option<super::term::DiscreteEnergy> {

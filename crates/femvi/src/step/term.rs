@@ -67,6 +67,12 @@ pub(crate) trait StepTerm {
         None
     }
 
+    /// The body angular velocity and momentum of each rotation at the node (t, q, p) of a
+    /// run with rotations ([`crate::rotation`]); None otherwise.
+    fn rotation_states(&self, _t: f64, _q: &[f64], _p: &[f64]) -> Option<Vec<crate::rotation::BodyState>> {
+        None
+    }
+
     /// The derivative ∂F_d/∂Q of the term's discrete forces in the nodal values of the element
     /// `el` ((s+1)n square, row-major), for the tangent map of the step
     /// (`term_tangent.rs`); None for a term whose steps are not the forced rows alone (the
