@@ -33,6 +33,28 @@ pub(crate) struct LieStep {
     z: Vec<HyperDual64>,
     /// The end gradient ∂S/∂x^s of the last solve.
     pub end: Vec<f64>,
+    /// The Jacobian kept from an earlier iteration, with its factors and step.
+    pub kept: Option<Kept>,
+}
+
+/// A Jacobian of the step equations, its LU factors and the step h it was formed for.
+#[derive(Debug, Clone)]
+pub(crate) struct Kept {
+    pub jac: DMatrix<f64>,
+    lu: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    pub h: f64,
+}
+
+impl Kept {
+    /// The kept Jacobian `jac` for step `h`, factored again (as a checkpoint restores it: the
+    /// factors are a function of the matrix, so the iterations after a resume are the same).
+    pub(crate) fn restore(jac: DMatrix<f64>, h: f64) -> Self {
+        Self {
+            lu: jac.clone().lu(),
+            jac,
+            h,
+        }
+    }
 }
 
 impl LieStep {
@@ -45,6 +67,7 @@ impl LieStep {
             h_prev: 0.0,
             z: vec![HyperDual64::from(0.0); (s + 1) * ne],
             end: vec![0.0; ne],
+            kept: None,
         }
     }
 
@@ -84,8 +107,57 @@ impl LieStep {
         (f, jac)
     }
 
+    /// The residual alone at the current x (one dual pass per row).
+    fn residual<L: Lagrangian>(
+        &mut self,
+        lag: &L,
+        element: &Element,
+        layout: &Rotations,
+        data: &StepData<'_>,
+        mom: &[f64],
+    ) -> DVector<f64> {
+        let m = self.s * self.ne;
+        let mut f = DVector::zeros(m);
+        self.load();
+        for a in 0..m {
+            self.z[a].eps1 = 1.0;
+            f[a] = action(lag, element, layout, data, &self.z).eps1 + if a < self.ne { mom[a] } else { 0.0 };
+            self.z[a].eps1 = 0.0;
+        }
+        f
+    }
+
+    /// Forms the Jacobian at the current x and factors it; returns the residual there.
+    fn refresh<L: Lagrangian>(
+        &mut self,
+        lag: &L,
+        element: &Element,
+        layout: &Rotations,
+        data: &StepData<'_>,
+        mom: &[f64],
+    ) -> Option<DVector<f64>> {
+        let (f, jac) = self.linearise(lag, element, layout, data, mom);
+        if !(f.iter().chain(jac.iter()).all(|v| v.is_finite())) {
+            self.kept = None;
+            return Some(f);
+        }
+        self.kept = Some(Kept {
+            lu: jac.clone().lu(),
+            jac,
+            h: data.h,
+        });
+        Some(f)
+    }
+
     /// Solves the step from the node in `data` with the momenta `mom` (slots), starting from
     /// the last solution scaled to the new step; returns the iterations.
+    ///
+    /// Newton's method with the Jacobian kept from step to step while the step h is the same
+    /// and the iteration contracts well (each new Jacobian costs (s·n)² hyper-dual passes,
+    /// each residual s·n): it is formed again at the current iterate when a correction is not
+    /// at least ten times smaller than the one before. Once within the tolerance, the iteration goes on while
+    /// the corrections decrease (at most three more) if `polish` is set, so that the
+    /// equations hold to round-off and the momentum maps are kept.
     pub(crate) fn solve<L: Lagrangian>(
         &mut self,
         lag: &L,
@@ -107,26 +179,43 @@ impl LieStep {
             failure,
         };
         let qscale = data.q.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-        let mut last = f64::INFINITY;
+        let (mut last, mut extra, mut converged) = (f64::INFINITY, 0, false);
+        let mut pending: Option<DVector<f64>> = None;
+        // The iteration at which the Jacobian in use was formed (0: kept from a step before).
+        let mut formed = 0;
+        if self.kept.as_ref().is_none_or(|kept| kept.h != data.h) {
+            pending = self.refresh(lag, element, layout, data, mom);
+            formed = 1;
+        }
         for it in 1..=opts.max_iterations {
-            let (f, jac) = self.linearise(lag, element, layout, data, mom);
+            let f = match pending.take() {
+                Some(f) => f,
+                None => self.residual(lag, element, layout, data, mom),
+            };
             let res = f.amax();
-            if !res.is_finite() || jac.iter().any(|v| !v.is_finite()) {
+            let Some(kept) = self.kept.as_ref().filter(|_| res.is_finite()) else {
                 return Err(fail(res, it, StepFailure::NonFinite));
-            }
-            let dx = jac
-                .lu()
+            };
+            let dx = kept
+                .lu
                 .solve(&(-f))
                 .ok_or_else(|| fail(res, it, StepFailure::Singular))?;
             self.x.iter_mut().zip(dx.iter()).for_each(|(x, d)| *x += d);
             let size = dx.amax();
             let scale = self.x.iter().fold(qscale, |m, v| m.max(v.abs()));
-            if size <= opts.tolerance * scale {
-                self.h_prev = data.h;
-                self.end_gradient(lag, element, layout, data);
-                return Ok(it);
-            }
-            if it > 3 && size >= last {
+            if converged || size <= opts.tolerance * scale {
+                if !opts.polish || size == 0.0 || size >= last || extra == 3 {
+                    self.h_prev = data.h;
+                    self.end_gradient(lag, element, layout, data);
+                    return Ok(it);
+                }
+                converged = true;
+                extra += 1;
+            } else if size > 0.1 * last && formed < it {
+                // A slow contraction: the Jacobian is stale; Newton's own from here.
+                pending = self.refresh(lag, element, layout, data, mom);
+                formed = it + 1;
+            } else if it > 3 && size >= last && formed < it {
                 return Err(fail(size, it, StepFailure::Stalled));
             }
             last = size;

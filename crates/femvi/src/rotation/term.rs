@@ -10,7 +10,7 @@ use super::body::BodyStep;
 use super::layout::Rotations;
 use super::run::BodyState;
 use super::so3::{exp, hat, mul, mul_tn, vee, Mat3};
-use super::step::LieStep;
+use super::step::{Kept, LieStep};
 use crate::discrete::Element;
 use crate::error::{Error, Result};
 use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
@@ -195,13 +195,31 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
         w.f(self.step.h_prev);
         w.fs(&self.step.end);
         w.fs(&self.p);
+        match &self.step.kept {
+            Some(kept) => {
+                w.b(true);
+                w.f(kept.h);
+                w.fs(kept.jac.as_slice());
+            }
+            None => w.b(false),
+        }
     }
 
     fn load(&mut self, r: &mut Reader<'_>, _last: &LastElement) -> Result<()> {
         r.fs(&mut self.step.x)?;
         self.step.h_prev = r.f()?;
         r.fs(&mut self.step.end)?;
-        r.fs(&mut self.p)
+        r.fs(&mut self.p)?;
+        self.step.kept = if r.b()? {
+            let h = r.f()?;
+            let m = self.step.x.len();
+            let mut jac = nalgebra::DMatrix::zeros(m, m);
+            r.fs(jac.as_mut_slice())?;
+            Some(Kept::restore(jac, h))
+        } else {
+            None
+        };
+        Ok(())
     }
 
     fn name(&self) -> &'static str {
