@@ -43,11 +43,13 @@
 
 mod action;
 mod body;
+mod body_state;
 mod layout;
 mod run;
 pub mod so3;
 mod step;
 mod term;
 
+pub use body_state::BodyState;
 pub use layout::Rotations;
-pub use run::{body_state, embedded_velocity, BodyState, ORTHOGONALITY_TOLERANCE};
+pub use run::{body_state, embedded_velocity, ORTHOGONALITY_TOLERANCE};

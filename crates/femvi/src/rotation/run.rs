@@ -1,6 +1,7 @@
 //! [`Integrator::with_rotations`]: a run whose configuration holds rotations, stepped by the
 //! Lie-group element (`term.rs`) with every part of an ordinary run.
 
+use super::body_state::BodyState;
 use super::layout::Rotations;
 use super::so3::{hat, mul, orthogonality_defect, Mat3};
 use super::term::{block, body_momentum, embedded_momentum, RotationTerm};
@@ -44,16 +45,6 @@ pub fn embedded_velocity(r: &Mat3<f64>, w: &[f64; 3]) -> Mat3<f64> {
 pub fn body_state(q: &[f64], p: &[f64], offset: usize) -> (Mat3<f64>, [f64; 3]) {
     let r = block(q, offset);
     (r, body_momentum(&r, &block(p, offset)))
-}
-
-/// A rotation's state at a node, in the body frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BodyState {
-    /// The body angular velocity w (Ṙ = R ŵ), from the inverse Legendre transform of the
-    /// node's momentum (NaN where it does not converge).
-    pub w: [f64; 3],
-    /// The body angular momentum Π = 2 vee(RᵀP).
-    pub pi: [f64; 3],
 }
 
 impl<L: Lagrangian> Integrator<'_, L> {

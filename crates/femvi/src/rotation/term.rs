@@ -7,8 +7,8 @@
 
 use super::action::StepData;
 use super::body::BodyStep;
+use super::body_state::BodyState;
 use super::layout::Rotations;
-use super::run::BodyState;
 use super::so3::{exp, hat, mul, mul_tn, vee, Mat3};
 use super::step::{Kept, LieStep};
 use crate::discrete::Element;

@@ -16,6 +16,7 @@
 use super::checkpoint::{Reader, Words};
 use super::state::{Increments, LastElement, RunState};
 use crate::error::Result;
+use crate::rotation::BodyState;
 
 /// The solve of a step under a term, and what the term adds to the node.
 pub(crate) trait StepTerm {
@@ -69,7 +70,7 @@ pub(crate) trait StepTerm {
 
     /// The body angular velocity and momentum of each rotation at the node (t, q, p) of a
     /// run with rotations ([`crate::rotation`]); None otherwise.
-    fn rotation_states(&self, _t: f64, _q: &[f64], _p: &[f64]) -> Option<Vec<crate::rotation::BodyState>> {
+    fn rotation_states(&self, _t: f64, _q: &[f64], _p: &[f64]) -> Option<Vec<BodyState>> {
         None
     }
 
