@@ -67,7 +67,7 @@ fn check_with<L: Lagrangian + Clone + Sync>(
 }
 
 /// Least-squares slope of y against t.
-fn slope(t: &[f64], y: &[f64]) -> f64 {
+pub(super) fn slope(t: &[f64], y: &[f64]) -> f64 {
     let n = t.len() as f64;
     if t.len() < 2 {
         return 0.0;

@@ -17,6 +17,7 @@ mod adaptive;
 mod constrained;
 mod forced;
 pub mod report;
+mod rotations;
 
 use crate::problem::capabilities::Use;
 use crate::problem::Problem;
@@ -68,6 +69,9 @@ pub fn check(problem: &Problem) -> Result<Report, (String, u8)> {
     let symplectic = |r: CheckReport| Report::Symplectic(Box::new(r));
     if let Some(c) = &problem.terms.constraints {
         return constrained::check(problem, c).map(symplectic);
+    }
+    if let Some(r) = &problem.terms.rotations {
+        return rotations::check(problem, r).map(symplectic);
     }
     if let Some(a) = &problem.terms.adaptive {
         return adaptive::check(problem, a).map(symplectic);

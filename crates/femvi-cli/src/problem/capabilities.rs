@@ -172,7 +172,6 @@ pub const ROTATIONS_REFUSED: &[Use] = &[
     Use::Ensemble,
     Use::Chaos,
     Use::ChaosInEnergyMode,
-    Use::Check,
     Use::SaveatOrDense,
     Use::EnergyMode,
     Use::PythonPotential,

@@ -1,5 +1,5 @@
 //! The composition matrix (issue 33): every kind of problem (plain, forced, constrained,
-//! forced + constrained, adaptive) × every command and run option, through the binary. A
+//! forced + constrained, adaptive, rotations) × every command and run option, through the binary. A
 //! cell either works (exit 0) or is refused with exit code 2 and the message of the one
 //! capability table (`femvi_cli::problem::capabilities`), and which of the two is decided by
 //! the table, not by each command: a command that ignored an option the table refuses (as
@@ -16,7 +16,7 @@ fn example(name: &str) -> PathBuf {
 }
 
 /// (label, example file, overrides that keep the run short).
-const KINDS: [(&str, &str, &[&str]); 6] = [
+const KINDS: [(&str, &str, &[&str]); 7] = [
     ("plain", "pendulum.toml", &["time.end=1.0"]),
     ("forced", "forces/damped-oscillator.toml", &["time.end=1.0"]),
     (
@@ -31,6 +31,7 @@ const KINDS: [(&str, &str, &[&str]); 6] = [
         &["time.end=0.5"],
     ),
     ("adaptive", "kepler-eccentric.toml", &["time.end=1.0"]),
+    ("rotations", "rigid/heavy-top-expression.toml", &["time.end=0.5"]),
 ];
 
 /// An `[[events]]` table in the first coordinate, appended to a problem's text.

@@ -184,7 +184,6 @@ fn refused(args: &[&str], problem: &Path, needle: &str) {
 #[test]
 fn uses_that_would_leave_so3_are_refused() {
     let free = example("free-body");
-    refused(&["check"], &free, "[system] rotations");
     refused(&["chaos"], &free, "[system] rotations");
     refused(&["convergence", "--steps", "0.02,0.01"], &free, "[system] rotations");
     refused(&["ensemble"], &free, "[system] rotations");
@@ -254,6 +253,31 @@ fn uses_that_would_leave_so3_are_refused() {
             .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.code() == Some(2) && err.contains(needle), "{name}: {err}");
+    }
+}
+
+#[test]
+fn check_measures_symplecticity_on_t_star_so3() {
+    // The heavy top written as an expression (Newton) and the free-body model (degree 1 fixed
+    // point): every step's defect on T*SO(3) below 1e-12, the energy error bounded.
+    for (file, set) in [
+        ("heavy-top-expression", "time.end=2.0"),
+        ("free-body", "scheme.degree=1"),
+    ] {
+        let out = femvi()
+            .args(["check", "--json", "--set", set, "--set", "time.end=2.0"])
+            .arg(example(file))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{file}: {}", String::from_utf8_lossy(&out.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let defect = report["symplecticity_defect"].as_f64().unwrap();
+        assert!(defect < 1e-12, "{file}: {defect:e}");
+        assert_eq!(report["symplecticity_samples"].as_u64(), Some(200));
+        assert!(
+            report["max_rel_energy_error"].as_f64().unwrap() < 1e-4,
+            "{file}: {report}"
+        );
     }
 }
 

@@ -33,8 +33,21 @@ pub(crate) fn action<D: Scalar, L: Lagrangian>(
     data: &StepData<'_>,
     z: &[D],
 ) -> D {
+    action_moved(lag, element, layout, data, z, None)
+}
+
+/// [`action`] from the node moved by `moved` (slots: R_k exp(ψ̂) for a rotation, q_k + δq for
+/// an ordinary coordinate), for the derivatives of the step in its start (`tangent.rs`).
+pub(crate) fn action_moved<D: Scalar, L: Lagrangian>(
+    lag: &L,
+    element: &Element,
+    layout: &Rotations,
+    data: &StepData<'_>,
+    z: &[D],
+    moved: Option<&[D]>,
+) -> D {
     let (s, ne, n) = (element.degree(), layout.slots(), layout.dim());
-    if z.len() != ne * (s + 1) || data.q.len() != n {
+    if z.len() != ne * (s + 1) || data.q.len() != n || moved.is_some_and(|m| m.len() != ne) {
         return D::from(f64::NAN);
     }
     let zero = D::from(0.0);
@@ -42,7 +55,10 @@ pub(crate) fn action<D: Scalar, L: Lagrangian>(
     let mut centres: Vec<Mat3<D>> = Vec::with_capacity(layout.count());
     let mut nodes: Vec<[D; 3]> = Vec::with_capacity(layout.count() * (s + 1));
     for (r, &o) in layout.offsets().iter().enumerate() {
-        let rk: Mat3<D> = std::array::from_fn(|k| D::from(data.q[o + k]));
+        let mut rk: Mat3<D> = std::array::from_fn(|k| D::from(data.q[o + k]));
+        if let Some(m) = moved {
+            rk = mul(&rk, &exp(&[m[3 * r], m[3 * r + 1], m[3 * r + 2]]));
+        }
         let eta: [D; 3] = std::array::from_fn(|c| z[3 * r + c]);
         centres.push(mul(&rk, &exp(&eta)));
         nodes.push([zero; 3]);
@@ -62,7 +78,8 @@ pub(crate) fn action<D: Scalar, L: Lagrangian>(
     let mut sum = zero;
     for i in 0..element.points() {
         for (slot, &c) in layout.ordinary().iter().enumerate() {
-            let (mut y, mut dy) = (D::from(data.q[c]), zero);
+            let base = moved.map_or(zero, |m| m[3 * layout.count() + slot]);
+            let (mut y, mut dy) = (D::from(data.q[c]) + base, zero);
             for j in 0..=s {
                 let d = z[j * ne + 3 * layout.count() + slot];
                 y += d * element.phi(i, j);

@@ -48,6 +48,7 @@ mod layout;
 mod run;
 pub mod so3;
 mod step;
+mod tangent;
 mod term;
 
 pub use body_state::BodyState;

@@ -111,6 +111,58 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         opts: SolverOptions,
         rotations: Rotations,
     ) -> Result<Self> {
+        Self::rotations_run(lag, element, grid, start, opts, (rotations, false))
+    }
+
+    /// [`Integrator::with_rotations`] measuring the symplecticity defect of every step on
+    /// T*SO(3): max |JᵀΩJ − Ω| of the step's Jacobian J in canonical coordinates (the chart
+    /// R = R_k exp(ψ̂) with p_ψ = dexp_ψ μ, module `rotation/tangent.rs`), read by
+    /// [`Integrator::symplecticity_defect`]. Each step then costs a few times more.
+    ///
+    /// # Errors
+    /// As [`Integrator::with_rotations`].
+    ///
+    /// # Example
+    /// ```
+    /// use femvi::rotation::{embedded_velocity, Rotations};
+    /// use femvi::{models::RigidBody, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let top = RigidBody::heavy_top([1.0, 2.0, 3.0], 1.0, 9.81, [0.1, 0.2, 0.5])?;
+    /// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+    /// let (element, grid) = (Element::with_order(4)?, TimeGrid::uniform(0.0, 0.01, 0.5)?);
+    /// let layout = Rotations::new(9, &[0])?;
+    /// let mut it = Integrator::with_rotations_measured(&top, &element, grid, start, SolverOptions::default(), layout)?;
+    /// while it.step()? {}
+    /// assert!(it.symplecticity_defect().expect("measured") < 1e-12);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_rotations_measured(
+        lag: &'a L,
+        element: &'a Element,
+        grid: TimeGrid,
+        start: Start,
+        opts: SolverOptions,
+        rotations: Rotations,
+    ) -> Result<Self> {
+        Self::rotations_run(lag, element, grid, start, opts, (rotations, true))
+    }
+
+    /// The largest symplecticity defect of the steps so far of a run of
+    /// [`Integrator::with_rotations_measured`] (or of a constrained run that measures it); None
+    /// otherwise.
+    pub fn symplecticity_defect(&self) -> Option<f64> {
+        self.term_defect()
+    }
+
+    /// The run of [`Integrator::with_rotations`], measuring the defect if asked.
+    fn rotations_run(
+        lag: &'a L,
+        element: &'a Element,
+        grid: TimeGrid,
+        start: Start,
+        opts: SolverOptions,
+        (rotations, measured): (Rotations, bool),
+    ) -> Result<Self> {
         opts.validate()?;
         element.check_nondegenerate()?;
         let n = lag.dim();
@@ -160,7 +212,8 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
             let pi = body_momentum(&r, &block(&p, o));
             p[o..o + 9].copy_from_slice(&embedded_momentum(&r, &pi));
         }
-        let term = Box::new(RotationTerm::new(lag, element, rotations, opts));
+        let mut term = Box::new(RotationTerm::new(lag, element, rotations, opts));
+        term.defect = measured.then_some(0.0);
         let plain = SolverOptions {
             method: Method::Auto,
             ..opts

@@ -11,6 +11,7 @@ use super::body_state::BodyState;
 use super::layout::Rotations;
 use super::so3::{exp, hat, mul, mul_tn, vee, Mat3};
 use super::step::{Kept, LieStep};
+use super::tangent::{defect, Solved};
 use crate::discrete::Element;
 use crate::error::{Error, Result};
 use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
@@ -64,6 +65,8 @@ pub(crate) struct RotationTerm<'a, L> {
     q: Vec<f64>,
     /// The degree-1 fixed point of a rigid body (`body.rs`), where it applies.
     body: Option<BodyStep>,
+    /// The largest symplecticity defect of the steps so far, if it is measured.
+    pub defect: Option<f64>,
 }
 
 impl<'a, L: Lagrangian> RotationTerm<'a, L> {
@@ -82,6 +85,7 @@ impl<'a, L: Lagrangian> RotationTerm<'a, L> {
             p: vec![0.0; n],
             q: vec![0.0; n],
             body,
+            defect: None,
         }
     }
 }
@@ -155,6 +159,20 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
                 )
                 .map_err(Error::Step)?,
         };
+        if let Some(worst) = self.defect {
+            let data = StepData {
+                t0: state.t,
+                h,
+                q: &self.q,
+            };
+            let solved = Solved {
+                data: &data,
+                mom: &self.mom,
+                x: &self.step.x,
+            };
+            let d = defect(self.lag, self.element, &self.layout, &solved);
+            self.defect = Some(if d.is_nan() { f64::NAN } else { worst.max(d) });
+        }
         // The element's nodal increments, row 0 zero.
         out.incr[..n].iter_mut().for_each(|v| *v = 0.0);
         for j in 1..=s {
@@ -232,6 +250,10 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
 
     fn momentum(&self) -> Option<&[f64]> {
         Some(&self.p)
+    }
+
+    fn defect(&self) -> Option<f64> {
+        self.defect
     }
 
     fn rotation_states(&self, t: f64, q: &[f64], p: &[f64]) -> Option<Vec<BodyState>> {

@@ -357,3 +357,44 @@ fn the_rigid_body_fixed_point_solves_the_newton_step_equations() {
         }
     }
 }
+
+#[test]
+fn steps_are_symplectic_on_t_star_so3() {
+    // max |JᵀΩJ − Ω| of every step's Jacobian in canonical coordinates (R = R_k exp(ψ̂),
+    // p_ψ = dexp_ψ μ): the heavy top at degrees 1 to 3 (the fixed point at degree 1), and a
+    // body beside an ordinary coordinate coupled to it.
+    let (top, r0, w0, _) = case("heavy_top");
+    for s in 1..=3 {
+        let element = Element::with_order(2 * s).unwrap();
+        let grid = TimeGrid::uniform(0.0, 0.05, 2.0).unwrap();
+        let layout = Rotations::new(9, &[0]).unwrap();
+        let opts = SolverOptions::default();
+        let mut it = Integrator::with_rotations_measured(&top, &element, grid, start(&r0, &w0), opts, layout).unwrap();
+        while it.step().unwrap() {}
+        let d = it.symplecticity_defect().unwrap();
+        assert!(d < 1e-12, "heavy top, degree {s}: {d:e}");
+    }
+    struct Coupled(RigidBody);
+    impl femvi::Lagrangian for Coupled {
+        fn dim(&self) -> usize {
+            10
+        }
+        fn value<D: femvi::Scalar>(&self, t: D, q: &[D], v: &[D]) -> D {
+            // A slider x pulled by the height of the body's third axis.
+            self.0.value(t, &q[..9], &v[..9]) + v[9] * v[9] * 0.5 - q[9] * q[9] * 0.5 - q[9] * q[8] * 0.3
+        }
+    }
+    let both = Coupled(top.clone());
+    let element = Element::with_order(4).unwrap();
+    let (mut q, mut v) = (r0.to_vec(), embedded_velocity(&r0, &w0).to_vec());
+    q.push(0.5);
+    v.push(0.1);
+    let grid = TimeGrid::uniform(0.0, 0.05, 2.0).unwrap();
+    let layout = Rotations::new(10, &[0]).unwrap();
+    let opts = SolverOptions::default();
+    let mut it =
+        Integrator::with_rotations_measured(&both, &element, grid, Start::Velocity { q, v }, opts, layout).unwrap();
+    while it.step().unwrap() {}
+    let d = it.symplecticity_defect().unwrap();
+    assert!(d < 1e-12, "coupled: {d:e}");
+}
