@@ -38,6 +38,8 @@ pub(crate) struct BodyStep {
     b: Vec<f64>,
     /// The torques τ_i of the last sweep.
     tau: Vec<[f64; 3]>,
+    /// exp(c_i ξ̂) of the last sweep.
+    rot: Vec<Mat3<f64>>,
 }
 
 impl BodyStep {
@@ -55,17 +57,12 @@ impl BodyStep {
             c: element.rule.nodes.clone(),
             b: element.rule.weights.clone(),
             tau: vec![[0.0; 3]; element.points()],
+            rot: vec![[0.0; 9]; element.points()],
         })
     }
 
-    /// τ_i at R_i = R_k exp(c_i ξ̂), with exp(c_i ξ̂) in `rot`.
-    fn torques<L: Lagrangian>(
-        &mut self,
-        lag: &L,
-        (t0, h, rk): (f64, f64, &Mat3<f64>),
-        xi: &[f64; 3],
-        rot: &mut [Mat3<f64>],
-    ) {
+    /// τ_i at R_i = R_k exp(c_i ξ̂), with exp(c_i ξ̂) in `self.rot`.
+    fn torques<L: Lagrangian>(&mut self, lag: &L, (t0, h, rk): (f64, f64, &Mat3<f64>), xi: &[f64; 3]) {
         let mut g = [0.0; 9];
         for (i, &c) in self.c.iter().enumerate() {
             let e = exp(&xi.map(|x| c * x));
@@ -77,7 +74,7 @@ impl BodyStep {
                 -(ri[p] * g[q] + ri[3 + p] * g[3 + q] + ri[6 + p] * g[6 + q])
             });
             self.tau[i] = vee(&a).map(|v| 2.0 * v);
-            rot[i] = e;
+            self.rot[i] = e;
         }
     }
 
@@ -91,15 +88,14 @@ impl BodyStep {
         xi: &mut [f64; 3],
         (opts, k): (SolverOptions, usize),
     ) -> Result<(usize, [f64; 3]), StepError> {
-        let mut rot = vec![[0.0; 9]; self.c.len()];
         let (mut last, mut extra) = (f64::INFINITY, 0);
         let mut converged = false;
         for it in 1..=opts.max_iterations {
             let (mut a, mut y) = (*mu, [0.0; 3]);
             if self.potential {
-                self.torques(lag, (t0, h, rk), xi, &mut rot);
+                self.torques(lag, (t0, h, rk), xi);
                 for i in 0..self.c.len() {
-                    let (e, tau, (b, c)) = (&rot[i], self.tau[i], (self.b[i], self.c[i]));
+                    let (e, tau, (b, c)) = (&self.rot[i], self.tau[i], (self.b[i], self.c[i]));
                     let d = dexp(&xi.map(|x| c * x), &tau);
                     for r in 0..3 {
                         a[r] -= h * b * (e[3 * r] * tau[0] + e[3 * r + 1] * tau[1] + e[3 * r + 2] * tau[2]);
@@ -119,7 +115,7 @@ impl BodyStep {
             // (at most three more), as the coordinates' fixed point does.
             if converged || size <= opts.tolerance * scale {
                 if !opts.polish || size == 0.0 || size >= last || extra == 3 {
-                    return Ok((it, self.momentum(lag, (t0, h, rk), xi, &mut rot)));
+                    return Ok((it, self.momentum(lag, (t0, h, rk), xi)));
                 }
                 converged = true;
                 extra += 1;
@@ -132,17 +128,11 @@ impl BodyStep {
     }
 
     /// μ_{k+1} at the solved ξ.
-    fn momentum<L: Lagrangian>(
-        &mut self,
-        lag: &L,
-        step: (f64, f64, &Mat3<f64>),
-        xi: &[f64; 3],
-        rot: &mut [Mat3<f64>],
-    ) -> [f64; 3] {
+    fn momentum<L: Lagrangian>(&mut self, lag: &L, step: (f64, f64, &Mat3<f64>), xi: &[f64; 3]) -> [f64; 3] {
         let h = step.1;
         let mut g: [f64; 3] = std::array::from_fn(|r| self.inertia[r] * xi[r] / h);
         if self.potential {
-            self.torques(lag, step, xi, rot);
+            self.torques(lag, step, xi);
             for i in 0..self.c.len() {
                 let (b, c) = (self.b[i], self.c[i]);
                 let d = dexp(&xi.map(|x| c * x), &self.tau[i]);
