@@ -34,7 +34,7 @@ fn spin(x: &str, c: usize) -> String {
 /// # Example
 /// ```
 /// let text = femvi_cli::problem::rotations::embed("0.5*R_w3^2", &["R".to_string()]);
-/// assert!(text.starts_with("(0.5*(0.5*((R11*R12_dot") && !text.contains("R_w3"));
+/// assert!(text.starts_with("(0.5*(0.5*((R12*R11_dot") && !text.contains("R_w3"));
 /// ```
 pub fn embed(expr: &str, rotations: &[String]) -> String {
     let mut out = String::with_capacity(expr.len() * 4);
