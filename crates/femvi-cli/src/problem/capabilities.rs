@@ -72,6 +72,11 @@ pub enum Use {
     PythonPotential,
     /// A problem file solved from Python (`femvi.solve`, `femvi.ensemble`, `femvi.load`).
     Python,
+    /// `[time] accuracy`: femvi chooses h from an estimate of the element's error.
+    AccuracyStep,
+    /// `[initial] q1`: the start from two positions (the first element solved with both ends
+    /// fixed).
+    TwoPositionStart,
     /// Another term in the same problem.
     With(Term),
 }
@@ -92,6 +97,8 @@ impl Use {
             Use::EnergyMode => "[time] mode = \"energy\" is",
             Use::PythonPotential => "a Python potential is",
             Use::Python => "solving it from Python is",
+            Use::AccuracyStep => "`[time] accuracy` is",
+            Use::TwoPositionStart => "a start from two positions ([initial] q1) is",
             Use::With(t) => match t {
                 Term::Forces => "[forces] are",
                 Term::Constraints => "[constraints] are",
@@ -157,6 +164,20 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         Term::Adaptive,
         Use::PythonPotential,
         "a Python potential replaces the problem file's system, and its runs take no terms",
+    ),
+    (
+        Term::Rotations,
+        Use::AccuracyStep,
+        "the step is chosen from the local error constant of the element on coordinates (its \
+         derivatives of the solution in R^n); that of the Lie-group element, whose error lives \
+         in the algebra along R_k exp(xi), is not derived; give `step` or `steps`",
+    ),
+    (
+        Term::Rotations,
+        Use::TwoPositionStart,
+        "the start from (R0, R1) is the two-point problem of the first element on SO(3) (its \
+         internal nodes and both ends' momenta with R1 = R0 exp(xi) fixed), which the Lie-group \
+         element does not solve yet; give each rotation X its X_w or p_X",
     ),
 ];
 

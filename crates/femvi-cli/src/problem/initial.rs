@@ -97,9 +97,8 @@ impl InitialTable {
             return self.plain_start(given, ordinary, src);
         }
         if self.q1.is_some() {
-            return Err(src.error(
-                "[initial] q1 (a start from two positions) is not available with rotations: give each rotation X its X_w or p_X",
-            ));
+            // The loader asks the capability table first (Use::TwoPositionStart).
+            return Err(src.error("[initial] q1 with rotations: give each rotation X its X_w or p_X"));
         }
         let mut q: Vec<f64> = bodies.iter().flat_map(|b| b.0).collect();
         q.extend_from_slice(&given);

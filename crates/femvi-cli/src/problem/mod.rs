@@ -38,6 +38,7 @@ pub use system::System;
 pub use terms::Terms;
 pub use time::AdaptiveTime;
 
+use capabilities::Use;
 use errors::{bad, with_suggestion, Source};
 use femvi::{Element, SolverOptions, Start, TimeGrid};
 use serde::Deserialize;
@@ -432,12 +433,14 @@ fn build_ivp(
     let t0 = init.t0();
     let energy = tt.energy(src)?;
     let grid = tt.grid(t0, src)?;
+    // Start and step choices that the capability table refuses for a term (rotations).
+    let refuse = |asked: bool, what: Use| match asked {
+        true => capabilities::check(&c.terms, what, "").map_err(|e| src.error(e)),
+        false => Ok(()),
+    };
+    refuse(init.q1.is_some(), Use::TwoPositionStart)?;
+    refuse(tt.accuracy.is_some(), Use::AccuracyStep)?;
     let start = init.start(&c.system.coordinates, &c.system.rotations, src)?;
-    if !c.system.rotations.is_empty() && tt.accuracy.is_some() {
-        return Err(src.error(
-            "[time] accuracy is not available with rotations: the automatic choice of h is made for coordinates, not for Lie-group elements; give `step` or `steps`",
-        ));
-    }
     let (grid, auto_step) = match tt.choose_step(&c.system.system, &c.element, &start, t0, c.options, src)? {
         Some((grid, choice)) => (grid, Some(choice)),
         None => (grid, None),

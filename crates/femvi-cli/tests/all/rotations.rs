@@ -239,7 +239,12 @@ fn uses_that_would_leave_so3_are_refused() {
         (
             "accuracy.toml",
             base.replace("step = 0.01\n", "accuracy = 1e-6\n"),
-            "accuracy is not available with rotations",
+            "`[time] accuracy` is not available with [system] rotations",
+        ),
+        (
+            "q1.toml",
+            base.replace("R_w = [0.5, 1.0, 0.3]", "R_w = [0.5, 1.0, 0.3]\nq1 = []"),
+            "a start from two positions ([initial] q1) is not available with [system] rotations",
         ),
     ];
     for (name, text, needle) in cases {
