@@ -9,7 +9,7 @@
 use crate::chaos_forced::Tables;
 use crate::problem::Problem;
 use femvi::chaos::{indicators_on, ChaosOptions, ChaosReport};
-use femvi::{Integrator, Lagrangian, Start};
+use femvi::{Lagrangian, Start};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::Path;
@@ -257,11 +257,7 @@ fn one_point<L: Lagrangian + Clone + Sync>(
     if let Some(r) = tables.indicators(lag, problem, &start, chaos) {
         return r.map_or_else(|e| failed(problem, e.to_string()), |r| pick(&r, wanted));
     }
-    let grid = problem.grid.clone();
-    let made = match problem.energy {
-        Some(e) => Integrator::with_energy(lag, &problem.element, grid, start, problem.options, e),
-        None => Integrator::new(lag, &problem.element, grid, start, problem.options),
-    };
+    let made = problem.integrator(lag, &problem.element, problem.grid.clone(), start, problem.energy);
     match made.and_then(|mut it| indicators_on(&mut it, chaos)) {
         Ok(r) => pick(&r, wanted),
         Err(e) => failed(problem, e.to_string()),

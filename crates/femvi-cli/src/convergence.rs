@@ -126,13 +126,8 @@ fn integrator<'a, L: Lagrangian + Sync>(
     h: f64,
 ) -> Result<Integrator<'a, L>, (String, u8)> {
     let grid = TimeGrid::uniform(problem.grid.t0(), h, problem.grid.end()).map_err(fail)?;
-    let (start, opts) = (problem.start.clone(), problem.options);
-    match (&problem.terms.force, &problem.terms.constraints) {
-        (Some(force), None) => Integrator::with_force(lag, el, grid, start, opts, force),
-        (None, None) => Integrator::new(lag, el, grid, start, opts),
-        (None, Some((c, e))) => Integrator::with_constraints(lag, el, grid, start, opts, c, *e),
-        (Some(f), Some((c, e))) => Integrator::with_constraints_and_force(lag, el, grid, start, opts, c, *e, f),
-    }
+    // Fixed steps h: the energy mode's steps are not the study's.
+    problem.integrator(lag, el, grid, problem.start.clone(), None)
     .map_err(fail)
 }
 

@@ -66,14 +66,7 @@ fn drive_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
         return adaptive_member(lag, problem, start, settings, &[]);
     }
     let mut energy = Balanced::new(problem, EnergyError::new(n, &start, lag.is_autonomous()));
-    let grid = problem.grid.clone();
-    let (el, opts) = (&problem.element, problem.options);
-    let made = match (problem.energy, &problem.terms.force) {
-        (None, None) => Integrator::new(lag, el, grid, start, opts),
-        (None, Some(force)) => Integrator::with_force(lag, el, grid, start, opts, force),
-        (Some(e), None) => Integrator::with_energy(lag, el, grid, start, opts, e),
-        (Some(e), Some(force)) => Integrator::with_force_energy(lag, el, grid, start, opts, force, e),
-    };
+    let made = problem.integrator(lag, &problem.element, problem.grid.clone(), start, problem.energy);
     let mut it = match made {
         Ok(it) => it,
         Err(femvi::Error::Step(e)) => return Member::failed(n, problem.grid.t0(), format!("first element: {e}")),

@@ -137,21 +137,7 @@ fn run_with<L: Lagrangian + Sync>(lag: &L, a: &RunArgs<'_>) -> std::io::Result<O
     } = *a;
     let clock = Instant::now();
     let (grid, start) = (problem.grid.clone(), problem.start.clone());
-    let (element, opts) = (&problem.element, problem.options);
-    let terms = (problem.energy, &problem.terms.force, &problem.terms.constraints);
-    let made = match (&problem.terms.rotations, terms) {
-        // Rotations with another term or the energy mode are refused when the problem is loaded.
-        (Some(r), _) => Integrator::with_rotations(lag, element, grid, start, opts, r.clone()),
-        (None, (None, None, None)) => Integrator::new(lag, element, grid, start, opts),
-        (None, (None, Some(f), None)) => Integrator::with_force(lag, element, grid, start, opts, f),
-        (None, (None, None, Some((c, e)))) => Integrator::with_constraints(lag, element, grid, start, opts, c, *e),
-        (None, (None, Some(f), Some((c, e)))) => {
-            Integrator::with_constraints_and_force(lag, element, grid, start, opts, c, *e, f)
-        }
-        (None, (Some(e), Some(f), _)) => Integrator::with_force_energy(lag, element, grid, start, opts, f, e),
-        // Constraints with time steps as variables are refused when the problem is loaded.
-        (None, (Some(e), None, _)) => Integrator::with_energy(lag, element, grid, start, opts, e),
-    };
+    let made = problem.integrator(lag, &problem.element, grid, start, problem.energy);
     let mut it = match made {
         Ok(it) => it,
         Err(femvi::Error::Step(e)) => {

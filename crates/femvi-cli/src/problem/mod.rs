@@ -19,6 +19,7 @@ mod errors;
 pub mod events;
 pub mod forces;
 mod initial;
+mod integrator;
 mod optimal;
 mod output;
 pub mod overrides;

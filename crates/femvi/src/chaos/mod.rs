@@ -149,7 +149,7 @@ fn indicators_limited<L: Lagrangian>(
     chaos: &ChaosOptions,
     max_steps: Option<usize>,
 ) -> Result<ChaosReport> {
-    let d = 2 * it.lagrangian().dim();
+    let d = it.tangent_dim();
     let u = initial_vector(chaos, d)?;
     let mut run = PlainRun {
         it,

@@ -105,7 +105,7 @@ fn end_gradient<L: Lagrangian>(lag: &L, element: &Element, layout: &Rotations, s
 }
 
 /// The Jacobian of the step in canonical coordinates (module docs).
-fn jacobian<L: Lagrangian>(lag: &L, element: &Element, layout: &Rotations, step: &Solved<'_>) -> DMatrix<f64> {
+pub(crate) fn jacobian<L: Lagrangian>(lag: &L, element: &Element, layout: &Rotations, step: &Solved<'_>) -> DMatrix<f64> {
     let ne = layout.slots();
     let m = step.x.len();
     let rot = layout.count();

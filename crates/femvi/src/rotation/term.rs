@@ -11,9 +11,9 @@ use super::body_state::BodyState;
 use super::layout::Rotations;
 use super::so3::{exp, hat, mul, mul_tn, vee, Mat3};
 use super::step::{Kept, LieStep};
-use super::tangent::{defect, Solved};
+use super::tangent::{defect, jacobian, Solved};
 use crate::discrete::Element;
-use crate::error::{Error, Result};
+use crate::error::{invalid, Error, Result};
 use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
 use crate::step::checkpoint::{Reader, Words};
 use crate::step::state::{Increments, LastElement, RunState};
@@ -67,6 +67,10 @@ pub(crate) struct RotationTerm<'a, L> {
     body: Option<BodyStep>,
     /// The largest symplecticity defect of the steps so far, if it is measured.
     pub defect: Option<f64>,
+    /// (t_k, h) of the last solved step, None before the first (or after a restore): what
+    /// its tangent map ([`StepTerm::chart_tangent`]) is taken at, with `q`, `mom` and the
+    /// step's unknowns.
+    solved: Option<(f64, f64)>,
 }
 
 impl<'a, L: Lagrangian> RotationTerm<'a, L> {
@@ -86,6 +90,7 @@ impl<'a, L: Lagrangian> RotationTerm<'a, L> {
             q: vec![0.0; n],
             body,
             defect: None,
+            solved: None,
         }
     }
 }
@@ -159,6 +164,7 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
                 )
                 .map_err(Error::Step)?,
         };
+        self.solved = Some((state.t, h));
         if let Some(worst) = self.defect {
             let data = StepData {
                 t0: state.t,
@@ -228,6 +234,7 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
         self.step.h_prev = r.f()?;
         r.fs(&mut self.step.end)?;
         r.fs(&mut self.p)?;
+        self.solved = None;
         self.step.kept = if r.b()? {
             let h = r.f()?;
             let m = self.step.x.len();
@@ -254,6 +261,28 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
 
     fn defect(&self) -> Option<f64> {
         self.defect
+    }
+
+    fn chart_dim(&self) -> Option<usize> {
+        Some(2 * self.layout.slots())
+    }
+
+    fn chart_tangent(&mut self) -> Option<Result<nalgebra::DMatrix<f64>>> {
+        let Some((t0, h)) = self.solved else {
+            return Some(Err(invalid("tangent map", "no step has been solved since the start or the restore")));
+        };
+        let data = StepData { t0, h, q: &self.q };
+        let solved = Solved {
+            data: &data,
+            mom: &self.mom,
+            x: &self.step.x,
+        };
+        let j = jacobian(self.lag, self.element, &self.layout, &solved);
+        if j.iter().all(|v| v.is_finite()) {
+            Some(Ok(j))
+        } else {
+            Some(Err(invalid("tangent map", "the linearised Lie-group step is singular")))
+        }
     }
 
     fn rotation_states(&self, t: f64, q: &[f64], p: &[f64]) -> Option<Vec<BodyState>> {

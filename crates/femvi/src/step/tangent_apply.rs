@@ -20,9 +20,37 @@ pub(crate) fn extended_index(i: usize, n: usize) -> usize {
 }
 
 impl<L: Lagrangian> Integrator<'_, L> {
+    /// The length of one tangent vector of [`Integrator::tangent_apply`]: 2n for (δq, δp);
+    /// for a run with rotations ([`Integrator::with_rotations`]) 6 per rotation and 2 per
+    /// ordinary coordinate, the canonical chart coordinates (ψ, p_ψ) of T*SO(3)
+    /// (`rotation/tangent.rs`: R = R_k exp(ψ̂) about the node, ψ in the body frame).
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::rotation::{embedded_velocity, Rotations};
+    /// use femvi::{models::RigidBody, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let body = RigidBody::free([1.0, 2.0, 3.0])?;
+    /// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+    /// let element = Element::with_order(2)?;
+    /// let grid = TimeGrid::uniform(0.0, 0.01, 1.0)?;
+    /// let it = Integrator::with_rotations(&body, &element, grid, start, SolverOptions::default(), Rotations::new(9, &[0])?)?;
+    /// assert_eq!(it.tangent_dim(), 6);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn tangent_dim(&self) -> usize {
+        self.term
+            .as_ref()
+            .and_then(|term| term.chart_dim())
+            .unwrap_or(2 * self.state.n)
+    }
+
     /// Carries `vectors` (each (δq, δp) of length 2n, one after another) through the tangent
     /// map of the last step, in place: the one entry for tangent vectors of every run whose
     /// steps live in (q, p). It takes the cheapest exact route the run allows:
+    /// - with rotations, the Lie-group step's Jacobian in canonical chart coordinates, on
+    ///   vectors of length [`Integrator::tangent_dim`] (`rotation/tangent.rs`);
     /// - with forces, the forced step's linearisation (`term_tangent.rs`);
     /// - in energy mode, the (q, p) block of the extended map, each vector extended by
     ///   dt = dE = 0 and solved through the linearised step ([`Integrator::extended_tangent_apply`]);
@@ -59,14 +87,27 @@ impl<L: Lagrangian> Integrator<'_, L> {
     /// # Ok::<(), femvi::Error>(())
     /// ```
     pub fn tangent_apply(&mut self, vectors: &mut [f64]) -> Result<()> {
-        let n = self.state.n;
-        let d = 2 * n;
+        let d = self.tangent_dim();
         if d == 0 || !vectors.len().is_multiple_of(d) {
             return Err(Error::Dimension {
                 what: "tangent vectors".into(),
                 expected: d,
                 got: if d == 0 { vectors.len() } else { vectors.len() % d },
             });
+        }
+        if let Some(chart) = self.term.as_mut().and_then(|term| term.chart_tangent()) {
+            if !self.last.valid {
+                return Err(invalid("tangent map", "no step has been taken"));
+            }
+            let m = chart?;
+            let mut tmp = vec![0.0; d];
+            for v in vectors.chunks_exact_mut(d) {
+                for (i, t) in tmp.iter_mut().enumerate() {
+                    *t = (0..d).map(|j| m[(i, j)] * v[j]).sum();
+                }
+                v.copy_from_slice(&tmp);
+            }
+            return Ok(());
         }
         if self.term.is_some() {
             return self.term_tangent_apply(vectors);

@@ -89,6 +89,19 @@ pub(crate) trait StepTerm {
         None
     }
 
+    /// The length of one tangent vector of the run when the term carries them in its own
+    /// coordinates (2·slots: the canonical chart coordinates (ψ, p_ψ) of T*SO(3) for each
+    /// rotation, (δq, δp) for each ordinary coordinate); None for (δq, δp) of length 2n.
+    fn chart_dim(&self) -> Option<usize> {
+        None
+    }
+
+    /// The tangent map of the last solved step in the term's chart coordinates
+    /// ([`StepTerm::chart_dim`] square), for a term that has them; None otherwise.
+    fn chart_tangent(&mut self) -> Option<Result<nalgebra::DMatrix<f64>>> {
+        None
+    }
+
     /// The largest symplecticity defect of the steps so far, if the term measures it (a
     /// constrained run for `femvi check`, on the manifold).
     fn defect(&self) -> Option<f64> {

@@ -52,6 +52,7 @@ mod optimize_ends;
 mod paper_formulas;
 mod rattle_exact;
 mod rotations;
+mod rotations_chaos;
 mod setup_scale;
 mod solution;
 mod solver;
