@@ -134,10 +134,62 @@ fn pick(report: &ChaosReport, wanted: &[Indicator]) -> Indicators {
 }
 
 /// Whether `name` names part of the initial condition (a coordinate, `p_<coordinate>` or
-/// `<coordinate>_dot`); other axes are parameters of `[system] parameters`.
+/// `<coordinate>_dot`, or a rotation's `X_w1` … `p_X3`); other axes are parameters of
+/// `[system] parameters`.
 fn is_start_axis(problem: &Problem, name: &str) -> bool {
     let coord = |n: &str| problem.coordinates.iter().any(|c| c == n);
-    coord(name) || name.strip_prefix("p_").is_some_and(coord) || name.strip_suffix("_dot").is_some_and(coord)
+    coord(name)
+        || name.strip_prefix("p_").is_some_and(coord)
+        || name.strip_suffix("_dot").is_some_and(coord)
+        || body_axis(problem, name).is_some()
+}
+
+/// A component of a rotation's start: `X_w1` … `X_w3` (body angular velocity) or `p_X1` …
+/// `p_X3` (body angular momentum) of rotation X, as (offset of its block, component, whether
+/// it is the momentum).
+fn body_axis(problem: &Problem, name: &str) -> Option<(usize, usize, bool)> {
+    let offsets = problem.terms.rotations.as_ref()?.offsets().to_vec();
+    let names = crate::record::rotation_names(problem);
+    names.iter().zip(offsets).find_map(|(x, o)| {
+        let component = |rest: Option<&str>| match rest? {
+            "1" => Some(0),
+            "2" => Some(1),
+            "3" => Some(2),
+            _ => None,
+        };
+        let w = component(name.strip_prefix(x.as_str()).and_then(|r| r.strip_prefix("_w")));
+        let p = component(name.strip_prefix("p_").and_then(|r| r.strip_prefix(x.as_str())));
+        w.map(|c| (o, c, false)).or(p.map(|c| (o, c, true)))
+    })
+}
+
+/// Sets component `c` of the body angular velocity (or, with `momentum`, of the body angular
+/// momentum) of the rotation block at `o` in `start` to `value`, keeping R; false if the
+/// start does not give that quantity (a velocity axis with initial p, or the reverse).
+fn set_body_axis(start: &mut Start, (o, c, momentum): (usize, usize, bool), value: f64) -> bool {
+    use femvi::rotation::so3::{hat, mul, mul_tn, vee};
+    let block = |x: &[f64]| -> Option<[f64; 9]> { x.get(o..o + 9)?.try_into().ok() };
+    match (start, momentum) {
+        (Start::Velocity { q, v }, false) => {
+            let (Some(r), Some(rv)) = (block(q), block(v)) else {
+                return false;
+            };
+            let mut w = vee(&mul_tn(&r, &rv));
+            w[c] = value;
+            v[o..o + 9].copy_from_slice(&femvi::rotation::embedded_velocity(&r, &w));
+            true
+        }
+        (Start::Momentum { q, p }, true) => {
+            if block(q).is_none() || block(p).is_none() {
+                return false;
+            }
+            let (r, mut pi) = femvi::rotation::body_state(q, p, o);
+            pi[c] = value;
+            p[o..o + 9].copy_from_slice(&mul(&r, &hat(&pi)).map(|x| 0.5 * x));
+            true
+        }
+        _ => false,
+    }
 }
 
 /// The values of the axes at grid point `idx` (the first axis varies fastest).
@@ -166,6 +218,15 @@ fn start_at(problem: &Problem, axes: &[Axis], idx: usize) -> Result<Start, Strin
     let mut start = problem.start.clone();
     for (axis, value) in axes.iter().zip(values_at(axes, idx)) {
         if !is_start_axis(problem, &axis.name) {
+            continue;
+        }
+        if let Some(at) = body_axis(problem, &axis.name) {
+            if !set_body_axis(&mut start, at, value) {
+                return Err(format!(
+                    "grid axis '{}': an X_w axis needs initial X_w and a p_X axis initial p_X",
+                    axis.name
+                ));
+            }
             continue;
         }
         let coord = |name: &str| problem.coordinates.iter().position(|c| c == name);

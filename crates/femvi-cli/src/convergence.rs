@@ -127,8 +127,9 @@ fn integrator<'a, L: Lagrangian + Sync>(
 ) -> Result<Integrator<'a, L>, (String, u8)> {
     let grid = TimeGrid::uniform(problem.grid.t0(), h, problem.grid.end()).map_err(fail)?;
     // Fixed steps h: the energy mode's steps are not the study's.
-    problem.integrator(lag, el, grid, problem.start.clone(), None)
-    .map_err(fail)
+    problem
+        .integrator(lag, el, grid, problem.start.clone(), None)
+        .map_err(fail)
 }
 
 /// The state (q, p) of a run's current node.

@@ -181,25 +181,26 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
     ),
 ];
 
-/// Why the uses of [`ROTATIONS_REFUSED`] are refused: they would step the nine entries of each
+/// Why a use is in [`ROTATIONS_REFUSED`]: its steps would take the nine entries of each
 /// rotation as free coordinates, off SO(3).
 const ON_COORDINATES: &str = "this use still steps the nine entries of a rotation as free coordinates, off SO(3); \
-     the Lie-group element runs through `femvi run` (issue 37)";
+     the Lie-group element runs through `femvi run`, `check`, `chaos`, `convergence` and `ensemble` (issue 37)";
 
-/// The uses that a problem with rotations does not go through yet.
-pub const ROTATIONS_REFUSED: &[Use] = &[
-    Use::Convergence,
-    Use::ConvergenceL2,
-    Use::Ensemble,
-    Use::Chaos,
-    Use::ChaosInEnergyMode,
-    Use::SaveatOrDense,
-    Use::EnergyMode,
-    Use::PythonPotential,
-    Use::Python,
-    Use::With(Term::Forces),
-    Use::With(Term::Constraints),
-    Use::With(Term::Adaptive),
+/// Why dense output is: between nodes it is the element's polynomial in the nine entries.
+const BETWEEN_NODES: &str = "between nodes the dense output interpolates the nine entries of a rotation by \
+     polynomials, off SO(3), where the element's path is R_k exp(xi(tau)); the nodes are exact: use `every`";
+
+/// The uses that a problem with rotations does not go through yet, with their reasons.
+pub const ROTATIONS_REFUSED: &[(Use, &str)] = &[
+    (Use::ConvergenceL2, BETWEEN_NODES),
+    (Use::SaveatOrDense, BETWEEN_NODES),
+    (Use::ChaosInEnergyMode, ON_COORDINATES),
+    (Use::EnergyMode, ON_COORDINATES),
+    (Use::PythonPotential, ON_COORDINATES),
+    (Use::Python, ON_COORDINATES),
+    (Use::With(Term::Forces), ON_COORDINATES),
+    (Use::With(Term::Constraints), ON_COORDINATES),
+    (Use::With(Term::Adaptive), ON_COORDINATES),
 ];
 
 /// The terms of `terms` that are present.
@@ -235,7 +236,10 @@ fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
 /// ```
 pub fn check(terms: &Terms, what: Use, name: &str) -> Result<(), String> {
     for term in present(terms) {
-        let rotations = (term == Term::Rotations && ROTATIONS_REFUSED.contains(&what)).then_some(ON_COORDINATES);
+        let rotations = ROTATIONS_REFUSED
+            .iter()
+            .find(|(u, _)| term == Term::Rotations && *u == what)
+            .map(|r| r.1);
         let listed = REFUSED.iter().find(|(t, u, _)| *t == term && *u == what).map(|r| r.2);
         if let Some(why) = rotations.or(listed) {
             return Err(match what.subject() {

@@ -27,4 +27,5 @@ mod problem_input;
 mod problem_reference;
 mod resume;
 mod rotations;
+mod rotations_commands;
 mod stopped_runs;

@@ -105,7 +105,12 @@ fn end_gradient<L: Lagrangian>(lag: &L, element: &Element, layout: &Rotations, s
 }
 
 /// The Jacobian of the step in canonical coordinates (module docs).
-pub(crate) fn jacobian<L: Lagrangian>(lag: &L, element: &Element, layout: &Rotations, step: &Solved<'_>) -> DMatrix<f64> {
+pub(crate) fn jacobian<L: Lagrangian>(
+    lag: &L,
+    element: &Element,
+    layout: &Rotations,
+    step: &Solved<'_>,
+) -> DMatrix<f64> {
     let ne = layout.slots();
     let m = step.x.len();
     let rot = layout.count();

@@ -269,7 +269,10 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
 
     fn chart_tangent(&mut self) -> Option<Result<nalgebra::DMatrix<f64>>> {
         let Some((t0, h)) = self.solved else {
-            return Some(Err(invalid("tangent map", "no step has been solved since the start or the restore")));
+            return Some(Err(invalid(
+                "tangent map",
+                "no step has been solved since the start or the restore",
+            )));
         };
         let data = StepData { t0, h, q: &self.q };
         let solved = Solved {

@@ -18,7 +18,13 @@ fn top() -> RigidBody {
     RigidBody::heavy_top([1.0, 2.0, 3.0], 1.0, 9.81, [0.3, 0.2, 0.5]).unwrap()
 }
 
-fn integrator<'a>(body: &'a RigidBody, element: &'a Element, start: Start, h: f64, end: f64) -> Integrator<'a, RigidBody> {
+fn integrator<'a>(
+    body: &'a RigidBody,
+    element: &'a Element,
+    start: Start,
+    h: f64,
+    end: f64,
+) -> Integrator<'a, RigidBody> {
     let grid = TimeGrid::uniform(0.0, h, end).unwrap();
     let layout = Rotations::new(9, &[0]).unwrap();
     Integrator::with_rotations(body, element, grid, start, SolverOptions::default(), layout).unwrap()
@@ -142,7 +148,10 @@ fn an_asymmetric_heavy_top_is_chaotic_at_both_degrees() {
         let mut it = integrator(&body, &element, start.clone(), 0.01, 400.0);
         let r = indicators_on(&mut it, &ChaosOptions::default()).unwrap();
         assert!(r.error.is_none(), "{:?}", r.error);
-        eprintln!("degree {degree}: <Y> = {}, lambda = {}", r.last.mean_megno, r.last.lyapunov);
+        eprintln!(
+            "degree {degree}: <Y> = {}, lambda = {}",
+            r.last.mean_megno, r.last.lyapunov
+        );
         assert!(r.last.mean_megno > 10.0, "<Y> = {}", r.last.mean_megno);
         largest.push(r.last.lyapunov);
     }
