@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Once;
 
 pub mod palette;
+pub mod sphere;
 pub use palette::{color, step_label};
 
 /// The image format of plots.

@@ -14,6 +14,7 @@ mod event_rows;
 mod npy_rows;
 mod pacing;
 mod plot_data;
+mod plot_rotations;
 mod plot_trace;
 mod progress;
 mod recorders;

@@ -1,5 +1,5 @@
 //! The plots of a run, drawn when it ends: coordinates against time, a phase portrait per
-//! coordinate, the relative energy error, in energy mode the step sizes, and for systems whose
+//! coordinate (the entries of rotations have theirs in `plot_rotations.rs`), the relative energy error, in energy mode the step sizes, and for systems whose
 //! coordinates come in planar or spatial groups (the built-in kepler, n-body and
 //! outer-solar-system) the orbits, one curve per body in the plane of its first two
 //! coordinates. They show the nodes trajectory.csv keeps; every title names the scheme and
@@ -84,12 +84,7 @@ impl<'a> PlotData<'a> {
     fn draw(&self) -> Result<(), String> {
         let (dir, f, problem, trace) = (self.dir, self.format, self.problem, &self.trace);
         let n = problem.coordinates.len();
-        let name = &format!(
-            "{} ({}, h = {})",
-            problem.name,
-            problem.scheme_label,
-            step_label(problem)
-        );
+        let name = &self.title();
         let coords: Vec<Series> = (0..n)
             .map(|c| Series {
                 name: problem.coordinates[c].clone(),
@@ -103,7 +98,10 @@ impl<'a> PlotData<'a> {
             .collect();
         let title = format!("{name}: coordinates");
         lines(&file(dir, "coordinates", f), f, &title, "t", "q", &coords)?;
-        for (c, cname) in problem.coordinates.iter().enumerate() {
+        // The entries of a rotation have their own plots (`plot_rotations.rs`), not phase
+        // portraits.
+        let rotation_entries = problem.terms.rotations.as_ref().map_or(0, |r| 9 * r.count());
+        for (c, cname) in problem.coordinates.iter().enumerate().skip(rotation_entries) {
             let pts = (0..trace.t.len())
                 .map(|k| (trace.q[k * n + c], trace.p[k * n + c]))
                 .collect();
@@ -153,6 +151,17 @@ impl<'a> PlotData<'a> {
             )?;
         }
         self.draw_orbits(name)
+    }
+
+    /// The head of every title: the problem, its scheme and its step.
+    fn title(&self) -> String {
+        let problem = self.problem;
+        format!(
+            "{} ({}, h = {})",
+            problem.name,
+            problem.scheme_label,
+            step_label(problem)
+        )
     }
 
     /// orbit.svg: for each body (a group of coordinates), its first two coordinates.
@@ -236,7 +245,12 @@ impl<L: Lagrangian> Observer<L> for PlotData<'_> {
         if error.is_none() {
             Observer::<L>::node(self, it, true)?;
         }
-        self.draw().map_err(femvi::Error::Observer)
+        let target = (self.dir, self.format);
+        self.draw()
+            .and_then(|()| {
+                super::plot_rotations::draw(it.lagrangian(), self.problem, &self.trace, target, &self.title())
+            })
+            .map_err(femvi::Error::Observer)
     }
 }
 

@@ -295,3 +295,35 @@ fn rigid_body_models_are_listed() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("rigid-body") && text.contains("heavy-top"), "{text}");
 }
+
+/// The number of points of each polyline of the SVG at `path`.
+fn polylines(path: &Path) -> Vec<usize> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    doc.descendants()
+        .filter(|n| n.tag_name().name() == "polyline")
+        .map(|n| n.attribute("points").unwrap_or("").split_whitespace().count())
+        .collect()
+}
+
+#[test]
+fn plots_show_the_body_angular_velocity_and_the_axes_on_the_sphere() {
+    let out = tempfile::tempdir().unwrap();
+    femvi()
+        .args(["run", "--quiet", "--plot"])
+        .arg(example("free-body"))
+        .args(["--set", "time.end=20.0", "--out"])
+        .arg(out.path())
+        .assert()
+        .success();
+    // 201 kept nodes (every = 10): three components of w, three axes, each through every one.
+    let w = polylines(&out.path().join("R_w.svg"));
+    assert_eq!(w.iter().filter(|&&k| k == 201).count(), 3, "{w:?}");
+    let axes = polylines(&out.path().join("R_axes.svg"));
+    assert_eq!(axes.iter().filter(|&&k| k == 201).count(), 3, "{axes:?}");
+    // The sphere's wire frame: three circles.
+    assert_eq!(axes.iter().filter(|&&k| k == 121).count(), 3, "{axes:?}");
+    assert!(out.path().join("energy_error.svg").exists());
+    // The entries of R get no phase portraits.
+    assert!(!out.path().join("phase_R11.svg").exists());
+}

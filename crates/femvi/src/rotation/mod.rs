@@ -51,6 +51,6 @@ mod step;
 mod tangent;
 mod term;
 
-pub use body_state::BodyState;
+pub use body_state::{body_states, BodyState};
 pub use layout::Rotations;
 pub use run::{body_state, embedded_velocity, ORTHOGONALITY_TOLERANCE};

@@ -1,10 +1,10 @@
 //! [`Integrator::with_rotations`]: a run whose configuration holds rotations, stepped by the
 //! Lie-group element (`term.rs`) with every part of an ordinary run.
 
-use super::body_state::BodyState;
+use super::body_state::{block, body_momentum, BodyState};
 use super::layout::Rotations;
 use super::so3::{hat, mul, orthogonality_defect, Mat3};
-use super::term::{block, body_momentum, embedded_momentum, RotationTerm};
+use super::term::{embedded_momentum, RotationTerm};
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Result};
 use crate::lagrangian::{Lagrangian, PointDerivatives};

@@ -7,27 +7,18 @@
 
 use super::action::StepData;
 use super::body::BodyStep;
-use super::body_state::BodyState;
+use super::body_state::{block, body_momentum, body_states, BodyState};
 use super::layout::Rotations;
-use super::so3::{exp, hat, mul, mul_tn, vee, Mat3};
+use super::so3::{exp, hat, mul, Mat3};
 use super::step::{Kept, LieStep};
 use super::tangent::{defect, jacobian, Solved};
 use crate::discrete::Element;
 use crate::error::{invalid, Error, Result};
-use crate::lagrangian::{velocity_from_momentum, Lagrangian, PointDerivatives};
+use crate::lagrangian::Lagrangian;
 use crate::step::checkpoint::{Reader, Words};
 use crate::step::state::{Increments, LastElement, RunState};
 use crate::step::term::StepTerm;
 use crate::step::SolverOptions;
-
-/// The body angular momentum Π = 2 vee(RᵀP) of a block's embedded momentum P = ½ R Π̂.
-pub(crate) fn body_momentum(r: &Mat3<f64>, p: &Mat3<f64>) -> [f64; 3] {
-    let a: Mat3<f64> = std::array::from_fn(|k| {
-        let (i, j) = (k / 3, k % 3);
-        r[i] * p[j] + r[3 + i] * p[3 + j] + r[6 + i] * p[6 + j]
-    });
-    vee(&a).map(|v| 2.0 * v)
-}
 
 /// The embedded momentum P = ½ R Π̂ of a body angular momentum Π.
 pub(crate) fn embedded_momentum(r: &Mat3<f64>, pi: &[f64; 3]) -> Mat3<f64> {
@@ -43,11 +34,6 @@ pub(crate) fn onto_group(r: &Mat3<f64>) -> Mat3<f64> {
     let g = super::so3::mul_tn(r, r);
     let c: Mat3<f64> = std::array::from_fn(|k| if k % 4 == 0 { 1.5 - 0.5 * g[k] } else { -0.5 * g[k] });
     mul(r, &c)
-}
-
-/// A block of nine entries as a matrix.
-pub(crate) fn block(x: &[f64], o: usize) -> Mat3<f64> {
-    std::array::from_fn(|k| x.get(o + k).copied().unwrap_or(f64::NAN))
 }
 
 /// The term of a run with rotations.
@@ -289,27 +275,6 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
     }
 
     fn rotation_states(&self, t: f64, q: &[f64], p: &[f64]) -> Option<Vec<BodyState>> {
-        let n = self.layout.dim();
-        let mut v = vec![0.0; n];
-        let mut work = PointDerivatives::new(n);
-        let solved = velocity_from_momentum(self.lag, t, q, p, &mut v, &mut work).is_ok();
-        let states = self
-            .layout
-            .offsets()
-            .iter()
-            .map(|&o| {
-                let r = block(q, o);
-                let w = if solved {
-                    vee(&mul_tn(&r, &block(&v, o)))
-                } else {
-                    [f64::NAN; 3]
-                };
-                BodyState {
-                    w,
-                    pi: body_momentum(&r, &block(p, o)),
-                }
-            })
-            .collect();
-        Some(states)
+        Some(body_states(self.lag, &self.layout, t, q, p))
     }
 }
