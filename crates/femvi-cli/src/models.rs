@@ -32,6 +32,10 @@ pub const MODEL_FILES: &[(&str, &str)] = &[
     ("rigid-body", include_str!("../../../examples/models/rigid-body.toml")),
     ("heavy-top", include_str!("../../../examples/models/heavy-top.toml")),
     (
+        "rigid-chain",
+        include_str!("../../../examples/rigid/double-pendulum-3d.toml"),
+    ),
+    (
         "spherical-pendulum",
         include_str!("../../../examples/constrained/spherical-pendulum.toml"),
     ),
@@ -68,6 +72,13 @@ const CONSTRAINED: &[(&str, &str)] = &[
         "spherical pendulum with friction and a drive ([forces] and [constraints])",
     ),
 ];
+
+/// The models of [`MODEL_FILES`] that are problem files with several rotations (expressions in
+/// the entries of rotations, in examples/rigid/).
+const WITH_ROTATIONS: &[(&str, &str)] = &[(
+    "rigid-chain",
+    "two rigid links in space on ball joints (a 3-D double pendulum), rotations A and B",
+)];
 
 /// Lists the models, or prints the problem file of `name`.
 pub fn cmd_models(name: Option<&str>) -> ExitCode {
@@ -108,6 +119,10 @@ pub fn cmd_models(name: Option<&str>) -> ExitCode {
         }
         println!("\nWith holonomic constraints ([constraints], problem files in Cartesian coordinates):");
         for (name, description) in CONSTRAINED {
+            println!("{name:<26} {description}");
+        }
+        println!("\nWith rotations ([system] rotations, problem files in the entries of the rotations):");
+        for (name, description) in WITH_ROTATIONS {
             println!("{name:<26} {description}");
         }
         println!("\n`femvi models NAME` prints a complete problem file for NAME.");

@@ -1,8 +1,14 @@
 //! Rotations in a Lagrangian expression (`[system] rotations = ["R"]`): the coordinates of a
 //! rotation X are its entries X11 … X33 (row-major), and the expression's X_w1, X_w2, X_w3
 //! (the body angular velocity, Ẋ = X ŵ) are written out in them before it is compiled:
-//! w = vee(skew(XᵀẊ)). The embedded Lagrangian also gains ½ |sym(XᵀẊ)|², which vanishes with
-//! its first derivatives on T SO(3) and makes the Hessian in Ẋ regular (module docs of
+//! w = vee(skew(XᵀẊ)). The expression's velocities of the entries, X11_dot … X33_dot, are
+//! written out as the entries of the tangent part X skew(XᵀẊ) of Ẋ (equal to Ẋ on T SO(3)), so
+//! that the expression depends on Ẋ only through w: the momentum conjugate to the entries at a
+//! tangent velocity is then ½ X Π̂, with no part normal to the group, as the Lie-group element's
+//! nodes hold it (a Lagrangian written in Ẋ directly, such as ½ m |Ẋ c|² for a point of the
+//! body, would otherwise give the nodes a momentum, hence a velocity and an energy, off the
+//! group's). The embedded Lagrangian also gains ½ |sym(XᵀẊ)|², which vanishes with its first
+//! derivatives on T SO(3) and makes the Hessian in Ẋ regular (module docs of
 //! [`femvi::rotation`]).
 
 /// The coordinate names of rotation `x`: x11, x12, …, x33.
@@ -29,12 +35,24 @@ fn spin(x: &str, c: usize) -> String {
     format!("(0.5*({} - {}))", product(x, a, b), product(x, b, a))
 }
 
-/// `expr` with each rotation's X_w1 … X_w3 written out, plus the regularising term.
+/// The expression of (X skew(XᵀẊ))_ij, the tangent part of Ẋ_ij (i, j = 1, 2, 3).
+fn tangent_velocity(x: &str, i: usize, j: usize) -> String {
+    let terms: Vec<String> = (1..=3)
+        .map(|k| format!("{x}{i}{k}*({} - {})", product(x, k, j), product(x, j, k)))
+        .collect();
+    format!("(0.5*({}))", terms.join(" + "))
+}
+
+/// `expr` with each rotation's X_w1 … X_w3 and X11_dot … X33_dot written out, plus the
+/// regularising term.
 ///
 /// # Example
 /// ```
 /// let text = femvi_cli::problem::rotations::embed("0.5*R_w3^2", &["R".to_string()]);
 /// assert!(text.starts_with("(0.5*(0.5*((R12*R11_dot") && !text.contains("R_w3"));
+/// // A velocity of an entry becomes its tangent part: (R skew(RᵀṘ))_13.
+/// let text = femvi_cli::problem::rotations::embed("R13_dot^2", &["R".to_string()]);
+/// assert!(text.starts_with("((0.5*(R11*((R11*R13_dot") && !text.starts_with("(R13_dot"));
 /// ```
 pub fn embed(expr: &str, rotations: &[String]) -> String {
     let mut out = String::with_capacity(expr.len() * 4);
@@ -52,9 +70,17 @@ pub fn embed(expr: &str, rotations: &[String]) -> String {
             }
             let word = &expr[i..end];
             let replaced = rotations.iter().find_map(|x| {
-                let rest = word.strip_prefix(x.as_str())?.strip_prefix("_w")?;
-                let c: usize = rest.parse().ok().filter(|c| (1..=3).contains(c))?;
-                Some(spin(x, c))
+                let rest = word.strip_prefix(x.as_str())?;
+                if let Some(c) = rest.strip_prefix("_w") {
+                    let c: usize = c.parse().ok().filter(|c| (1..=3).contains(c))?;
+                    return Some(spin(x, c));
+                }
+                let ij = rest.strip_suffix("_dot")?.as_bytes();
+                let digit = |b: u8| (b'1'..=b'3').contains(&b).then(|| usize::from(b - b'0'));
+                match ij {
+                    [i, j] => Some(tangent_velocity(x, digit(*i)?, digit(*j)?)),
+                    _ => None,
+                }
             });
             out.push_str(replaced.as_deref().unwrap_or(word));
         } else {

@@ -27,5 +27,6 @@ mod problem_input;
 mod problem_reference;
 mod resume;
 mod rotations;
+mod rotations_chain;
 mod rotations_commands;
 mod stopped_runs;
