@@ -1,12 +1,14 @@
 //! [`Integrator::with_rotations`]: a run whose configuration holds rotations, stepped by the
 //! Lie-group element (`term.rs`) with every part of an ordinary run.
 
+use super::action::EmbeddedForce;
 use super::body_state::{block, body_momentum, BodyState};
 use super::layout::Rotations;
 use super::so3::{hat, mul, orthogonality_defect, Mat3};
 use super::term::{embedded_momentum, RotationTerm};
 use crate::discrete::Element;
 use crate::error::{check_len, invalid, Result};
+use crate::forces::Force;
 use crate::lagrangian::{Lagrangian, PointDerivatives};
 use crate::step::{Integrator, Method, SolverOptions, Start, TimeGrid};
 
@@ -111,7 +113,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         opts: SolverOptions,
         rotations: Rotations,
     ) -> Result<Self> {
-        Self::rotations_run(lag, element, grid, start, opts, (rotations, false))
+        Self::rotations_run(lag, element, grid, start, opts, (rotations, false, None))
     }
 
     /// [`Integrator::with_rotations`] measuring the symplecticity defect of every step on
@@ -144,7 +146,70 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         opts: SolverOptions,
         rotations: Rotations,
     ) -> Result<Self> {
-        Self::rotations_run(lag, element, grid, start, opts, (rotations, true))
+        Self::rotations_run(lag, element, grid, start, opts, (rotations, true, None))
+    }
+
+    /// [`Integrator::with_rotations`] under a non-conservative force F(t, q, v) on the embedded
+    /// coordinates (discrete Lagrange–d'Alembert, [`crate::forces`]): the nine entries of each
+    /// rotation and the ordinary coordinates. A body torque τ (body frame) on rotation R is
+    /// the force ½ R τ̂ on its entries (its virtual work tr(Fᵀ δR) with δR = R η̂ is τ·η); a
+    /// force f on a point of the body at χ (body frame) is f χᵀ. The action of each element
+    /// gains h Σ_i b_i F_i·q(c_i) with F_i frozen at the iterate, so the step equations are
+    /// the forced ones and Newton's Jacobian omits the force's derivatives (it converges
+    /// linearly, fast for forces small against the inertia). [`Integrator::work`] accumulates
+    /// the discrete work h Σ_i b_i F_i·q̇(c_i); the energy balance E_k − E_0 − W_k is then of
+    /// the element's order. The tangent map of such a step is not derived: chaos indicators
+    /// refuse forced runs with rotations.
+    ///
+    /// # Errors
+    /// As [`Integrator::with_rotations`]; a force of another dimension.
+    ///
+    /// # Example
+    /// ```
+    /// use femvi::forces::Force;
+    /// use femvi::rotation::{body_state, embedded_velocity, Rotations};
+    /// use femvi::{models::RigidBody, Element, Integrator, Scalar, SolverOptions, Start, TimeGrid};
+    /// /// The torque τ = −c Π on a body with moments I: on the entries, F = ½ R τ̂.
+    /// struct Drag { c: f64, inertia: [f64; 3] }
+    /// impl Force for Drag {
+    ///     fn dim(&self) -> usize { 9 }
+    ///     fn force<D: Scalar>(&self, _t: D, q: &[D], v: &[D], out: &mut [D]) {
+    ///         let a = |i: usize, j: usize| q[i] * v[j] + q[3 + i] * v[3 + j] + q[6 + i] * v[6 + j];
+    ///         let w = [(a(2, 1) - a(1, 2)) * 0.5, (a(0, 2) - a(2, 0)) * 0.5, (a(1, 0) - a(0, 1)) * 0.5];
+    ///         let tau: Vec<D> = (0..3).map(|k| w[k] * (-self.c * self.inertia[k])).collect();
+    ///         let hat = [D::from(0.0), -tau[2], tau[1], tau[2], D::from(0.0), -tau[0], -tau[1], tau[0], D::from(0.0)];
+    ///         for i in 0..3 {
+    ///             for j in 0..3 {
+    ///                 out[3 * i + j] = (q[3 * i] * hat[j] + q[3 * i + 1] * hat[3 + j] + q[3 * i + 2] * hat[6 + j]) * 0.5;
+    ///             }
+    ///         }
+    ///     }
+    /// }
+    /// let inertia = [1.0, 2.0, 3.0];
+    /// let body = RigidBody::free(inertia)?;
+    /// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+    /// let (element, grid) = (Element::with_order(4)?, TimeGrid::uniform(0.0, 0.01, 1.0)?);
+    /// let drag = Drag { c: 0.5, inertia };
+    /// let mut it = Integrator::with_rotations_and_force(&body, &element, grid, start, SolverOptions::default(), Rotations::new(9, &[0])?, &drag)?;
+    /// while it.step()? {}
+    /// // |Π| decays as e^{−ct}: Π̇ = Π × w − c Π.
+    /// let (_, pi) = body_state(it.node().q, it.node().p, 0);
+    /// let norm = (pi[0] * pi[0] + pi[1] * pi[1] + pi[2] * pi[2]).sqrt();
+    /// assert!((norm - (0.25f64 + 4.0 + 0.81).sqrt() * (-0.5f64).exp()).abs() < 1e-8);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_rotations_and_force<F: Force + Sync>(
+        lag: &'a L,
+        element: &'a Element,
+        grid: TimeGrid,
+        start: Start,
+        opts: SolverOptions,
+        rotations: Rotations,
+        force: &'a F,
+    ) -> Result<Self> {
+        check_len("force", lag.dim(), force.dim())?;
+        Self::rotations_run(lag, element, grid, start, opts, (rotations, false, Some(force)))
     }
 
     /// The largest symplecticity defect of the steps so far of a run of
@@ -154,14 +219,15 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
         self.term_defect()
     }
 
-    /// The run of [`Integrator::with_rotations`], measuring the defect if asked.
+    /// The run of [`Integrator::with_rotations`], measuring the defect if asked, under a force
+    /// if given.
     fn rotations_run(
         lag: &'a L,
         element: &'a Element,
         grid: TimeGrid,
         start: Start,
         opts: SolverOptions,
-        (rotations, measured): (Rotations, bool),
+        (rotations, measured, force): (Rotations, bool, Option<&'a (dyn EmbeddedForce + Sync)>),
     ) -> Result<Self> {
         opts.validate()?;
         element.check_nondegenerate()?;
@@ -212,7 +278,7 @@ impl<'a, L: Lagrangian + Sync> Integrator<'a, L> {
             let pi = body_momentum(&r, &block(&p, o));
             p[o..o + 9].copy_from_slice(&embedded_momentum(&r, &pi));
         }
-        let mut term = Box::new(RotationTerm::new(lag, element, rotations, opts));
+        let mut term = Box::new(RotationTerm::new(lag, element, rotations, opts, force));
         term.defect = measured.then_some(0.0);
         let plain = SolverOptions {
             method: Method::Auto,

@@ -5,7 +5,7 @@
 //! rotation block is P = ½ R Π̂, the momentum conjugate to the entries of R of the embedded
 //! Lagrangian (module docs of [`super`]); it is set, not summed ([`StepTerm::momentum`]).
 
-use super::action::StepData;
+use super::action::{element_work, EmbeddedForce, StepData};
 use super::body::BodyStep;
 use super::body_state::{block, body_momentum, body_states, BodyState};
 use super::layout::Rotations;
@@ -53,6 +53,10 @@ pub(crate) struct RotationTerm<'a, L> {
     body: Option<BodyStep>,
     /// The largest symplecticity defect of the steps so far, if it is measured.
     pub defect: Option<f64>,
+    /// The force of a forced run ([`crate::Integrator::with_rotations_and_force`]).
+    force: Option<&'a (dyn EmbeddedForce + Sync)>,
+    /// The discrete work of the last solved element (0 without a force).
+    last_work: f64,
     /// (t_k, h) of the last solved step, None before the first (or after a restore): what
     /// its tangent map ([`StepTerm::chart_tangent`]) is taken at, with `q`, `mom` and the
     /// step's unknowns.
@@ -60,10 +64,17 @@ pub(crate) struct RotationTerm<'a, L> {
 }
 
 impl<'a, L: Lagrangian> RotationTerm<'a, L> {
-    pub(crate) fn new(lag: &'a L, element: &'a Element, layout: Rotations, opts: SolverOptions) -> Self {
+    pub(crate) fn new(
+        lag: &'a L,
+        element: &'a Element,
+        layout: Rotations,
+        opts: SolverOptions,
+        force: Option<&'a (dyn EmbeddedForce + Sync)>,
+    ) -> Self {
         let step = LieStep::new(&layout, element);
         let (ne, n) = (layout.slots(), layout.dim());
-        let single = layout.offsets() == [0] && n == 9;
+        // The degree-1 fixed point is that of the free Lagrangian: a forced run takes Newton.
+        let single = layout.offsets() == [0] && n == 9 && force.is_none();
         let body = if single { BodyStep::new(lag, element) } else { None };
         Self {
             lag,
@@ -76,6 +87,8 @@ impl<'a, L: Lagrangian> RotationTerm<'a, L> {
             q: vec![0.0; n],
             body,
             defect: None,
+            force,
+            last_work: 0.0,
             solved: None,
         }
     }
@@ -123,6 +136,7 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
             t0: state.t,
             h,
             q: &self.q,
+            force: self.force,
         };
         let iterations = match self.body.as_mut() {
             Some(body) => {
@@ -151,11 +165,21 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
                 .map_err(Error::Step)?,
         };
         self.solved = Some((state.t, h));
+        if self.force.is_some() {
+            let data = StepData {
+                t0: state.t,
+                h,
+                q: &self.q,
+                force: self.force,
+            };
+            self.last_work = element_work(self.element, &self.layout, &data, &self.step.x);
+        }
         if let Some(worst) = self.defect {
             let data = StepData {
                 t0: state.t,
                 h,
                 q: &self.q,
+                force: self.force,
             };
             let solved = Solved {
                 data: &data,
@@ -197,7 +221,7 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
     fn accepted(&mut self, _n: usize) {}
 
     fn element_work(&self) -> f64 {
-        0.0
+        self.last_work
     }
 
     fn save(&self, w: &mut Words) {
@@ -238,7 +262,7 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
     }
 
     fn works(&self) -> bool {
-        false
+        self.force.is_some()
     }
 
     fn momentum(&self) -> Option<&[f64]> {
@@ -254,13 +278,25 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
     }
 
     fn chart_tangent(&mut self) -> Option<Result<nalgebra::DMatrix<f64>>> {
+        if self.force.is_some() {
+            // The frozen force of the action gives the residual, not the force's derivatives.
+            return Some(Err(invalid(
+                "tangent map",
+                "the tangent map of a forced Lie-group step (the derivatives of the torques in the step's unknowns) is not derived",
+            )));
+        }
         let Some((t0, h)) = self.solved else {
             return Some(Err(invalid(
                 "tangent map",
                 "no step has been solved since the start or the restore",
             )));
         };
-        let data = StepData { t0, h, q: &self.q };
+        let data = StepData {
+            t0,
+            h,
+            q: &self.q,
+            force: None,
+        };
         let solved = Solved {
             data: &data,
             mom: &self.mom,
