@@ -46,6 +46,9 @@ const NOTE: &str = "the problem has non-conservative forces ([forces]): its flow
 /// # Errors
 /// The library's refusal of the problem's options (exit code 2).
 pub fn check(problem: &Problem, force: &ProblemForce) -> Result<ForcedCheck, (String, u8)> {
+    if problem.terms.rotations.is_some() {
+        return crate::with_system!(&problem.system, l => check_integrated(l, problem));
+    }
     match &problem.terms.constraints {
         Some(c) => crate::with_system!(&problem.system, l => check_constrained(l, problem, force, c)),
         None => crate::with_system!(&problem.system, l => check_with(l, problem, force)),
@@ -74,6 +77,42 @@ fn check_with<L: Lagrangian + Clone + Sync>(
         final_work: sol.work.last().copied().unwrap_or(f64::NAN),
         max_constraint_residual: None,
         error: s.error.as_ref().map(|e| e.to_string()),
+    })
+}
+
+/// [`check_with`] for a problem with rotations: the one integrator of the problem's terms
+/// (torques on the Lie-group element), its balance over every node.
+fn check_integrated<L: Lagrangian + Sync>(lag: &L, problem: &Problem) -> Result<ForcedCheck, (String, u8)> {
+    let made = problem.integrator(lag, &problem.element, problem.grid.clone(), problem.start.clone(), None);
+    let mut it = made.map_err(|e| (e.to_string(), crate::BAD_INPUT))?;
+    let first = it.energy().map_err(|e| (e.to_string(), crate::NUMERICAL))?;
+    let scale = if first == 0.0 { 1.0 } else { first.abs() };
+    let (mut worst, mut last, mut error) = (0.0f64, first, None);
+    loop {
+        match it.step().and_then(|more| Ok((more, it.energy()?))) {
+            Ok((true, h)) => {
+                worst = worst.max((h - first - it.work()).abs());
+                last = h;
+            }
+            Ok((false, _)) => break,
+            Err(e) => {
+                error = Some(e.to_string());
+                break;
+            }
+        }
+    }
+    Ok(ForcedCheck {
+        name: problem.name.clone(),
+        scheme: problem.scheme_label.clone(),
+        steps: it.node().k,
+        note: format!("{NOTE}; the rotations are stepped by the Lie-group element under the torques"),
+        max_energy_balance_error: worst,
+        max_rel_energy_balance_error: worst / scale,
+        energy_first: first,
+        energy_last: last,
+        final_work: it.work(),
+        max_constraint_residual: None,
+        error,
     })
 }
 

@@ -25,6 +25,9 @@ pub enum Term {
     /// `[system] rotations` (or a rigid-body model): Lie-group elements
     /// (`Integrator::with_rotations`).
     Rotations,
+    /// `[forces]` with rotations: torques on the Lie-group element
+    /// (`Integrator::with_rotations_and_force`).
+    ForcedRotations,
 }
 
 impl Term {
@@ -36,6 +39,7 @@ impl Term {
             Term::Adaptive => "[time] mode = \"adaptive\"",
             Term::ForcesInEnergyMode => "[forces] in [time] mode = \"energy\"",
             Term::Rotations => "[system] rotations",
+            Term::ForcedRotations => "[forces] on [system] rotations",
         }
     }
 }
@@ -105,6 +109,7 @@ impl Use {
                 Term::Adaptive => "[time] mode = \"adaptive\" is",
                 Term::ForcesInEnergyMode => "[forces] in [time] mode = \"energy\" are",
                 Term::Rotations => "[system] rotations are",
+                Term::ForcedRotations => "[forces] on [system] rotations are",
             },
         })
     }
@@ -166,6 +171,12 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         "a Python potential replaces the problem file's system, and its runs take no terms",
     ),
     (
+        Term::ForcedRotations,
+        Use::Chaos,
+        "the tangent map of a forced Lie-group step (the torques' derivatives in the step's \
+         unknowns, which its Newton iteration leaves out) is not derived",
+    ),
+    (
         Term::Rotations,
         Use::AccuracyStep,
         "the step is chosen from the local error constant of the element on coordinates (its \
@@ -198,7 +209,6 @@ pub const ROTATIONS_REFUSED: &[(Use, &str)] = &[
     (Use::EnergyMode, ON_COORDINATES),
     (Use::PythonPotential, ON_COORDINATES),
     (Use::Python, ON_COORDINATES),
-    (Use::With(Term::Forces), ON_COORDINATES),
     (Use::With(Term::Constraints), ON_COORDINATES),
     (Use::With(Term::Adaptive), ON_COORDINATES),
 ];
@@ -211,6 +221,10 @@ fn present(terms: &Terms) -> impl Iterator<Item = Term> + '_ {
         (Term::Adaptive, terms.adaptive.is_some()),
         (Term::ForcesInEnergyMode, terms.force.is_some() && terms.energy_mode),
         (Term::Rotations, terms.rotations.is_some()),
+        (
+            Term::ForcedRotations,
+            terms.rotations.is_some() && terms.force.is_some(),
+        ),
     ]
     .into_iter()
     .filter_map(|(t, on)| on.then_some(t))

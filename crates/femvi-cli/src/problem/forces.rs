@@ -19,6 +19,9 @@ pub struct ForcesTable {
     pub generalized: Option<Vec<toml::Spanned<String>>>,
     /// A Rayleigh dissipation function R(t, q, q_dot); the force is −∂R/∂q_dot.
     pub dissipation: Option<toml::Spanned<String>>,
+    /// Torques on rotations, in their body frames: `{ R = ["τ1", "τ2", "τ3"] }`
+    /// ([`super::torques`]).
+    pub torques: Option<super::torques::TorqueTable>,
 }
 
 /// The force a problem file describes.
@@ -64,10 +67,16 @@ impl ForcesTable {
     /// coordinates, or an error in an expression (pointing into the file).
     pub fn resolve(
         &self,
-        coordinates: &[String],
+        (coordinates, rotations): (&[String], &[String]),
         params: &[(String, f64)],
         src: &Source,
     ) -> Result<ProblemForce, InputError> {
+        if !rotations.is_empty() {
+            return self.resolve_with_rotations((coordinates, rotations), params, src);
+        }
+        if self.torques.is_some() {
+            return Err(src.error("[forces] torques act on rotations: the system has none ([system] rotations)"));
+        }
         let generalized = match &self.generalized {
             Some(list) => {
                 if list.len() != coordinates.len() {
@@ -93,14 +102,56 @@ impl ForcesTable {
             Some(r) => Some(Rayleigh::new(r.get_ref(), coordinates, params).map_err(|e| located(src, r, &e))?),
             None => None,
         };
-        match (generalized, dissipation) {
-            (Some(g), Some(d)) => Ok(ProblemForce::Both(Sum(g, d))),
-            (Some(g), None) => Ok(ProblemForce::Generalized(g)),
-            (None, Some(d)) => Ok(ProblemForce::Dissipation(d)),
-            (None, None) => Err(src.error(
-                "[forces] needs `generalized` (one expression per coordinate) or `dissipation` (a Rayleigh function)",
-            )),
-        }
+        combine(generalized, dissipation, src)
+    }
+
+    /// [`ForcesTable::resolve`] for a system with rotations: the expressions written out in
+    /// the rotations' entries, the torques added to `generalized`.
+    fn resolve_with_rotations(
+        &self,
+        (coordinates, rotations): (&[String], &[String]),
+        params: &[(String, f64)],
+        src: &Source,
+    ) -> Result<ProblemForce, InputError> {
+        let given = self.generalized.is_some() || self.torques.is_some();
+        let generalized = if given {
+            let list = super::torques::generalized(
+                self.generalized.as_deref(),
+                self.torques.as_ref(),
+                (coordinates, rotations),
+                src,
+            )?;
+            let refs: Vec<&str> = list.iter().map(String::as_str).collect();
+            let compiled = ExprForces::new(&refs, coordinates, params);
+            Some(compiled.map_err(|e| src.error(format!("in [forces]: {}", e.message)))?)
+        } else {
+            None
+        };
+        let dissipation = match &self.dissipation {
+            Some(r) => {
+                let text = super::rotations::substitute(r.get_ref(), rotations);
+                let compiled = Rayleigh::new(&text, coordinates, params);
+                Some(compiled.map_err(|e| src.error(format!("in [forces] dissipation: {}", e.message)))?)
+            }
+            None => None,
+        };
+        combine(generalized, dissipation, src)
+    }
+}
+
+/// The force of `generalized` and `dissipation`, added if both.
+fn combine(
+    generalized: Option<ExprForces>,
+    dissipation: Option<Rayleigh>,
+    src: &Source,
+) -> Result<ProblemForce, InputError> {
+    match (generalized, dissipation) {
+        (Some(g), Some(d)) => Ok(ProblemForce::Both(Sum(g, d))),
+        (Some(g), None) => Ok(ProblemForce::Generalized(g)),
+        (None, Some(d)) => Ok(ProblemForce::Dissipation(d)),
+        (None, None) => Err(src.error(
+            "[forces] needs `generalized` (one expression per coordinate), `dissipation` (a Rayleigh function) or `torques` (on rotations)",
+        )),
     }
 }
 

@@ -12,8 +12,9 @@ impl Problem {
     /// `grid`, `start`, and time steps as variables when `energy` is given (commands pass
     /// [`Problem::energy`], or None for runs on a grid of fixed steps).
     ///
-    /// Combinations the loader refuses (rotations with another term or the energy mode,
-    /// constraints in the energy mode) do not reach here; rotations take precedence, and
+    /// Combinations the loader refuses (rotations with constraints, adaptive steps or the
+    /// energy mode, constraints in the energy mode) do not reach here; rotations take
+    /// precedence (with the force, if any: `Integrator::with_rotations_and_force`), and
     /// constraints ignore `energy`.
     ///
     /// # Errors
@@ -46,7 +47,10 @@ impl Problem {
         let opts = self.options;
         let (force, constraints) = (&self.terms.force, &self.terms.constraints);
         if let Some(r) = &self.terms.rotations {
-            return Integrator::with_rotations(lag, element, grid, start, opts, r.clone());
+            return match force {
+                Some(f) => Integrator::with_rotations_and_force(lag, element, grid, start, opts, r.clone(), f),
+                None => Integrator::with_rotations(lag, element, grid, start, opts, r.clone()),
+            };
         }
         match (energy, force, constraints) {
             (None, None, None) => Integrator::new(lag, element, grid, start, opts),

@@ -30,6 +30,7 @@ mod symmetries;
 mod system;
 mod terms;
 mod time;
+mod torques;
 
 pub use errors::{did_you_mean, InputError};
 pub use events::EventSpec;
@@ -341,7 +342,7 @@ fn build(src: &Source, file: ProblemFile, want_bvp: bool, origin: (&Path, &str))
     let directory = file.output.directory(&name);
     let symmetries = symmetries::resolve(file.symmetries.as_ref(), n, system.model.as_ref(), src)?;
     let force = match &file.forces {
-        Some(f) => Some(f.resolve(&system.coordinates, &parameters, src)?),
+        Some(f) => Some(f.resolve((&system.coordinates, &system.rotations), &parameters, src)?),
         None => None,
     };
     let rotations = match system.rotations.len() {

@@ -43,18 +43,15 @@ fn tangent_velocity(x: &str, i: usize, j: usize) -> String {
     format!("(0.5*({}))", terms.join(" + "))
 }
 
-/// `expr` with each rotation's X_w1 … X_w3 and X11_dot … X33_dot written out, plus the
-/// regularising term.
+/// `expr` with each rotation's X_w1 … X_w3 and X11_dot … X33_dot written out (no
+/// regularising term): for the expressions of `[forces]`.
 ///
 /// # Example
 /// ```
-/// let text = femvi_cli::problem::rotations::embed("0.5*R_w3^2", &["R".to_string()]);
-/// assert!(text.starts_with("(0.5*(0.5*((R12*R11_dot") && !text.contains("R_w3"));
-/// // A velocity of an entry becomes its tangent part: (R skew(RᵀṘ))_13.
-/// let text = femvi_cli::problem::rotations::embed("R13_dot^2", &["R".to_string()]);
-/// assert!(text.starts_with("((0.5*(R11*((R11*R13_dot") && !text.starts_with("(R13_dot"));
+/// let text = femvi_cli::problem::rotations::substitute("-c*R_w3", &["R".to_string()]);
+/// assert!(text.starts_with("-c*(0.5*((R12*R11_dot") && !text.contains("R_w3"));
 /// ```
-pub fn embed(expr: &str, rotations: &[String]) -> String {
+pub fn substitute(expr: &str, rotations: &[String]) -> String {
     let mut out = String::with_capacity(expr.len() * 4);
     let mut chars = expr.char_indices().peekable();
     while let Some((i, ch)) = chars.next() {
@@ -69,24 +66,44 @@ pub fn embed(expr: &str, rotations: &[String]) -> String {
                 }
             }
             let word = &expr[i..end];
-            let replaced = rotations.iter().find_map(|x| {
-                let rest = word.strip_prefix(x.as_str())?;
-                if let Some(c) = rest.strip_prefix("_w") {
-                    let c: usize = c.parse().ok().filter(|c| (1..=3).contains(c))?;
-                    return Some(spin(x, c));
-                }
-                let ij = rest.strip_suffix("_dot")?.as_bytes();
-                let digit = |b: u8| (b'1'..=b'3').contains(&b).then(|| usize::from(b - b'0'));
-                match ij {
-                    [i, j] => Some(tangent_velocity(x, digit(*i)?, digit(*j)?)),
-                    _ => None,
-                }
-            });
-            out.push_str(replaced.as_deref().unwrap_or(word));
+            out.push_str(word_for(word, rotations).as_deref().unwrap_or(word));
         } else {
             out.push(ch);
         }
     }
+    out
+}
+
+/// The expression that replaces the identifier `word` (X_wc or Xij_dot of a rotation X).
+fn word_for(word: &str, rotations: &[String]) -> Option<String> {
+    rotations.iter().find_map(|x| {
+        let rest = word.strip_prefix(x.as_str())?;
+        if let Some(c) = rest.strip_prefix("_w") {
+            let c: usize = c.parse().ok().filter(|c| (1..=3).contains(c))?;
+            return Some(spin(x, c));
+        }
+        let ij = rest.strip_suffix("_dot")?.as_bytes();
+        let digit = |b: u8| (b'1'..=b'3').contains(&b).then(|| usize::from(b - b'0'));
+        match ij {
+            [i, j] => Some(tangent_velocity(x, digit(*i)?, digit(*j)?)),
+            _ => None,
+        }
+    })
+}
+
+/// `expr` with each rotation's X_w1 … X_w3 and X11_dot … X33_dot written out, plus the
+/// regularising term.
+///
+/// # Example
+/// ```
+/// let text = femvi_cli::problem::rotations::embed("0.5*R_w3^2", &["R".to_string()]);
+/// assert!(text.starts_with("(0.5*(0.5*((R12*R11_dot") && !text.contains("R_w3"));
+/// // A velocity of an entry becomes its tangent part: (R skew(RᵀṘ))_13.
+/// let text = femvi_cli::problem::rotations::embed("R13_dot^2", &["R".to_string()]);
+/// assert!(text.starts_with("((0.5*(R11*((R11*R13_dot") && !text.starts_with("(R13_dot"));
+/// ```
+pub fn embed(expr: &str, rotations: &[String]) -> String {
+    let out = substitute(expr, rotations);
     let mut text = format!("({out})");
     for x in rotations {
         let mut sym = Vec::new();

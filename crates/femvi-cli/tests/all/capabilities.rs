@@ -16,7 +16,7 @@ fn example(name: &str) -> PathBuf {
 }
 
 /// (label, example file, overrides that keep the run short).
-const KINDS: [(&str, &str, &[&str]); 7] = [
+const KINDS: [(&str, &str, &[&str]); 8] = [
     ("plain", "pendulum.toml", &["time.end=1.0"]),
     ("forced", "forces/damped-oscillator.toml", &["time.end=1.0"]),
     (
@@ -32,6 +32,7 @@ const KINDS: [(&str, &str, &[&str]); 7] = [
     ),
     ("adaptive", "kepler-eccentric.toml", &["time.end=1.0"]),
     ("rotations", "rigid/heavy-top-expression.toml", &["time.end=0.5"]),
+    ("forced rotations", "rigid/damped-body.toml", &["time.end=0.5"]),
 ];
 
 /// An `[[events]]` table in the first coordinate, appended to a problem's text.

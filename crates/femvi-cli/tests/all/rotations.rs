@@ -199,10 +199,8 @@ fn uses_that_would_leave_so3_are_refused() {
     let base = std::fs::read_to_string(&free).unwrap();
     let cases = [
         (
-            "forces.toml",
-            format!(
-                "{base}\n[forces]\ngeneralized = [\"0\", \"0\", \"0\", \"0\", \"0\", \"0\", \"0\", \"0\", \"0\"]\n"
-            ),
+            "constraints.toml",
+            format!("{base}\n[constraints]\nholonomic = [\"R33 - 1\"]\n"),
             "[system] rotations",
         ),
         (

@@ -162,3 +162,66 @@ fn ensemble_members_are_their_runs_and_a_start_off_so3_fails_alone() {
     }
     assert!(lines[1].last().unwrap().contains("not a rotation"), "{:?}", lines[1]);
 }
+
+#[test]
+fn torques_damp_the_spatial_momentum_as_the_closed_form_and_balance_the_energy() {
+    // examples/rigid/damped-body.toml: τ = −c Π, so m = R Π = m0 e^{−ct} (m0 = I w0).
+    let dir = tempfile::tempdir().unwrap();
+    let damped = example("rigid/damped-body");
+    femvi()
+        .args(["run", "--quiet"])
+        .arg(&damped)
+        .args(["--format", "csv,npy", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let m0 = [0.5, 2.0, 0.9];
+    let mut worst: f64 = 0.0;
+    for line in lines {
+        let row: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let t = row[col("t")];
+        let r = |i: usize, j: usize| row[col(&format!("R{i}{j}"))];
+        let pi = [1, 2, 3].map(|k| row[col(&format!("p_R{k}"))]);
+        for i in 1..=3 {
+            let m = r(i, 1) * pi[0] + r(i, 2) * pi[1] + r(i, 3) * pi[2];
+            worst = worst.max((m - m0[i - 1] * (-0.2 * t).exp()).abs());
+        }
+    }
+    assert!(worst < 1e-9, "spatial momentum against the closed form: {worst:e}");
+    // femvi check: the energy balance H − H0 = W on the Lie-group element.
+    let out = femvi()
+        .arg("check")
+        .arg(&damped)
+        .args(["--set", "time.end=2.0", "--json", "--out"])
+        .arg(dir.path().join("check"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let balance = report["max_rel_energy_balance_error"].as_f64().unwrap();
+    assert!(balance < 1e-10, "energy balance {balance:e}");
+    assert!(report["final_work"].as_f64().unwrap() < 0.0);
+    // Chaos of a forced Lie-group step is refused with its reason.
+    let out = femvi().arg("chaos").arg(&damped).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.code() == Some(2) && err.contains("tangent map of a forced Lie-group step"),
+        "{err}"
+    );
+    // A torque on a name that is not a rotation is an input error.
+    let text = std::fs::read_to_string(&damped)
+        .unwrap()
+        .replace("torques = { R =", "torques = { S =");
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, text).unwrap();
+    let out = femvi().args(["run", "--quiet"]).arg(&bad).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.code() == Some(2) && err.contains("'S' is not a rotation"),
+        "{err}"
+    );
+}

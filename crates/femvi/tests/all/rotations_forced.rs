@@ -102,11 +102,10 @@ const STEPS: [[f64; 3]; 3] = [[0.04, 0.02, 0.01], [0.2, 0.1, 0.05], [0.4, 0.2, 0
 
 #[test]
 fn an_isotropic_body_under_drag_follows_its_closed_form_at_order_2s() {
-    let (i, c, w0) = (2.0, 0.7, [0.5, 1.0, 0.3]);
+    let (i, c, w0): (f64, f64, [f64; 3]) = (2.0, 0.7, [0.5, 1.0, 0.3]);
     let body = RigidBody::free([i; 3]).unwrap();
     let drag = Drag { c, k: [1.0; 3] };
-    let speed = (w0[0] * w0[0] + w0[1] * w0[1] + w0[2] * w0[2]) as f64;
-    let speed = speed.sqrt();
+    let speed = (w0[0] * w0[0] + w0[1] * w0[1] + w0[2] * w0[2]).sqrt();
     let t = 2.0f64;
     let decay = (-c * t / i).exp();
     let theta = speed * (i / c) * (1.0 - decay);
