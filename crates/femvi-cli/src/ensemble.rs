@@ -167,8 +167,8 @@ fn saved(saved: &femvi::solution::Saved, n: usize, times: usize) -> (Vec<f64>, V
 }
 
 /// [`run_member`] that also reports q and p at the times `saveat` (increasing, inside the
-/// span), through the library's `solve` (the same integrator and energy tracker, so the
-/// final state and energy error are [`run_member`]'s bit for bit).
+/// span), through the library's recorder (`solve_on`, the same integrator and energy tracker,
+/// so the final state and energy error are [`run_member`]'s bit for bit).
 pub fn run_member_saving(problem: &Problem, start: Start, saveat: &[f64]) -> Member {
     crate::with_system!(&problem.system, l => solve_member(l, problem, start, saveat))
 }
@@ -198,12 +198,12 @@ fn solve_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
         energy_nodes: femvi::solution::EnergyNodes::Every,
         ..femvi::SolveOptions::step(1.0)
     };
-    let solved = match &problem.terms.force {
-        // Time steps as variables with forces are refused by the capability table (and by
-        // `solve_forced_with`), never run without the force.
-        Some(force) => femvi::forces::solve_forced_with(&p, force, &problem.element, &options, &mut [&mut balance]),
-        None => femvi::solve(&p, &problem.element, &options),
-    };
+    // The one integrator of the problem's terms (forces, rotations), through the library's
+    // recorder.
+    let (grid, el) = (problem.grid.clone(), &problem.element);
+    let solved = problem
+        .integrator(&p.lagrangian, el, grid, p.start.clone(), problem.energy)
+        .and_then(|mut it| femvi::solution::solve_on(&mut it, &p, el, &options, &mut [&mut balance]));
     let sol = match solved {
         Ok(sol) => sol,
         Err(femvi::Error::Step(e)) => return Member::failed(n, t0, format!("first element: {e}")),

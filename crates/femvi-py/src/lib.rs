@@ -16,6 +16,7 @@ mod ensemble;
 mod events;
 mod info;
 mod recorded;
+mod rotations;
 mod run;
 mod solve;
 mod tables;

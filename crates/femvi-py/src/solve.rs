@@ -71,13 +71,24 @@ pub fn solve_file(
         max_steps,
         events: crate::events::events(events.unwrap_or_default(), &raised)?,
     };
-    type Done = (Run, Option<Vec<f64>>, Added, Vec<String>, String, String);
+    type Done = (Run, Option<Vec<f64>>, Added, Vec<String>, String, String, Vec<String>);
     let done = py.allow_threads(|| -> Result<Done, String> {
         let problem = load_any(&path)?;
         let named = |e: String| format!("{}: {e}", path.display());
         let adaptive = problem.terms.adaptive.clone();
         if potential.is_some() {
             problem.refuse(Use::PythonPotential, "femvi.solve").map_err(named)?;
+        }
+        if problem.terms.rotations.is_some() {
+            // The Lie-group element (with its torques), through the library's recorder.
+            let (r, added) = crate::rotations::run(&problem, &path, &extras)?;
+            let labels = (
+                problem.coordinates.clone(),
+                problem.name.clone(),
+                problem.scheme_label.clone(),
+            );
+            let names = femvi_cli::record::rotation_names(&problem);
+            return Ok((r, None, added, labels.0, labels.1, labels.2, names));
         }
         if let Some(tables) = Tables::of(&problem) {
             let (r, added) = tables.run(&problem, &path, &extras)?;
@@ -86,7 +97,7 @@ pub fn solve_file(
                 problem.name.clone(),
                 problem.scheme_label.clone(),
             );
-            return Ok((r, None, added, labels.0, labels.1, labels.2));
+            return Ok((r, None, added, labels.0, labels.1, labels.2, vec![]));
         }
         let (r, s) = match (potential, adaptive) {
             (None, None) => (run(&problem, &path, &extras)?, None),
@@ -109,13 +120,16 @@ pub fn solve_file(
             problem.coordinates.clone(),
             problem.name.clone(),
             problem.scheme_label.clone(),
+            vec![],
         ))
     });
     if let Some(e) = raised.take() {
         return Err(e);
     }
-    let (r, s, added, coordinates, name, scheme) = done.map_err(input_error)?;
+    let (r, s, added, coordinates, name, scheme, rotations) = done.map_err(input_error)?;
     let d = to_dict(py, r, coordinates, name, scheme)?;
+    // The rotations' names: their blocks of nine entries are the first coordinates.
+    d.set_item("rotations", rotations)?;
     if let Some(s) = s {
         d.set_item("s", vec1(py, s))?;
     }

@@ -27,12 +27,14 @@ pub fn generalized(
 ) -> Result<Vec<String>, InputError> {
     let n = coordinates.len();
     let mut out: Vec<String> = match generalized {
-        Some(list) if list.len() != n => return Err(src.error(format!(
+        Some(list) if list.len() != n => {
+            return Err(src.error(format!(
             "[forces] generalized has {} expressions for {} coordinates [{}]: give one per coordinate, in their order",
             list.len(),
             n,
             coordinates.join(", ")
-        ))),
+        )))
+        }
         Some(list) => list.iter().map(|s| substitute(s.get_ref(), rotations)).collect(),
         None => vec!["0".to_string(); n],
     };

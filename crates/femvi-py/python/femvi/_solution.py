@@ -24,6 +24,8 @@ class Solution:
     − W| over every node; one with ``[constraints]`` adds ``multipliers`` (N, m), the
     multipliers λ of the constraint force −Gᵀλ, ``constraint_residual`` (N,), max |g(q)| at each
     kept node, and ``max_constraint_residual`` over every node. Absent tables give None.
+    A problem with rotations names them in ``rotations``; :meth:`rotation` gives each one's
+    matrices, body angular velocity and momentum.
 
     >>> import femvi
     >>> sol = femvi.solve(femvi.model_problem("harmonic"), t_span=(0.0, 1.0), dt=0.5)
@@ -59,6 +61,8 @@ class Solution:
         self.multipliers: Optional[np.ndarray] = raw.get("multipliers")
         self.constraint_residual: Optional[np.ndarray] = raw.get("constraint_residual")
         self.max_constraint_residual: Optional[float] = raw.get("max_constraint_residual")
+        #: The names of the problem's rotations (``[system] rotations``; see :meth:`rotation`).
+        self.rotations: List[str] = list(raw.get("rotations", []))
 
     def __len__(self) -> int:
         return len(self.t)
@@ -87,6 +91,33 @@ class Solution:
         True
         """
         return self.p[-1]
+
+    def rotation(self, name: str) -> SimpleNamespace:
+        """Rotation ``name`` at the kept nodes: ``R`` (N, 3, 3), body to space; ``w`` (N, 3),
+        the body angular velocity vee(RᵀṘ) from the nodes' velocities; ``pi`` (N, 3), the body
+        angular momentum 2 vee(RᵀP) of the nodes' momenta P = ½ R Π̂; ``axes`` (N, 3, 3), the
+        body axes in space (``axes[:, :, a]`` = R e_a).
+
+        >>> import femvi, numpy as np
+        >>> sol = femvi.solve(femvi.model_problem("rigid-body"), t_span=(0.0, 1.0), dt=0.01)
+        >>> body = sol.rotation("R")
+        >>> bool(np.abs(np.einsum("nji,njk->nik", body.R, body.R) - np.eye(3)).max() < 1e-14)
+        True
+        >>> bool(np.abs(np.linalg.norm(body.pi, axis=1) - np.linalg.norm(body.pi[0])).max() < 1e-13)
+        True
+        """
+        if name not in self.rotations:
+            raise KeyError(f"no rotation {name!r}; the problem's rotations: {self.rotations}")
+        o = 9 * self.rotations.index(name)
+        r = self.q[:, o:o + 9].reshape(-1, 3, 3)
+
+        def vee(a: np.ndarray) -> np.ndarray:
+            return 0.5 * np.stack([a[:, 2, 1] - a[:, 1, 2], a[:, 0, 2] - a[:, 2, 0], a[:, 1, 0] - a[:, 0, 1]], axis=1)
+
+        rt = np.transpose(r, (0, 2, 1))
+        w = vee(rt @ self.v[:, o:o + 9].reshape(-1, 3, 3))
+        pi = 2.0 * vee(rt @ self.p[:, o:o + 9].reshape(-1, 3, 3))
+        return SimpleNamespace(R=r, w=w, pi=pi, axes=r)
 
     def _state(self, t: Any):
         if self._dense is None:

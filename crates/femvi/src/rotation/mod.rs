@@ -44,6 +44,7 @@
 mod action;
 mod body;
 mod body_state;
+pub(crate) mod dense;
 mod layout;
 mod run;
 pub mod so3;

@@ -272,6 +272,32 @@ pub fn to_quaternion(r: &Mat3<f64>) -> [f64; 4] {
     }
 }
 
+/// The logarithm of a rotation of angle below π: ψ with exp(ψ̂) = R, from
+/// ψ = θ/sin θ · vee(R) (vee takes the skew part) and cos θ = (tr R − 1)/2; near θ = 0 the
+/// factor is its series 1 + θ²/6 + 7θ⁴/360. Near θ = π the axis is ill-conditioned (the
+/// elements of a run turn far less in a step).
+///
+/// # Example
+/// ```
+/// use femvi::rotation::so3::{exp, log};
+/// let psi = [0.3, -0.2, 0.5];
+/// let back = log(&exp(&psi));
+/// assert!((0..3).all(|c| (back[c] - psi[c]).abs() < 1e-15));
+/// ```
+pub fn log(r: &Mat3<f64>) -> [f64; 3] {
+    let c = ((r[0] + r[4] + r[8] - 1.0) * 0.5).clamp(-1.0, 1.0);
+    let skew = vee(r);
+    let s = (skew[0] * skew[0] + skew[1] * skew[1] + skew[2] * skew[2]).sqrt();
+    let theta = s.atan2(c);
+    let factor = if theta < 1e-4 {
+        let t2 = theta * theta;
+        1.0 + t2 / 6.0 + 7.0 * t2 * t2 / 360.0
+    } else {
+        theta / theta.sin()
+    };
+    skew.map(|x| x * factor)
+}
+
 /// max |RᵀR − 1| over the entries: how far a matrix is from SO(3)'s orthogonality.
 pub fn orthogonality_defect(r: &Mat3<f64>) -> f64 {
     let g = mul_tn(r, r);

@@ -273,6 +273,10 @@ impl<L: Lagrangian> StepTerm for RotationTerm<'_, L> {
         self.defect
     }
 
+    fn rotations(&self) -> Option<&Rotations> {
+        Some(&self.layout)
+    }
+
     fn chart_dim(&self) -> Option<usize> {
         Some(2 * self.layout.slots())
     }

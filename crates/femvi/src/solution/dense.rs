@@ -14,6 +14,9 @@ use crate::lagrangian::{Lagrangian, PointDerivatives};
 pub(crate) struct ElementEval {
     l: Vec<f64>,
     dl: Vec<f64>,
+    /// The offsets of the rotation blocks of a run with rotations: each follows its
+    /// Lie-group element's path (`rotation/dense.rs`), not the polynomial in its entries.
+    rotations: Vec<usize>,
 }
 
 impl ElementEval {
@@ -21,6 +24,15 @@ impl ElementEval {
         Self {
             l: vec![0.0; nodes],
             dl: vec![0.0; nodes],
+            rotations: Vec::new(),
+        }
+    }
+
+    /// The rotation blocks at `offsets` follow their elements' paths (no allocation when
+    /// they are already set).
+    pub(crate) fn set_rotations(&mut self, offsets: &[usize]) {
+        if self.rotations != offsets {
+            self.rotations = offsets.to_vec();
         }
     }
 
@@ -64,6 +76,9 @@ impl ElementEval {
             }
             q[c] = base[c] + dq;
             v[c] = dv / h;
+        }
+        for &o in &self.rotations {
+            crate::rotation::dense::eval_block((&self.l, &self.dl), (h, base, incr), o, q, v);
         }
     }
 }
@@ -114,6 +129,8 @@ pub struct DenseOutput {
     incr: Vec<f64>,
     /// The last node (t, q, p, v).
     end: (f64, Vec<f64>, Vec<f64>, Vec<f64>),
+    /// The offsets of the rotation blocks (their elements' paths, `rotation/dense.rs`).
+    rotations: Vec<usize>,
 }
 
 impl DenseOutput {
@@ -129,7 +146,14 @@ impl DenseOutput {
             v: vec![],
             incr: vec![],
             end: (t0, q0.to_vec(), p0.to_vec(), v0.to_vec()),
+            rotations: Vec::new(),
         }
+    }
+
+    /// The rotation blocks at `offsets` follow their elements' paths.
+    pub(crate) fn with_rotations(mut self, offsets: &[usize]) -> Self {
+        self.rotations = offsets.to_vec();
+        self
     }
 
     /// Appends the element [t0, t0 + h] from the node (q_k, p_k, v_k) = (`base`, `pv.0`,
@@ -195,7 +219,9 @@ impl DenseOutput {
         match self.locate(t)? {
             Some(k) => {
                 let (base, incr) = (&self.base[k * n..(k + 1) * n], &self.incr[k * w..(k + 1) * w]);
-                ElementEval::new(self.basis.len()).eval(&self.basis, self.t[k], self.h[k], base, incr, t, q, v);
+                let mut eval = ElementEval::new(self.basis.len());
+                eval.set_rotations(&self.rotations);
+                eval.eval(&self.basis, self.t[k], self.h[k], base, incr, t, q, v);
                 if t == self.t[k] {
                     q.copy_from_slice(base); // the node, bit for bit (also a −0.0)
                     v.copy_from_slice(&self.v[k * n..(k + 1) * n]);

@@ -112,6 +112,10 @@ impl<L: Lagrangian> Observer<L> for EventLocator {
             return Ok(());
         }
         let k = it.node().k;
+        // Rotations follow their elements' paths between nodes (also after a restore).
+        self.detector
+            .eval
+            .set_rotations(it.rotations().map_or(&[][..], |r| r.offsets()));
         let Some(el) = it.last_element().filter(|_| k > 0) else {
             return Ok(());
         };

@@ -28,7 +28,7 @@ mod located;
 mod record;
 mod solve;
 
-pub(crate) use solve::{grid, solve_on};
+pub(crate) use solve::grid;
 
 pub use dense::DenseOutput;
 pub use energy::{EnergyReport, EnergyTracker, NodeEnergy};
@@ -36,7 +36,7 @@ pub use energy_nodes::EnergyNodes;
 pub use events::{Condition, Direction, Event, EventRecord};
 pub(crate) use events::{Detector, Piece};
 pub use located::EventLocator;
-pub use solve::{solve, solve_with};
+pub use solve::{solve, solve_on, solve_with};
 
 use crate::error::Error;
 use crate::step::{EnergyOptions, EnergyStats, SolverOptions, Start};

@@ -219,14 +219,15 @@ impl<L: Lagrangian> Observer<L> for Recorder {
             self.node_h = finite_energy(h, node.k, node.t)?;
         }
         if self.prev.is_none() {
+            // Rotations follow their elements' paths between nodes.
+            let rotations = it.rotations().map_or(&[][..], |r| r.offsets());
+            self.eval.set_rotations(rotations);
+            if let Some(d) = self.detector.as_mut() {
+                d.eval.set_rotations(rotations);
+            }
             if self.dense_wanted {
-                self.dense = Some(DenseOutput::new(
-                    self.basis.clone(),
-                    node.t,
-                    node.q,
-                    node.p,
-                    &self.node_v,
-                ));
+                let dense = DenseOutput::new(self.basis.clone(), node.t, node.q, node.p, &self.node_v);
+                self.dense = Some(dense.with_rotations(rotations));
             }
             self.prev = Some(PrevNode {
                 k: node.k,

@@ -69,13 +69,38 @@ pub fn solve_with<L: Lagrangian>(
 }
 
 /// Drives `it`, a run of `problem` set up by the caller (plain, energy mode, or with a term
-/// such as [`Integrator::with_force`]), with the recorder of `options` before `observers`,
-/// and returns its [`Solution`]: kept nodes, `saveat`, dense output and events on the
-/// element polynomials of whatever the integrator solved.
+/// such as [`Integrator::with_force`] or [`Integrator::with_rotations`]), with the recorder
+/// of `options` before `observers`, and returns its [`Solution`]: kept nodes, `saveat`, dense
+/// output and events on the elements of whatever the integrator solved (for rotations, each
+/// element's path R_k exp(ζ̂(τ)) on SO(3)). The steps are the integrator's: `options.steps`
+/// is not read.
 ///
 /// # Errors
 /// The recorder's refusal of the options (`saveat` not increasing).
-pub(crate) fn solve_on<L: Lagrangian>(
+///
+/// # Example
+///
+/// ```
+/// use femvi::rotation::{embedded_velocity, so3::orthogonality_defect, Rotations};
+/// use femvi::solution::solve_on;
+/// use femvi::{models::RigidBody, Element, Integrator, Problem, SolveOptions, Start, TimeGrid};
+/// let body = RigidBody::free([1.0, 2.0, 3.0])?;
+/// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+/// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+/// let problem = Problem::new(body, start, 0.0, 1.0);
+/// let element = Element::with_order(4)?;
+/// let grid = TimeGrid::uniform(0.0, 0.1, 1.0)?;
+/// let layout = Rotations::new(9, &[0])?;
+/// let mut it = Integrator::with_rotations(&problem.lagrangian, &element, grid, problem.start.clone(), Default::default(), layout)?;
+/// let options = SolveOptions { dense: true, ..SolveOptions::step(0.1) };
+/// let sol = solve_on(&mut it, &problem, &element, &options, &mut [])?;
+/// // Between nodes R is the element's path, a rotation.
+/// let mut q = [0.0; 9];
+/// sol.dense.as_ref().expect("asked for").q_at(0.55, &mut q)?;
+/// assert!(orthogonality_defect(&q) < 1e-14);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn solve_on<L: Lagrangian>(
     it: &mut Integrator<'_, L>,
     problem: &Problem<L>,
     element: &Element,

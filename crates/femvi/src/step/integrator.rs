@@ -181,6 +181,12 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         self.term.as_ref().and_then(|term| term.defect())
     }
 
+    /// The rotation blocks of a run with rotations ([`Integrator::with_rotations`]); None
+    /// otherwise.
+    pub fn rotations(&self) -> Option<&crate::rotation::Rotations> {
+        self.term.as_ref().and_then(|term| term.rotations())
+    }
+
     /// Whether the run has a term that does work (forces, with or without constraints):
     /// [`Integrator::work`] is then its discrete work.
     pub fn has_work(&self) -> bool {

@@ -89,6 +89,11 @@ pub(crate) trait StepTerm {
         None
     }
 
+    /// The rotation blocks of a run with rotations; None for other terms.
+    fn rotations(&self) -> Option<&crate::rotation::Rotations> {
+        None
+    }
+
     /// The length of one tangent vector of the run when the term carries them in its own
     /// coordinates (2·slots: the canonical chart coordinates (ψ, p_ψ) of T*SO(3) for each
     /// rotation, (δq, δp) for each ordinary coordinate); None for (δq, δp) of length 2n.

@@ -53,6 +53,7 @@ mod paper_formulas;
 mod rattle_exact;
 mod rotations;
 mod rotations_chaos;
+mod rotations_dense;
 mod rotations_forced;
 mod setup_scale;
 mod solution;
