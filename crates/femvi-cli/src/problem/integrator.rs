@@ -26,7 +26,8 @@ impl Problem {
     /// ```
     /// let text = "[system]\nmodel = \"rigid-body\"\n[initial]\nR_quaternion = [1.0, 0.0, 0.0, 0.0]\n\
     ///             R_w = [0.5, 1.0, 0.3]\n[time]\nstep = 0.01\nend = 0.1\n";
-    /// let problem = femvi_cli::problem::load_text(std::path::Path::new("body.toml"), text, &[])?;
+    /// let problem = femvi_cli::problem::load_text(std::path::Path::new("body.toml"), text, &[])
+    ///     .map_err(|e| e.to_string())?;
     /// let femvi_cli::problem::System::Rigid(lag) = &problem.system else { unreachable!() };
     /// let mut it = problem
     ///     .integrator(lag, &problem.element, problem.grid.clone(), problem.start.clone(), problem.energy)
@@ -34,7 +35,7 @@ impl Problem {
     /// while it.step().map_err(|e| e.to_string())? {}
     /// // The Lie-group element: the body angular momentum is at the node.
     /// assert_eq!(it.node_rotations().map(|b| b.len()), Some(1));
-    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// # Ok::<(), String>(())
     /// ```
     pub fn integrator<'a, L: Lagrangian + Sync>(
         &'a self,
