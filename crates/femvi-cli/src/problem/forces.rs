@@ -20,7 +20,7 @@ pub struct ForcesTable {
     /// A Rayleigh dissipation function R(t, q, q_dot); the force is −∂R/∂q_dot.
     pub dissipation: Option<toml::Spanned<String>>,
     /// Torques on rotations, in their body frames: `{ R = ["τ1", "τ2", "τ3"] }`
-    /// ([`super::torques`]).
+    /// (`problem/torques.rs`).
     pub torques: Option<super::torques::TorqueTable>,
 }
 
