@@ -6,10 +6,24 @@ import os
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[3]
 EXAMPLES = ROOT / "examples"
+
+
+def same(a, b):
+    """Whether two arrays have the same shape and the same bits."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return a.shape == b.shape and (a.view(np.uint64) == b.view(np.uint64)).all()
+
+
+def columns(rows):
+    """trajectory.csv rows (header first) as a dict column name -> array."""
+    header, body = rows[0], rows[1:]
+    table = np.array([[float(x) for x in r] for r in body])
+    return {name: table[:, i] for i, name in enumerate(header)}
 
 
 @pytest.fixture(scope="session")

@@ -4,18 +4,13 @@ import numpy as np
 import pytest
 
 import femvi
-from conftest import EXAMPLES
+from conftest import EXAMPLES, same
 
 PROBLEMS = [
     "kepler", "pendulum", "henon-heiles", "double-pendulum", "variable-steps",
     "energy-henon-heiles", "harmonic-q1-start", "kepler-accuracy", "henon-heiles-section",
     "relativistic-kepler",
 ]
-
-
-def same(a, b):
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return a.shape == b.shape and (a.view(np.uint64) == b.view(np.uint64)).all()
 
 
 @pytest.mark.parametrize("name", PROBLEMS)

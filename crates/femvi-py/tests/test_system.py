@@ -11,12 +11,7 @@ from sympy.physics.mechanics import Lagrangian, Particle, Point, ReferenceFrame,
 from sympy.parsing.sympy_parser import convert_xor, parse_expr, standard_transformations
 
 import femvi
-from conftest import EXAMPLES
-
-
-def same(a, b):
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return a.shape == b.shape and (a.view(np.uint64) == b.view(np.uint64)).all()
+from conftest import EXAMPLES, same
 
 
 def same_solution(a, b):

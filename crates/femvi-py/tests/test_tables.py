@@ -7,18 +7,7 @@ import numpy as np
 import pytest
 
 import femvi
-from conftest import EXAMPLES
-
-
-def same(a, b):
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return a.shape == b.shape and (a.view(np.uint64) == b.view(np.uint64)).all()
-
-
-def columns(rows):
-    header, body = rows[0], rows[1:]
-    table = np.array([[float(x) for x in r] for r in body])
-    return {name: table[:, i] for i, name in enumerate(header)}
+from conftest import EXAMPLES, columns, same
 
 
 @pytest.mark.parametrize("name", [
