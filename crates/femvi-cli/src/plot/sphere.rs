@@ -23,6 +23,20 @@ const MAX_POINTS: usize = 5_000;
 ///
 /// # Errors
 /// The file cannot be written.
+///
+/// # Example
+///
+/// ```
+/// use femvi_cli::plot::{sphere::{sphere, Curve}, Format};
+/// let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+/// let equator = Curve {
+///     name: "e1".into(),
+///     points: (0..64).map(|k| { let a = 0.1 * k as f64; [a.cos(), a.sin(), 0.0] }).collect(),
+/// };
+/// sphere(&dir.path().join("axes.svg"), Format::Svg, "a turn about z", &[equator])?;
+/// assert!(dir.path().join("axes.svg").exists());
+/// # Ok::<(), String>(())
+/// ```
 pub fn sphere(path: &Path, format: Format, title: &str, curves: &[Curve]) -> Result<(), String> {
     register_font();
     match format {

@@ -183,6 +183,20 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
 
     /// The rotation blocks of a run with rotations ([`Integrator::with_rotations`]); None
     /// otherwise.
+    ///
+    /// # Example
+    ///
+    /// ```
+    /// use femvi::rotation::{embedded_velocity, Rotations};
+    /// use femvi::{models::RigidBody, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let body = RigidBody::free([1.0, 2.0, 3.0])?;
+    /// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+    /// let (element, grid) = (Element::with_order(2)?, TimeGrid::uniform(0.0, 0.1, 1.0)?);
+    /// let it = Integrator::with_rotations(&body, &element, grid, start, SolverOptions::default(), Rotations::new(9, &[0])?)?;
+    /// assert_eq!(it.rotations().map(|r| r.offsets().to_vec()), Some(vec![0]));
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
     pub fn rotations(&self) -> Option<&crate::rotation::Rotations> {
         self.term.as_ref().and_then(|term| term.rotations())
     }
