@@ -6,12 +6,14 @@
 //! solvers need only the force −∇V, which the user may hand-code for large systems.
 
 mod directional;
+mod lanes;
 mod legendre;
 mod mass;
 mod mechanical;
 mod one_pass;
 mod point;
 
+pub use lanes::{Lanes, LANES};
 pub use legendre::DEGENERATE_CONDITION;
 pub use mass::MassMatrix;
 pub use mechanical::Mechanical;
@@ -124,6 +126,43 @@ pub trait Lagrangian {
         for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
             self.force(ti, qi, oi);
         }
+    }
+
+    /// The force at [`LANES`] points at once, all at time t, coordinate by coordinate:
+    /// `q[c][l]` is coordinate c of point l and `out[c][l]` receives component c of
+    /// [`Lagrangian::force`] at point l, with the same bits. Ensembles advance [`LANES`]
+    /// members a step at a time through it ([`crate::ensemble`]). Default: one `force`
+    /// call per lane; mechanical systems take their potential's
+    /// ([`Potential::force_lanes`]).
+    ///
+    /// ```
+    /// use femvi::{models, Lagrangian, LANES};
+    /// let kepler = models::kepler(1.0)?;
+    /// let q = [[1.0, 2.0, 0.5, 3.0, -1.0, 0.25, 4.0, -2.0], [0.5; LANES]];
+    /// let mut f = [[0.0; LANES]; 2];
+    /// kepler.force_lanes(0.0, &q, &mut f);
+    /// let mut one = [0.0; 2];
+    /// kepler.force(0.0, &[q[0][3], q[1][3]], &mut one);
+    /// assert_eq!([f[0][3], f[1][3]], one);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    fn force_lanes(&self, t: f64, q: &[Lanes], out: &mut [Lanes]) {
+        lanes::force_per_lane(self, t, q, out);
+    }
+
+    /// [`Lagrangian::potential_value`] at [`LANES`] points at once (stored as for
+    /// [`Lagrangian::force_lanes`]), with the same bits; None where that is None. Default:
+    /// lane by lane.
+    ///
+    /// ```
+    /// use femvi::{models, Lagrangian, LANES};
+    /// let kepler = models::kepler(1.0)?;
+    /// let v = kepler.potential_lanes(0.0, &[[2.0; LANES], [0.0; LANES]]);
+    /// assert_eq!(v, Some([-0.5; LANES]));
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    fn potential_lanes(&self, t: f64, q: &[Lanes]) -> Option<Lanes> {
+        lanes::value_per_lane(q, |x| self.potential_value(t, x))
     }
 
     /// The derivative of [`Lagrangian::force`] along dq, (∂f/∂q)(t, q)·dq (for a mechanical
@@ -314,6 +353,18 @@ pub trait Potential {
         for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
             self.force(ti, qi, oi);
         }
+    }
+
+    /// As [`Lagrangian::force_lanes`]: −∇V at [`LANES`] points at once, the bits of
+    /// [`Potential::force`]. Default: one `force` call per lane.
+    fn force_lanes(&self, t: f64, q: &[Lanes], out: &mut [Lanes]) {
+        lanes::potential_force_per_lane(self, t, q, out);
+    }
+
+    /// V at [`LANES`] points at once (as [`Lagrangian::potential_lanes`]), the bits of
+    /// [`Potential::value`]. Default: lane by lane.
+    fn value_lanes(&self, t: f64, q: &[Lanes]) -> Lanes {
+        lanes::value_per_lane(q, |x| Some(self.value(t, x))).unwrap_or([f64::NAN; LANES])
     }
 
     /// The derivative of [`Potential::force`] along dq, −∇²V(t, q)·dq, into `out` (see

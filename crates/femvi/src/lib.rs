@@ -21,6 +21,7 @@ pub mod chaos;
 pub mod constraints;
 pub mod diagnostics;
 pub mod discrete;
+pub mod ensemble;
 pub mod error;
 pub mod expr;
 pub mod fem;
@@ -37,7 +38,7 @@ pub use adaptive::{solve_adaptive, AdaptiveOptions, AdaptiveSolution};
 pub use discrete::{Element, ElementWork};
 pub use error::{Error, Result, StepError, StepFailure};
 pub use fem::{NodeFamily, QuadratureKind};
-pub use lagrangian::{Lagrangian, MassMatrix, Mechanical, Potential, Scalar};
+pub use lagrangian::{Lagrangian, Lanes, MassMatrix, Mechanical, Potential, Scalar, LANES};
 pub use solution::{solve, Problem, Solution, SolveOptions, Steps};
 pub use step::{Degenerate, EnergyOptions, EnergyStats, Integrator, Method, SolverOptions, Start, TimeGrid};
 

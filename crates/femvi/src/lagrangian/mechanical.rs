@@ -3,7 +3,7 @@
 //! its parts) the fast solvers call directly; first and second derivatives without automatic
 //! differentiation of the kinetic part (the paper's examples, (2.18), are of this form).
 
-use super::{Lagrangian, MassMatrix, PointDerivatives, Potential, Scalar};
+use super::{Lagrangian, Lanes, MassMatrix, PointDerivatives, Potential, Scalar};
 use crate::error::Result;
 use num_dual::Dual64;
 
@@ -78,6 +78,16 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
 
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         self.potential.forces(t, q, out);
+    }
+
+    #[inline]
+    fn force_lanes(&self, t: f64, q: &[Lanes], out: &mut [Lanes]) {
+        self.potential.force_lanes(t, q, out);
+    }
+
+    #[inline]
+    fn potential_lanes(&self, t: f64, q: &[Lanes]) -> Option<Lanes> {
+        Some(self.potential.value_lanes(t, q))
     }
 
     fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) -> bool {

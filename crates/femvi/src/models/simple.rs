@@ -13,7 +13,7 @@
 
 use super::finite;
 use crate::error::Result;
-use crate::lagrangian::{MassMatrix, Mechanical, Potential, Scalar};
+use crate::lagrangian::{Lanes, MassMatrix, Mechanical, Potential, Scalar, LANES};
 
 /// V = k/2 x².
 #[derive(Debug, Clone, Copy)]
@@ -117,6 +117,28 @@ impl Potential for KeplerPotential {
         out[0] = k * q[0];
         out[1] = k * q[1];
     }
+    /// The scalar force's operations on every lane (the same bits), in vector registers.
+    #[inline]
+    fn force_lanes(&self, _t: f64, q: &[Lanes], out: &mut [Lanes]) {
+        let ([x, y], [fx, fy]) = (q, out) else { return };
+        for l in 0..LANES {
+            let r2 = x[l] * x[l] + y[l] * y[l];
+            let k = -self.mu / (r2 * r2.sqrt());
+            fx[l] = k * x[l];
+            fy[l] = k * y[l];
+        }
+    }
+    /// −μ/r lane by lane, as `value` forms it.
+    #[inline]
+    fn value_lanes(&self, _t: f64, q: &[Lanes]) -> Lanes {
+        let mut v = [f64::NAN; LANES];
+        if let [x, y] = q {
+            for l in 0..LANES {
+                v[l] = -(1.0 / (x[l] * x[l] + y[l] * y[l]).sqrt()) * self.mu;
+            }
+        }
+        v
+    }
     fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         // f = −μ q / r³: ∂f_i/∂q_j = −μ (δ_ij − 3 q_i q_j / r²) / r³.
         let r2 = q[0] * q[0] + q[1] * q[1];
@@ -156,6 +178,26 @@ impl Potential for HenonHeilesPotential {
         let (x, y) = (q[0], q[1]);
         out[0] = -(x + 2.0 * x * y);
         out[1] = -(y + x * x - y * y);
+    }
+    #[inline]
+    fn force_lanes(&self, _t: f64, q: &[Lanes], out: &mut [Lanes]) {
+        let ([x, y], [fx, fy]) = (q, out) else { return };
+        for l in 0..LANES {
+            let (x, y) = (x[l], y[l]);
+            fx[l] = -(x + 2.0 * x * y);
+            fy[l] = -(y + x * x - y * y);
+        }
+    }
+    #[inline]
+    fn value_lanes(&self, _t: f64, q: &[Lanes]) -> Lanes {
+        let mut v = [f64::NAN; LANES];
+        if let [x, y] = q {
+            for l in 0..LANES {
+                let (x, y) = (x[l], y[l]);
+                v[l] = (x * x + y * y) * 0.5 + x * x * y - y * y * y * (1.0 / 3.0);
+            }
+        }
+        v
     }
     fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         let (x, y) = (q[0], q[1]);

@@ -15,7 +15,6 @@ impl<L: Lagrangian> Integrator<'_, L> {
     pub(super) fn start(&mut self, start: Start) -> Result<()> {
         let n = self.state.n;
         let t0 = self.state.t;
-        let mut work = PointDerivatives::new(n);
         let finite = |what: &str, x: &[f64]| {
             if x.iter().all(|v| v.is_finite()) {
                 Ok(())
@@ -24,35 +23,6 @@ impl<L: Lagrangian> Integrator<'_, L> {
             }
         };
         match start {
-            Start::Velocity { q, v } => {
-                check_len("initial q", n, q.len())?;
-                check_len("initial v", n, v.len())?;
-                finite("initial q", &q)?;
-                finite("initial v", &v)?;
-                check_regular(&*self.lag, t0, &q, &v)?;
-                if let Some(mass) = self.lag.mass_matrix() {
-                    // p = Mv, as first_derivatives computes it, without its force and
-                    // potential (O(N²) each for n bodies: a step's cost at set-up).
-                    mass.apply(&v, &mut self.state.p);
-                } else {
-                    self.lag.first_derivatives(t0, &q, &v, false, &mut work);
-                    self.state.p.copy_from_slice(work.l_v());
-                }
-                self.state.q = q;
-                self.state.v0 = v;
-            }
-            Start::Momentum { q, p } => {
-                check_len("initial q", n, q.len())?;
-                check_len("initial p", n, p.len())?;
-                finite("initial q", &q)?;
-                finite("initial p", &p)?;
-                let mut v = vec![0.0; n];
-                velocity_from_momentum(&*self.lag, t0, &q, &p, &mut v, &mut work)?;
-                check_regular(&*self.lag, t0, &q, &v)?;
-                self.state.q = q;
-                self.state.p = p;
-                self.state.v0 = v;
-            }
             Start::Positions { q0, q1 } => {
                 check_len("initial q", n, q0.len())?;
                 check_len("initial q1", n, q1.len())?;
@@ -69,6 +39,12 @@ impl<L: Lagrangian> Integrator<'_, L> {
                 self.state.p = p0;
                 self.state.v0 = v;
                 self.pending = Some((t1, q1, p1));
+            }
+            start => {
+                let (q, p, v) = initial_node(&*self.lag, t0, start)?;
+                self.state.q = q;
+                self.state.p = p;
+                self.state.v0 = v;
             }
         }
         Ok(())
@@ -126,5 +102,54 @@ impl<L: Lagrangian> Integrator<'_, L> {
         let p1 = grad[s * n..].to_vec();
         self.last.remember(t0, h, q0, &self.inc.incr);
         Ok((p0, p1))
+    }
+}
+
+/// The first node (q0, p0) and velocity v0 of a start from (q0, v0) (p0 = ∂L/∂v) or from
+/// (q0, p0) (v0 by the inverse Legendre transform), after checking the data: what a run
+/// starts from, also for the members of an ensemble taken in lanes ([`crate::ensemble`]).
+///
+/// # Errors
+/// Lengths other than the dimension, non-finite numbers, a singular ∂²L/∂v², or a start
+/// from two positions (which takes the first element's equations: [`Integrator::new`]).
+pub(crate) fn initial_node<L: Lagrangian>(lag: &L, t0: f64, start: Start) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+    let n = lag.dim();
+    let mut work = PointDerivatives::new(n);
+    let finite = |what: &str, x: &[f64]| {
+        if x.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(invalid(what, "contains a non-finite number"))
+        }
+    };
+    match start {
+        Start::Velocity { q, v } => {
+            check_len("initial q", n, q.len())?;
+            check_len("initial v", n, v.len())?;
+            finite("initial q", &q)?;
+            finite("initial v", &v)?;
+            check_regular(lag, t0, &q, &v)?;
+            let mut p = vec![0.0; n];
+            if let Some(mass) = lag.mass_matrix() {
+                // p = Mv, as first_derivatives computes it, without its force and
+                // potential (O(N²) each for n bodies: a step's cost at set-up).
+                mass.apply(&v, &mut p);
+            } else {
+                lag.first_derivatives(t0, &q, &v, false, &mut work);
+                p.copy_from_slice(work.l_v());
+            }
+            Ok((q, p, v))
+        }
+        Start::Momentum { q, p } => {
+            check_len("initial q", n, q.len())?;
+            check_len("initial p", n, p.len())?;
+            finite("initial q", &q)?;
+            finite("initial p", &p)?;
+            let mut v = vec![0.0; n];
+            velocity_from_momentum(lag, t0, &q, &p, &mut v, &mut work)?;
+            check_regular(lag, t0, &q, &v)?;
+            Ok((q, p, v))
+        }
+        Start::Positions { .. } => Err(invalid("start", "from two positions it needs the first element")),
     }
 }

@@ -494,6 +494,16 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         Some(ex.advance_wide(lag, grid, &mut self.state, &mut self.last, max_steps, at_node, radius))
     }
 
+    /// Whether the run's steps are plain Störmer–Verlet steps (the explicit solver with no
+    /// term, no energy mode and no pending first element): what ensembles take in lanes
+    /// ([`crate::ensemble`]).
+    pub(crate) fn plain_explicit(&self) -> bool {
+        matches!(self.solver, Solver::Explicit(_))
+            && self.pending.is_none()
+            && self.energy.is_none()
+            && self.term.is_none()
+    }
+
     /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).
     fn fast_explicit<F: FnMut(Node<'_>) -> bool>(
         &mut self,

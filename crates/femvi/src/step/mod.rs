@@ -78,6 +78,7 @@ pub(crate) use element_work::check_dense_newton;
 pub use element_work::MAX_DENSE_NEWTON;
 pub(crate) use energy::check_bounds as energy_bounds;
 pub use energy::{Degenerate, EnergyOptions, EnergyStats};
+pub(crate) use first::initial_node;
 pub use grid::{TimeGrid, UniformRule};
 pub(crate) use guess::Guess;
 pub use integrator::Integrator;

@@ -1,0 +1,243 @@
+//! Ensembles in SIMD lanes (issue 39 item 2): many runs of one problem (the same Lagrangian,
+//! element and time grid) that differ only in their start, taken [`LANES`] at a time, one
+//! member per lane of a vector register. A run qualifies when its steps are Störmer–Verlet
+//! (degree 1 with the trapezoid rule, the paper's linear element §2.3, on L = ½|v|² − V(q)
+//! with M = I and V autonomous): [`run_in_lanes`] then advances [`LANES`] members a step at
+//! a time through [`Lagrangian::force_lanes`] and [`Lagrangian::potential_lanes`], with
+//! each member's numbers those of its single run ([`crate::step::drive`] with an
+//! [`crate::solution::EnergyTracker`] at every node) bit for bit: the same IEEE operations
+//! in the same order, lane by lane. The loop is compiled three times, for AVX-512, AVX2
+//! and the baseline instruction set, and the processor's best is taken at run time; no
+//! variant contracts a product and a sum into a fused multiply-add (Rust never does), so
+//! all three give the same bits. Chunks of [`LANES`] members run in parallel on rayon's
+//! current pool (threads × lanes).
+//!
+//! # Example
+//!
+//! ```
+//! use femvi::ensemble::{in_lanes, run_in_lanes};
+//! use femvi::step::{drive, Observer};
+//! use femvi::solution::EnergyTracker;
+//! use femvi::{models, Element, Integrator, NodeFamily, QuadratureKind, SolverOptions, Start, TimeGrid};
+//!
+//! let kepler = models::kepler(1.0)?;
+//! let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid)?;
+//! let grid = TimeGrid::uniform(0.0, 0.01, 10.0)?;
+//! let starts: Vec<Start> = (0..20)
+//!     .map(|i| Start::Momentum { q: vec![1.0, 0.0], p: vec![0.0, 0.8 + 0.01 * i as f64] })
+//!     .collect();
+//! let template = Integrator::new(&kepler, &verlet, grid.clone(), starts[0].clone(), SolverOptions::default())?;
+//! assert!(in_lanes(&template));
+//! let ends = run_in_lanes(&template, &starts, &|_| {}).expect("Störmer–Verlet on Kepler");
+//!
+//! // Member 7 against its single run.
+//! let mut single = Integrator::new(&kepler, &verlet, grid, starts[7].clone(), SolverOptions::default())?;
+//! while single.step()? {}
+//! let end = ends[7].as_ref().expect("member 7 starts");
+//! assert_eq!(end.q, single.node().q);
+//! assert_eq!(end.p, single.node().p);
+//! assert_eq!(end.steps, 1000);
+//! # Ok::<(), femvi::Error>(())
+//! ```
+
+mod verlet;
+
+pub use crate::lagrangian::{Lanes, LANES};
+
+use crate::error::{Error, Result};
+use crate::lagrangian::Lagrangian;
+use crate::step::initial_node;
+use crate::step::{Integrator, Start, TimeGrid};
+use rayon::prelude::*;
+use verlet::Starts;
+
+/// How a member of an ensemble ended: what its single run ends with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MemberEnd {
+    /// Index of the last node (the steps taken from t0).
+    pub k: usize,
+    /// Its time.
+    pub t: f64,
+    /// Positions there.
+    pub q: Vec<f64>,
+    /// Momenta there, as [`Integrator::node`] gives them.
+    pub p: Vec<f64>,
+    /// Steps taken.
+    pub steps: usize,
+    /// The largest relative energy error |H − H0| / |H0| over the nodes, as
+    /// [`crate::solution::EnergyTracker`] reports it when shown every node.
+    pub energy_error: f64,
+    /// The step that failed (a node that is not finite), if any.
+    pub error: Option<Error>,
+}
+
+/// Whether members of the run `template` (an integrator at its start) step in lanes: its
+/// steps are Störmer–Verlet ([`Integrator::step`] takes the explicit solver, with no force,
+/// constraint or energy mode), M = I, V autonomous and known
+/// ([`Lagrangian::potential_value`]), and n is 1, 2, 3, 4 or 6 (the sizes whose carried
+/// values stay in registers). See the [module](self) for an example.
+pub fn in_lanes<L: Lagrangian>(template: &Integrator<'_, L>) -> bool {
+    let lag = template.lagrangian();
+    let node = template.node();
+    template.plain_explicit()
+        && lag.mass_matrix().is_some_and(|m| m.is_identity())
+        && lag.is_autonomous()
+        && lag.potential_value(node.t, node.q).is_some()
+        && matches!(lag.dim(), 1 | 2 | 3 | 4 | 6)
+}
+
+/// Runs the members `starts` of the run `template` (its Lagrangian and grid; [`in_lanes`]
+/// must hold) to the end of the grid, [`LANES`] at a time, chunks in parallel on rayon's
+/// current pool; `done(m)` is called as chunks of m members finish (for a progress
+/// display). Member i's entry is its [`MemberEnd`], or the error its start gives
+/// ([`Integrator::new`]'s: a wrong length, a non-finite number, a start from two
+/// positions). None if [`in_lanes`] does not hold. See the [module](self) for an example.
+pub fn run_in_lanes<L: Lagrangian + Sync>(
+    template: &Integrator<'_, L>,
+    starts: &[Start],
+    done: &(dyn Fn(usize) + Sync),
+) -> Option<Vec<Result<MemberEnd>>> {
+    run_in_lanes_on(template, starts, Width::Best, done)
+}
+
+/// [`run_in_lanes`] with the loop compiled for `width` (to compare them: every width gives
+/// the same bits).
+///
+/// ```
+/// use femvi::ensemble::{run_in_lanes_on, Width};
+/// use femvi::{models, Element, Integrator, SolverOptions, Start, TimeGrid};
+/// let hh = models::henon_heiles();
+/// let verlet = Element::galerkin(1, femvi::NodeFamily::Equispaced, femvi::QuadratureKind::Trapezoid)?;
+/// let grid = TimeGrid::uniform(0.0, 0.05, 5.0)?;
+/// let starts: Vec<Start> = (0..9).map(|i| Start::Momentum { q: vec![0.0, 0.1], p: vec![0.05 * i as f64, 0.0] }).collect();
+/// let template = Integrator::new(&hh, &verlet, grid, starts[0].clone(), Default::default())?;
+/// let portable = run_in_lanes_on(&template, &starts, Width::Portable, &|_| {}).expect("in lanes");
+/// let best = run_in_lanes_on(&template, &starts, Width::Best, &|_| {}).expect("in lanes");
+/// assert_eq!(portable, best);
+/// # Ok::<(), femvi::Error>(())
+/// ```
+pub fn run_in_lanes_on<L: Lagrangian + Sync>(
+    template: &Integrator<'_, L>,
+    starts: &[Start],
+    width: Width,
+    done: &(dyn Fn(usize) + Sync),
+) -> Option<Vec<Result<MemberEnd>>> {
+    if !in_lanes(template) {
+        return None;
+    }
+    let (lag, grid) = (template.lagrangian(), template.grid());
+    macro_rules! sized {
+        ($N:literal) => {
+            starts
+                .par_chunks(LANES)
+                .flat_map_iter(|chunk| {
+                    let ends = chunk_of::<L, $N>(lag, grid, chunk, width);
+                    done(chunk.len());
+                    ends
+                })
+                .collect()
+        };
+    }
+    Some(match lag.dim() {
+        1 => sized!(1),
+        2 => sized!(2),
+        3 => sized!(3),
+        4 => sized!(4),
+        6 => sized!(6),
+        _ => return None,
+    })
+}
+
+/// Which compiled variant of the lane loop runs ([`run_in_lanes_on`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Width {
+    /// The widest the processor has.
+    Best,
+    /// The baseline instruction set (SSE2 on x86-64).
+    Portable,
+    /// AVX2 (if the processor has it; the portable loop otherwise).
+    Avx2,
+    /// AVX-512F (if the processor has it; the portable loop otherwise).
+    Avx512,
+}
+
+/// One chunk of at most [`LANES`] members: the starts checked and made into nodes, the
+/// lanes of members whose start fails filled with a member that starts (their numbers
+/// dropped), and the loop of `width`.
+pub(crate) fn chunk_of<L: Lagrangian, const N: usize>(
+    lag: &L,
+    grid: &TimeGrid,
+    chunk: &[Start],
+    width: Width,
+) -> Vec<Result<MemberEnd>> {
+    let t0 = grid.t0();
+    let nodes: Vec<Result<(Vec<f64>, Vec<f64>)>> = chunk
+        .iter()
+        .map(|s| initial_node(lag, t0, s.clone()).map(|(q, p, _)| (q, p)))
+        .collect();
+    let Some(fill) = nodes.iter().find_map(|n| n.as_ref().ok()) else {
+        // No member of the chunk starts: their errors are all there is.
+        return nodes.into_iter().filter_map(Result::err).map(Err).collect();
+    };
+    let mut s = Starts {
+        q: [[0.0; LANES]; N],
+        p: [[0.0; LANES]; N],
+    };
+    for l in 0..LANES {
+        let (q, p) = match nodes.get(l) {
+            Some(Ok(node)) => node,
+            _ => fill,
+        };
+        for i in 0..N {
+            s.q[i][l] = q.get(i).copied().unwrap_or(f64::NAN);
+            s.p[i][l] = p.get(i).copied().unwrap_or(f64::NAN);
+        }
+    }
+    let ends = run_width::<L, N>(lag, grid, &s, width);
+    nodes
+        .into_iter()
+        .zip(ends)
+        .map(|(node, end)| node.map(|_| end))
+        .collect()
+}
+
+/// The lane loop compiled for `width` (or the best the processor has).
+fn run_width<L: Lagrangian, const N: usize>(lag: &L, grid: &TimeGrid, s: &Starts<N>, width: Width) -> Vec<MemberEnd> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        match width {
+            // SAFETY: the processor has the instruction set the variant is compiled for.
+            Width::Best | Width::Avx512 if avx512 => return unsafe { x86::avx512::<L, N>(lag, grid, s) },
+            Width::Best | Width::Avx2 if avx2 => return unsafe { x86::avx2::<L, N>(lag, grid, s) },
+            _ => {}
+        }
+    }
+    let _ = width;
+    verlet::run::<L, N>(lag, grid, s)
+}
+
+/// The lane loop compiled with wider vector instructions (the same operations).
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::verlet::{self, Starts};
+    use super::MemberEnd;
+    use crate::lagrangian::Lagrangian;
+    use crate::step::TimeGrid;
+
+    /// With AVX-512F: a lane loop of eight doubles is one register.
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn avx512<L: Lagrangian, const N: usize>(lag: &L, grid: &TimeGrid, s: &Starts<N>) -> Vec<MemberEnd> {
+        verlet::run::<L, N>(lag, grid, s)
+    }
+
+    /// With AVX2: two registers.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn avx2<L: Lagrangian, const N: usize>(lag: &L, grid: &TimeGrid, s: &Starts<N>) -> Vec<MemberEnd> {
+        verlet::run::<L, N>(lag, grid, s)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,196 @@
+//! Members in lanes against their single runs, bit for bit: every compiled width, Kepler
+//! and Hénon–Heiles (hand-written lane code) and a potential with the per-lane default,
+//! uniform and variable grids, members that fail mid-run or at their first step, starts that
+//! fail, and chunks that are not full.
+
+use super::*;
+use crate::solution::EnergyTracker;
+use crate::{models, Element, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions};
+
+fn verlet() -> Element {
+    Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).expect("Störmer–Verlet")
+}
+
+/// The single run of `start`: stepped to the end (or its failure) with the energy tracker
+/// shown every node, as `femvi ensemble` drives a member.
+fn single<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start) -> Result<MemberEnd> {
+    let el = verlet();
+    let mut it = Integrator::new(lag, &el, grid.clone(), start.clone(), SolverOptions::default())?;
+    let n = lag.dim();
+    let mut tracker = EnergyTracker::new(n, start, lag.is_autonomous());
+    let node = it.node();
+    tracker.node(lag, node.t, node.q, node.p)?;
+    let error = loop {
+        match it.step() {
+            Ok(true) => {
+                let node = it.node();
+                tracker.node(lag, node.t, node.q, node.p)?;
+            }
+            Ok(false) => break None,
+            Err(e) => break Some(e),
+        }
+    };
+    let node = it.node();
+    Ok(MemberEnd {
+        k: node.k,
+        t: node.t,
+        q: node.q.to_vec(),
+        p: node.p.to_vec(),
+        steps: node.k,
+        energy_error: tracker.report().max_rel_error,
+        error,
+    })
+}
+
+/// Bit patterns, so that NaN = NaN and 0 ≠ −0.
+fn bits(x: &[f64]) -> Vec<u64> {
+    x.iter().map(|v| v.to_bits()).collect()
+}
+
+/// Every member of `starts` in lanes of every width equals its single run bit for bit.
+fn agree<L: Lagrangian + Sync, const N: usize>(lag: &L, grid: &TimeGrid, starts: &[Start]) -> usize {
+    let mut failures = 0;
+    for width in [Width::Portable, Width::Avx2, Width::Avx512, Width::Best] {
+        let ends: Vec<_> = starts
+            .chunks(LANES)
+            .flat_map(|c| chunk_of::<L, N>(lag, grid, c, width))
+            .collect();
+        assert_eq!(ends.len(), starts.len());
+        failures = 0;
+        for (i, (end, start)) in ends.iter().zip(starts).enumerate() {
+            match (end, single(lag, grid, start)) {
+                (Ok(a), Ok(b)) => {
+                    let at = format!("member {i}, {width:?}");
+                    assert_eq!((a.k, a.steps, a.t.to_bits()), (b.k, b.steps, b.t.to_bits()), "{at}");
+                    assert_eq!(bits(&a.q), bits(&b.q), "{at}: q");
+                    assert_eq!(bits(&a.p), bits(&b.p), "{at}: p");
+                    assert_eq!(a.energy_error.to_bits(), b.energy_error.to_bits(), "{at}: energy");
+                    let msg = |e: &Option<Error>| e.as_ref().map(ToString::to_string);
+                    assert_eq!(msg(&a.error), msg(&b.error), "{at}: error");
+                    failures += usize::from(a.error.is_some());
+                }
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "member {i}: start error"),
+                (a, b) => panic!("member {i}, {width:?}: lanes {a:?}, single {b:?}"),
+            }
+        }
+    }
+    failures
+}
+
+fn momentum(q: [f64; 2], p: [f64; 2]) -> Start {
+    Start::Momentum {
+        q: q.to_vec(),
+        p: p.to_vec(),
+    }
+}
+
+#[test]
+fn kepler_members_equal_their_single_runs_on_every_width() {
+    let lag = models::kepler(1.0).expect("kepler");
+    let grid = TimeGrid::uniform(0.0, 0.01, 20.0).expect("grid");
+    let mut starts: Vec<Start> = (0..21)
+        .map(|i| momentum([1.0, 0.0], [0.0, 0.5 + 0.04 * i as f64]))
+        .collect();
+    // r² underflows: the force is not finite at the start, the first step fails (k = 0).
+    starts.insert(3, momentum([1e-170, 0.0], [-0.0, 1.0]));
+    // A start that fails: not finite.
+    starts.insert(9, momentum([f64::NAN, 0.0], [0.0, 1.0]));
+    // A start of the wrong length.
+    starts.insert(
+        12,
+        Start::Momentum {
+            q: vec![1.0],
+            p: vec![0.0, 1.0],
+        },
+    );
+    let failed = agree::<_, 2>(&lag, &grid, &starts);
+    assert_eq!(failed, 1, "the member that starts at r ≈ 0 fails at its first step");
+}
+
+#[test]
+fn henon_heiles_members_that_escape_fail_alone() {
+    let lag = models::henon_heiles();
+    let grid = TimeGrid::uniform(0.0, 0.05, 200.0).expect("grid");
+    // Energies below and above the escape energy 1/6: above it some members leave the well
+    // and overflow, mid-run.
+    let starts: Vec<Start> = (0..19)
+        .map(|i| {
+            let e = 0.02 + 0.02 * i as f64;
+            momentum([0.0, 0.1], [(2.0 * e).sqrt(), 0.0])
+        })
+        .collect();
+    let failed = agree::<_, 2>(&lag, &grid, &starts);
+    assert!(failed >= 2, "{failed} members fail");
+    assert!(failed < starts.len() - 4, "{failed} members fail");
+}
+
+/// A potential without lane code: the per-lane defaults, on a variable grid, in 3-D.
+#[derive(Debug, Clone, Copy)]
+struct Anharmonic;
+
+impl Potential for Anharmonic {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
+    fn value<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+        let r2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+        r2 * 0.5 + r2 * r2 * 0.25 + (q[0] * 3.0).sin() * 0.1
+    }
+}
+
+#[test]
+fn the_per_lane_defaults_equal_single_runs_on_a_variable_grid() {
+    let lag = crate::Mechanical::unit_mass(Anharmonic);
+    let grid = TimeGrid::steps(0.0, vec![0.02, 0.035, 0.01], 15.0).expect("grid");
+    let starts: Vec<Start> = (0..11)
+        .map(|i| Start::Velocity {
+            q: vec![0.3, -0.1 * i as f64, 0.2],
+            v: vec![0.1 * i as f64, 0.0, -0.5],
+        })
+        .collect();
+    assert_eq!(agree::<_, 3>(&lag, &grid, &starts), 0);
+}
+
+#[test]
+fn run_in_lanes_refuses_what_it_does_not_take() {
+    let kepler = models::kepler(1.0).expect("kepler");
+    let grid = TimeGrid::uniform(0.0, 0.1, 1.0).expect("grid");
+    let start = momentum([1.0, 0.0], [0.0, 1.0]);
+    // Degree 2 takes the fixed-point solver, not Störmer–Verlet.
+    let quadratic = Element::with_order(4).expect("element");
+    let it = Integrator::new(
+        &kepler,
+        &quadratic,
+        grid.clone(),
+        start.clone(),
+        SolverOptions::default(),
+    )
+    .expect("run");
+    assert!(!in_lanes(&it));
+    assert!(run_in_lanes(&it, std::slice::from_ref(&start), &|_| {}).is_none());
+    // A time-dependent potential.
+    let driven = crate::Mechanical::unit_mass(Driven);
+    let s = Start::Momentum {
+        q: vec![0.1],
+        p: vec![0.0],
+    };
+    let el = verlet();
+    let it = Integrator::new(&driven, &el, grid, s, SolverOptions::default()).expect("run");
+    assert!(it.node().k == 0 && !in_lanes(&it));
+}
+
+/// V = ½q² − q sin t: not autonomous.
+#[derive(Debug, Clone, Copy)]
+struct Driven;
+
+impl Potential for Driven {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn value<D: Scalar>(&self, t: D, q: &[D]) -> D {
+        q[0] * q[0] * 0.5 - q[0] * t.sin()
+    }
+}
