@@ -1,14 +1,16 @@
 //! Ensembles: N runs of one problem with other initial states and/or parameters, on a rayon
 //! pool of `workers` threads with the GIL released, through the command's own ensemble runner
 //! (`femvi_cli::ensemble`, which `femvi ensemble` uses): each member is driven exactly as a
-//! single run; a member's failure is its own error and does not stop the others. A progress
+//! single run (members of one problem with no saved times in SIMD lanes where the run takes
+//! them, `femvi_cli::ensemble::run_shared`); a member's failure is its own error and does
+//! not stop the others. A progress
 //! callback, if given, is called from the calling thread with (done, total) about five
 //! times a second while the members run.
 
 use crate::arrays::{rows, vec1};
 use crate::input_error;
 use crate::run::load;
-use femvi_cli::ensemble::{run_all, run_member, run_member_saving, start_of, Member};
+use femvi_cli::ensemble::{run_all, run_member, run_member_saving, run_shared, start_of, Member};
 use numpy::{PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -99,9 +101,23 @@ pub fn ensemble_file<'py>(
             }
         }
     };
+    let workers = workers.unwrap_or(0);
+    // One problem for all and no saved times: in SIMD lanes where the run takes them.
+    let shared = member_files.is_none() && saveat.is_empty();
+    let start = |i: usize| {
+        start_of(&problem, states.as_deref(), i, velocity).inspect_err(|_| {
+            bad_input.fetch_min(i, Ordering::Relaxed);
+        })
+    };
     let ran = py.allow_threads(|| {
         std::thread::scope(|scope| {
-            let worker = scope.spawn(|| run_all(size, workers.unwrap_or(0), &done, member));
+            let worker = scope.spawn(|| {
+                if shared {
+                    run_shared(&problem, size, workers, &done, start)
+                } else {
+                    run_all(size, workers, &done, member)
+                }
+            });
             if let Some(cb) = &progress {
                 while !worker.is_finished() {
                     std::thread::sleep(Duration::from_millis(200));

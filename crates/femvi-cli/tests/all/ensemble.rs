@@ -161,3 +161,110 @@ fn bad_input_is_exit_2_and_a_failing_member_exit_1() {
     assert_eq!(r[1][8], "");
     assert!(!r[2][8].is_empty());
 }
+
+/// `femvi run` with `set`: (final_t, final_q, final_p, max_rel_energy_error, steps, error).
+fn summary(set: &[String]) -> (f64, Vec<f64>, Vec<f64>, f64, usize, Option<String>) {
+    let out = tempfile::tempdir().unwrap();
+    let mut cmd = femvi();
+    cmd.arg("run").arg(kepler()).arg("--out").arg(out.path()).arg("--quiet");
+    for s in set {
+        cmd.arg("--set").arg(s);
+    }
+    let _ = cmd.output().unwrap();
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+    let v = |k: &str| {
+        s[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap_or(f64::NAN))
+            .collect()
+    };
+    let e = s["max_rel_energy_error"].as_f64().unwrap_or(f64::NAN);
+    let error = s["error"].as_str().map(String::from);
+    (
+        s["final_t"].as_f64().unwrap(),
+        v("final_q"),
+        v("final_p"),
+        e,
+        s["steps"].as_u64().unwrap() as usize,
+        error,
+    )
+}
+
+/// Störmer–Verlet (degree 1, trapezoid) takes the members eight at a time in SIMD lanes:
+/// eleven members (a chunk and a partial one), one of which fails mid-run (its position
+/// overflows), each equal bit for bit to its run member by member
+/// (`femvi_cli::ensemble::run_member`, the path of other schemes: the final node, the energy
+/// error over every node, the steps, the error) and, where it does not fail, to `femvi run`
+/// of its start.
+#[test]
+fn members_in_lanes_equal_single_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let states = dir.path().join("states.csv");
+    let mut rows_in: Vec<[f64; 4]> = (0..10)
+        .map(|i| [0.4 + 0.05 * i as f64, 0.0, 0.0, 1.2 + 0.1 * i as f64])
+        .collect();
+    // So fast that the position overflows after about a hundred steps of 1.7e306 (the
+    // energy is not finite from the start: `femvi run` refuses it at node 0, a member runs
+    // until its node is not finite).
+    rows_in.insert(6, [0.5, 0.0, 0.0, 1.7e308]);
+    let text: String = rows_in
+        .iter()
+        .map(|r| format!("{:?},{:?},{:?},{:?}\n", r[0], r[1], r[2], r[3]))
+        .collect();
+    std::fs::write(&states, text).unwrap();
+    let verlet = [
+        "scheme.degree=1",
+        "scheme.quadrature=trapezoid",
+        "time.end=4",
+        "time.step=0.01",
+    ];
+    let out = dir.path().join("out");
+    let mut cmd = femvi();
+    cmd.args(["ensemble", "--workers", "2", "--quiet", "--states"])
+        .arg(&states)
+        .arg(kepler());
+    for s in verlet {
+        cmd.arg("--set").arg(s);
+    }
+    let status = cmd.arg("--out").arg(&out).output().unwrap().status;
+    let r = rows(&out);
+    assert_eq!(r.len(), 12);
+    let set: Vec<String> = verlet.iter().map(|x| x.to_string()).collect();
+    let problem = femvi_cli::problem::load_with(&kepler(), &set).unwrap();
+    let mut failed = 0;
+    for (i, s) in rows_in.iter().enumerate() {
+        let start = femvi::Start::Momentum {
+            q: s[..2].to_vec(),
+            p: s[2..].to_vec(),
+        };
+        let one = femvi_cli::ensemble::run_member(&problem, start);
+        let row = &r[i + 1];
+        let num = |k: usize| row[k].parse::<f64>().unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(num(1).to_bits(), one.final_t.to_bits(), "member {i}: final_t");
+        assert_eq!(bits(&numbers(row, 2..4)), bits(&one.q), "member {i}: q");
+        assert_eq!(bits(&numbers(row, 4..6)), bits(&one.p), "member {i}: p");
+        assert_eq!(num(6).to_bits(), one.energy_error.to_bits(), "member {i}: energy error");
+        assert_eq!(row[7], one.steps.to_string(), "member {i}: steps");
+        assert_eq!(row[8], one.error.clone().unwrap_or_default(), "member {i}: error");
+        if one.error.is_some() {
+            failed += 1;
+            assert!(one.steps > 50 && one.steps < 200, "fails mid-run: {}", one.steps);
+            continue;
+        }
+        let mut single = set.clone();
+        single.push(format!("initial.q=[{:?},{:?}]", s[0], s[1]));
+        single.push(format!("initial.p=[{:?},{:?}]", s[2], s[3]));
+        let (t, q, p, e, steps, error) = summary(&single);
+        assert_eq!(
+            (num(1), numbers(row, 2..4), numbers(row, 4..6)),
+            (t, q, p),
+            "member {i}: femvi run"
+        );
+        assert_eq!((num(6), one.steps, error), (e, steps, None), "member {i}: femvi run");
+    }
+    assert_eq!(failed, 1);
+    assert_eq!(status.code(), Some(1));
+}

@@ -86,69 +86,96 @@ pub fn in_lanes<L: Lagrangian>(template: &Integrator<'_, L>) -> bool {
         && matches!(lag.dim(), 1 | 2 | 3 | 4 | 6)
 }
 
-/// Runs the members `starts` of the run `template` (its Lagrangian and grid; [`in_lanes`]
-/// must hold) to the end of the grid, [`LANES`] at a time, chunks in parallel on rayon's
-/// current pool; `done(m)` is called as chunks of m members finish (for a progress
-/// display). Member i's entry is its [`MemberEnd`], or the error its start gives
-/// ([`Integrator::new`]'s: a wrong length, a non-finite number, a start from two
-/// positions). None if [`in_lanes`] does not hold. See the [module](self) for an example.
+/// Runs the members `starts` of the run `template` (its Lagrangian and grid) to the end of
+/// the grid, [`LANES`] at a time, chunks in parallel on rayon's current pool; `done(m)` is
+/// called as chunks of m members finish (for a progress display). Member i's entry is its
+/// [`MemberEnd`], or the error its start gives ([`Integrator::new`]'s: a wrong length, a
+/// non-finite number, a start from two positions). None if [`in_lanes`] does not hold. See
+/// the [module](self) for an example; [`EnsembleLanes`] is the same with a choice of width,
+/// and without holding the template (which is not `Sync`) across the parallel work.
 pub fn run_in_lanes<L: Lagrangian + Sync>(
     template: &Integrator<'_, L>,
     starts: &[Start],
     done: &(dyn Fn(usize) + Sync),
 ) -> Option<Vec<Result<MemberEnd>>> {
-    run_in_lanes_on(template, starts, Width::Best, done)
+    EnsembleLanes::of(template).map(|lanes| lanes.run(starts, done))
 }
 
-/// [`run_in_lanes`] with the loop compiled for `width` (to compare them: every width gives
-/// the same bits).
+/// The members of one run in lanes: its Lagrangian and grid, and the compiled width.
 ///
 /// ```
-/// use femvi::ensemble::{run_in_lanes_on, Width};
+/// use femvi::ensemble::{EnsembleLanes, Width};
 /// use femvi::{models, Element, Integrator, SolverOptions, Start, TimeGrid};
 /// let hh = models::henon_heiles();
 /// let verlet = Element::galerkin(1, femvi::NodeFamily::Equispaced, femvi::QuadratureKind::Trapezoid)?;
 /// let grid = TimeGrid::uniform(0.0, 0.05, 5.0)?;
 /// let starts: Vec<Start> = (0..9).map(|i| Start::Momentum { q: vec![0.0, 0.1], p: vec![0.05 * i as f64, 0.0] }).collect();
 /// let template = Integrator::new(&hh, &verlet, grid, starts[0].clone(), Default::default())?;
-/// let portable = run_in_lanes_on(&template, &starts, Width::Portable, &|_| {}).expect("in lanes");
-/// let best = run_in_lanes_on(&template, &starts, Width::Best, &|_| {}).expect("in lanes");
+/// let lanes = EnsembleLanes::of(&template).expect("Störmer–Verlet on a mechanical system");
+/// let portable = lanes.width(Width::Portable).run(&starts, &|_| {});
+/// let best = lanes.run(&starts, &|_| {});
 /// assert_eq!(portable, best);
 /// # Ok::<(), femvi::Error>(())
 /// ```
-pub fn run_in_lanes_on<L: Lagrangian + Sync>(
-    template: &Integrator<'_, L>,
-    starts: &[Start],
+#[derive(Debug)]
+pub struct EnsembleLanes<'a, L> {
+    lag: &'a L,
+    grid: &'a TimeGrid,
     width: Width,
-    done: &(dyn Fn(usize) + Sync),
-) -> Option<Vec<Result<MemberEnd>>> {
-    if !in_lanes(template) {
-        return None;
-    }
-    let (lag, grid) = (template.lagrangian(), template.grid());
-    macro_rules! sized {
-        ($N:literal) => {
-            starts
-                .par_chunks(LANES)
-                .flat_map_iter(|chunk| {
-                    let ends = chunk_of::<L, $N>(lag, grid, chunk, width);
-                    done(chunk.len());
-                    ends
-                })
-                .collect()
-        };
-    }
-    Some(match lag.dim() {
-        1 => sized!(1),
-        2 => sized!(2),
-        3 => sized!(3),
-        4 => sized!(4),
-        6 => sized!(6),
-        _ => return None,
-    })
 }
 
-/// Which compiled variant of the lane loop runs ([`run_in_lanes_on`]).
+// References only: copied whatever L is (a derive would ask L: Copy).
+impl<L> Clone for EnsembleLanes<'_, L> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<L> Copy for EnsembleLanes<'_, L> {}
+
+impl<'a, L: Lagrangian + Sync> EnsembleLanes<'a, L> {
+    /// The lanes of `template`'s run (an integrator at its start), with the widest loop the
+    /// processor has; None if [`in_lanes`] does not hold.
+    pub fn of(template: &'a Integrator<'_, L>) -> Option<Self> {
+        in_lanes(template).then(|| EnsembleLanes {
+            lag: template.lagrangian(),
+            grid: template.grid(),
+            width: Width::Best,
+        })
+    }
+
+    /// The same with the loop compiled for `width` (every width gives the same bits).
+    pub fn width(self, width: Width) -> Self {
+        EnsembleLanes { width, ..self }
+    }
+
+    /// Runs the members `starts` as [`run_in_lanes`] does.
+    pub fn run(&self, starts: &[Start], done: &(dyn Fn(usize) + Sync)) -> Vec<Result<MemberEnd>> {
+        let (lag, grid, width) = (self.lag, self.grid, self.width);
+        macro_rules! sized {
+            ($N:literal) => {
+                starts
+                    .par_chunks(LANES)
+                    .flat_map_iter(|chunk| {
+                        let ends = chunk_of::<L, $N>(lag, grid, chunk, width);
+                        done(chunk.len());
+                        ends
+                    })
+                    .collect()
+            };
+        }
+        match lag.dim() {
+            1 => sized!(1),
+            2 => sized!(2),
+            3 => sized!(3),
+            4 => sized!(4),
+            // `of` admits no other size.
+            _ => sized!(6),
+        }
+    }
+}
+
+/// Which compiled variant of the lane loop runs ([`EnsembleLanes::width`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Width {
     /// The widest the processor has.
