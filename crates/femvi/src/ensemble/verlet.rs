@@ -92,6 +92,7 @@ impl<const N: usize> Carry<N> {
 }
 
 /// The step's intermediate values, aligned as [`Carry`].
+#[derive(Clone, Copy)]
 #[repr(C, align(64))]
 struct Scratch<const N: usize> {
     dq: [Lanes; N],
@@ -100,39 +101,123 @@ struct Scratch<const N: usize> {
     probe: Lanes,
 }
 
-/// The members of `starts` from t0 to the end of `grid`: one [`MemberEnd`] per lane (those
-/// of unused lanes are dropped by the caller). Inlined into each instruction-set variant
-/// (`ensemble/mod.rs`).
+/// The drift of one group: dq = (h P + a f_{k−1}) + b f_k with P = p + cp, the force point
+/// y = q + dq, and the compensated momentum with the last increment added (into `n`).
 #[inline(always)]
-pub(super) fn run<L: Lagrangian, const N: usize>(lag: &L, grid: &TimeGrid, starts: &Starts<N>) -> Vec<MemberEnd> {
+fn drift<const N: usize>(c: &Carry<N>, n: &mut Carry<N>, s: &mut Scratch<N>, [h, a, b]: [f64; 3]) {
+    for i in 0..N {
+        for l in 0..LANES {
+            s.dq[i][l] = (h * (c.p[i][l] + c.cp[i][l]) + a * c.fprev[i][l]) + b * c.f0[i][l];
+            s.y[i][l] = c.q[i][l] + s.dq[i][l];
+        }
+    }
+    n.fprev = c.f0;
+    for i in 0..N {
+        for l in 0..LANES {
+            let yp = c.pending[i][l] + c.cp[i][l];
+            n.p[i][l] = c.p[i][l] + yp;
+            n.cp[i][l] = (c.p[i][l] - n.p[i][l]) + yp;
+        }
+    }
+}
+
+/// The rest of one group's step once the force f1 at y is in `s`: the momentum increment,
+/// the compensated update of q, and the single run's finiteness probe (dp·0 + q·0 summed,
+/// NaN where the node is not finite). True if some lane's probe is NaN.
+#[inline(always)]
+fn update<const N: usize>(c: &Carry<N>, n: &mut Carry<N>, s: &mut Scratch<N>, half_h: f64) -> bool {
+    s.probe = [0.0; LANES];
+    for i in 0..N {
+        for l in 0..LANES {
+            n.pending[i][l] = half_h * (c.f0[i][l] + s.f1[i][l]);
+            let yq = s.dq[i][l] + c.cq[i][l];
+            n.q[i][l] = c.q[i][l] + yq;
+            n.cq[i][l] = (c.q[i][l] - n.q[i][l]) + yq;
+            s.probe[l] += n.pending[i][l] * 0.0 + n.q[i][l] * 0.0;
+        }
+    }
+    n.f0 = s.f1;
+    s.probe.iter().any(|x| x.is_nan())
+}
+
+/// The lanes of group `g` whose probe says their new node is not finite end at the node
+/// before it, (k, t), unless they ended already.
+fn record<const N: usize>(
+    ends: &mut [Option<MemberEnd>],
+    g: usize,
+    (c, energy, s): (&Carry<N>, &Energy, &Scratch<N>),
+    at: (usize, f64),
+) {
+    for l in 0..LANES {
+        if let Some(end) = ends.get_mut(g * LANES + l) {
+            if s.probe[l].is_nan() && end.is_none() {
+                *end = Some(failed(c, energy, l, at));
+            }
+        }
+    }
+}
+
+/// Lane l of a group that reached the end of the grid at node (k, t).
+fn reached<const N: usize>(c: &Carry<N>, energy: &Energy, l: usize, (k, t): (usize, f64)) -> MemberEnd {
+    let p = c.momentum();
+    MemberEnd {
+        k,
+        t,
+        q: (0..N).map(|i| c.q[i][l]).collect(),
+        p: (0..N).map(|i| p[i][l]).collect(),
+        steps: k,
+        energy_error: energy.max_rel(l),
+        error: None,
+    }
+}
+
+/// The members of `starts` (two groups of [`LANES`]) from t0 to the end of `grid`: one
+/// [`MemberEnd`] per lane, the first group's then the second's (those of unused lanes are
+/// dropped by the caller). The groups are independent and each step goes through both, so
+/// that the processor overlaps one group's chain of dependent operations (the force's
+/// square root and division, then the update that the next force needs) with the other's.
+/// Each group is a set of named locals (not an array indexed by group), which the compiler
+/// keeps in registers. Inlined into each instruction-set variant (`ensemble/mod.rs`).
+#[inline(always)]
+pub(super) fn run<L: Lagrangian, const N: usize>(
+    lag: &L,
+    grid: &TimeGrid,
+    [s0, s1]: &[Starts<N>; 2],
+) -> Vec<MemberEnd> {
     let t0 = grid.t0();
     let zero = [[0.0; LANES]; N];
-    let mut c = Carry {
-        q: starts.q,
-        cq: zero,
-        p: starts.p,
-        cp: zero,
-        pending: zero,
-        fprev: zero,
-        f0: zero,
+    let carry = |s: &Starts<N>| {
+        let mut c = Carry {
+            q: s.q,
+            cq: zero,
+            p: s.p,
+            cp: zero,
+            pending: zero,
+            fprev: zero,
+            f0: zero,
+        };
+        lag.force_lanes(t0, &c.q, &mut c.f0);
+        c
     };
-    lag.force_lanes(t0, &c.q, &mut c.f0);
-    let mut energy = Energy {
+    let (mut c0, mut c1) = (carry(s0), carry(s1));
+    let blank = Energy {
         e0: [f64::NAN; LANES],
         max_dev: [0.0; LANES],
     };
-    energy.node(lag, t0, &c.q, &c.p);
-    let mut ends: Vec<Option<MemberEnd>> = vec![None; LANES];
+    let (mut e0, mut e1) = (blank, blank);
+    e0.node(lag, t0, &c0.q, &c0.p);
+    e1.node(lag, t0, &c1.q, &c1.p);
+    let mut ends: Vec<Option<MemberEnd>> = vec![None; 2 * LANES];
     let (mut k, mut t, mut hprev) = (0usize, t0, 0.0);
     let mut k1 = 1.0;
     let uniform = grid.uniform_rule();
-    let mut tmp = Scratch {
+    let scratch = Scratch {
         dq: zero,
         y: zero,
         f1: zero,
         probe: [0.0; LANES],
     };
-    let Scratch { dq, y, f1, probe } = &mut tmp;
+    let (mut w0, mut w1) = (scratch, scratch);
     loop {
         let next = match &uniform {
             Some(u) => u.next(k1, t),
@@ -141,59 +226,30 @@ pub(super) fn run<L: Lagrangian, const N: usize>(lag: &L, grid: &TimeGrid, start
         let Some((h, t_next)) = next else { break };
         let half_h = 0.5 * h;
         let (a, b) = (half_h * hprev, half_h * (hprev + h));
-        for i in 0..N {
-            for l in 0..LANES {
-                dq[i][l] = (h * (c.p[i][l] + c.cp[i][l]) + a * c.fprev[i][l]) + b * c.f0[i][l];
-                y[i][l] = c.q[i][l] + dq[i][l];
-            }
+        let (mut n0, mut n1) = (c0, c1);
+        drift(&c0, &mut n0, &mut w0, [h, a, b]);
+        drift(&c1, &mut n1, &mut w1, [h, a, b]);
+        lag.force_lanes(t + h, &w0.y, &mut w0.f1);
+        lag.force_lanes(t + h, &w1.y, &mut w1.f1);
+        let bad0 = update(&c0, &mut n0, &mut w0, half_h);
+        let bad1 = update(&c1, &mut n1, &mut w1, half_h);
+        if bad0 || bad1 {
+            record(&mut ends, 0, (&c0, &e0, &w0), (k, t));
+            record(&mut ends, 1, (&c1, &e1, &w1), (k, t));
         }
-        let mut n = Carry { fprev: c.f0, ..c };
-        for i in 0..N {
-            for l in 0..LANES {
-                let yp = c.pending[i][l] + c.cp[i][l];
-                n.p[i][l] = c.p[i][l] + yp;
-                n.cp[i][l] = (c.p[i][l] - n.p[i][l]) + yp;
-            }
-        }
-        lag.force_lanes(t + h, y, f1);
-        *probe = [0.0; LANES];
-        for i in 0..N {
-            for l in 0..LANES {
-                n.pending[i][l] = half_h * (c.f0[i][l] + f1[i][l]);
-                let yq = dq[i][l] + c.cq[i][l];
-                n.q[i][l] = c.q[i][l] + yq;
-                n.cq[i][l] = (c.q[i][l] - n.q[i][l]) + yq;
-                probe[l] += n.pending[i][l] * 0.0 + n.q[i][l] * 0.0;
-            }
-        }
-        if probe.iter().zip(&ends).any(|(x, e)| x.is_nan() && e.is_none()) {
-            for l in 0..LANES {
-                if probe[l].is_nan() && ends[l].is_none() {
-                    ends[l] = Some(failed(&c, &energy, l, (k, t)));
-                }
-            }
-        }
-        n.f0 = *f1;
-        c = n;
+        (c0, c1) = (n0, n1);
         hprev = h;
         k += 1;
         k1 += 1.0;
         t = t_next;
-        energy.node(lag, t, &c.q, &c.momentum());
+        e0.node(lag, t, &c0.q, &c0.momentum());
+        e1.node(lag, t, &c1.q, &c1.momentum());
     }
-    let p = c.momentum();
     ends.into_iter()
         .enumerate()
-        .map(|(l, e)| {
-            e.unwrap_or_else(|| MemberEnd {
-                k,
-                t,
-                q: (0..N).map(|i| c.q[i][l]).collect(),
-                p: (0..N).map(|i| p[i][l]).collect(),
-                steps: k,
-                energy_error: energy.max_rel(l),
-                error: None,
-            })
+        .map(|(m, e)| {
+            let (c, energy) = if m < LANES { (&c0, &e0) } else { (&c1, &e1) };
+            e.unwrap_or_else(|| reached(c, energy, m % LANES, (k, t)))
         })
         .collect()
 }
