@@ -74,10 +74,16 @@ fn drive_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
     };
     let report = drive(&mut it, &mut [&mut energy]);
     let node = it.node();
+    // A node whose energy is not finite ends the member before it, as it ends a run.
+    let (final_t, q, p) = match (&report.error, &energy.good) {
+        (Some(femvi::Error::NonFiniteEnergy { .. }), Some(g)) => (g.0, g.1.clone(), g.2.clone()),
+        (Some(femvi::Error::NonFiniteEnergy { .. }), None) => (problem.grid.t0(), vec![f64::NAN; n], vec![f64::NAN; n]),
+        _ => (node.t, node.q.to_vec(), node.p.to_vec()),
+    };
     Member {
-        final_t: node.t,
-        q: node.q.to_vec(),
-        p: node.p.to_vec(),
+        final_t,
+        q,
+        p,
         energy_error: energy.max_rel(),
         steps: report.steps,
         error: report.error.map(|e| e.to_string()),
@@ -228,16 +234,25 @@ fn solve_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
 }
 
 /// The energy observer of a member, and with `[forces]` the energy balance H − H0 = W over
-/// every node (as `femvi run`'s summary has it), which is then the member's energy error.
+/// every node (as `femvi run`'s summary has it), which is then the member's energy error. A
+/// node whose energy is not finite stops the member with [`femvi::Error::NonFiniteEnergy`]
+/// (as it stops `femvi run` and `femvi.solve`); the member then ends on the node before it,
+/// which `good` keeps.
 struct Balanced {
     energy: EnergyError,
     balance: Option<WorkBalance>,
+    /// The last node with a finite energy: (t, q, p).
+    good: Option<(f64, Vec<f64>, Vec<f64>)>,
 }
 
 impl Balanced {
     fn new(problem: &Problem, energy: EnergyError) -> Self {
         let balance = problem.terms.force.is_some().then(WorkBalance::default);
-        Balanced { energy, balance }
+        Balanced {
+            energy,
+            balance,
+            good: None,
+        }
     }
 
     /// The balance's largest relative error with forces, else the energy's.
@@ -249,8 +264,23 @@ impl Balanced {
 impl<L: Lagrangian> Observer<L> for Balanced {
     fn node(&mut self, it: &Integrator<'_, L>, last: bool) -> femvi::Result<()> {
         self.energy.node(it, last)?;
+        let (h, node) = (self.energy.current().get().h, it.node());
+        if !h.is_finite() {
+            return Err(femvi::Error::NonFiniteEnergy {
+                step: node.k,
+                t: node.t,
+            });
+        }
         if let Some(b) = self.balance.as_mut() {
-            b.at(self.energy.current().get().h, it.work());
+            b.at(h, it.work());
+        }
+        match self.good.as_mut() {
+            Some((t, q, p)) => {
+                *t = node.t;
+                q.copy_from_slice(node.q);
+                p.copy_from_slice(node.p);
+            }
+            None => self.good = Some((node.t, node.q.to_vec(), node.p.to_vec())),
         }
         Ok(())
     }

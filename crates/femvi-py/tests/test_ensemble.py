@@ -132,3 +132,32 @@ def test_saveat_rows_equal_single_solves():
         one = femvi.solve(KEPLER, saveat=times[:3], **start, **SHORT)
         assert np.array_equal(ens.saved_q[i, :3], one.saved.q) and np.array_equal(ens.saved_p[i, :3], one.saved.p)
         assert np.isnan(ens.saved_q[i, 3]).all()
+
+
+def test_verlet_members_in_lanes_equal_member_by_member_runs():
+    # Störmer–Verlet (degree 1, trapezoid): the members go eight at a time in SIMD lanes.
+    # Hénon–Heiles, 19 members (a full chunk of 16 and a partial one) with energies across the
+    # escape energy 1/6: those above it leave the well and fail mid-run when their energy
+    # overflows. Against the member-by-member path (saveat takes it) and, for members that
+    # do not fail, against single solves.
+    hh = {
+        "system": {"model": "henon-heiles"},
+        "initial": {"q": [0.0, 0.1], "p": [0.2, 0.0]},
+        "scheme": {"degree": 1, "quadrature": "trapezoid"},
+        "time": {"step": 0.05, "end": 100.0},
+    }
+    e = 0.02 + 0.02 * np.arange(19)
+    s = np.column_stack([np.zeros(19), np.full(19, 0.1), np.sqrt(2 * e), np.zeros(19)])
+    lanes = femvi.ensemble(hh, initial_states=s, workers=2)
+    one_by_one = femvi.ensemble(hh, initial_states=s, workers=2, saveat=[1.0])
+    for name in ["final_t", "final_q", "final_p", "energy_error", "steps"]:
+        a, b = getattr(lanes, name), getattr(one_by_one, name)
+        assert np.array_equal(a, b, equal_nan=True), name
+    assert lanes.errors == one_by_one.errors
+    failed = [i for i, err in enumerate(lanes.errors) if err]
+    assert 2 <= len(failed) < 15 and all("non-finite energy" in lanes.errors[i] for i in failed)
+    assert all(0 < lanes.steps[i] < 2000 and lanes.final_t[i] < 100.0 for i in failed)
+    for i in [0, 3, 7]:
+        sol = femvi.solve(hh, **{"initial.q": s[i, :2].tolist(), "initial.p": s[i, 2:].tolist()})
+        assert np.array_equal(sol.q[-1], lanes.final_q[i]) and np.array_equal(sol.p[-1], lanes.final_p[i])
+        assert sol.max_rel_energy_error == lanes.energy_error[i]

@@ -12,19 +12,52 @@ fn verlet() -> Element {
 }
 
 /// The single run of `start`: stepped to the end (or its failure) with the energy tracker
-/// shown every node, as `femvi ensemble` drives a member.
+/// shown every node, as `femvi ensemble` drives a member: a step that fails ends it at the
+/// node before; a node whose energy is not finite ends it at the node before that node
+/// (`Error::NonFiniteEnergy`, the step to it counted), or with no node at the start.
 fn single<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start) -> Result<MemberEnd> {
     let el = verlet();
     let mut it = Integrator::new(lag, &el, grid.clone(), start.clone(), SolverOptions::default())?;
     let n = lag.dim();
     let mut tracker = EnergyTracker::new(n, start, lag.is_autonomous());
+    let report = |tracker: &EnergyTracker| tracker.report().max_rel_error;
     let node = it.node();
-    tracker.node(lag, node.t, node.q, node.p)?;
+    if !tracker.node(lag, node.t, node.q, node.p)?.h.is_finite() {
+        let (k, t) = (0, node.t);
+        let error = Some(Error::NonFiniteEnergy { step: k, t });
+        let nan = vec![f64::NAN; n];
+        return Ok(MemberEnd {
+            k,
+            t,
+            q: nan.clone(),
+            p: nan,
+            steps: 0,
+            energy_error: report(&tracker),
+            error,
+        });
+    }
+    let mut good = (node.k, node.t, node.q.to_vec(), node.p.to_vec());
     let error = loop {
         match it.step() {
             Ok(true) => {
                 let node = it.node();
-                tracker.node(lag, node.t, node.q, node.p)?;
+                if !tracker.node(lag, node.t, node.q, node.p)?.h.is_finite() {
+                    let error = Error::NonFiniteEnergy {
+                        step: node.k,
+                        t: node.t,
+                    };
+                    let (k, t, q, p) = good;
+                    return Ok(MemberEnd {
+                        k,
+                        t,
+                        q,
+                        p,
+                        steps: node.k,
+                        energy_error: report(&tracker),
+                        error: Some(error),
+                    });
+                }
+                good = (node.k, node.t, node.q.to_vec(), node.p.to_vec());
             }
             Ok(false) => break None,
             Err(e) => break Some(e),
@@ -37,7 +70,7 @@ fn single<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start) -> Result<Memb
         q: node.q.to_vec(),
         p: node.p.to_vec(),
         steps: node.k,
-        energy_error: tracker.report().max_rel_error,
+        energy_error: report(&tracker),
         error,
     })
 }
@@ -119,6 +152,7 @@ fn henon_heiles_members_that_escape_fail_alone() {
             momentum([0.0, 0.1], [(2.0 * e).sqrt(), 0.0])
         })
         .collect();
+    // They fail mid-run: their energy overflows (x²y, y³) before their node does.
     let failed = agree::<_, 2>(&lag, &grid, &starts);
     assert!(failed >= 2, "{failed} members fail");
     assert!(failed < starts.len() - 4, "{failed} members fail");

@@ -35,10 +35,17 @@ struct Energy {
 }
 
 impl Energy {
-    /// Records the nodes (q, p) of every lane: H = p·p − (p·p·½ − V(q)), its first finite
-    /// value H0, and the largest |H − H0| over the finite ones.
+    /// Records the nodes (q, p) of every lane: H = p·p − (p·p·½ − V(q)), its first value
+    /// that is not NaN as H0, and the largest |H − H0| over the finite ones. True for the
+    /// lanes whose H is not finite (where a run ends, before that node).
     #[inline(always)]
-    fn node<L: Lagrangian, const N: usize>(&mut self, lag: &L, t: f64, q: &[Lanes; N], p: &[Lanes; N]) {
+    fn node<L: Lagrangian, const N: usize>(
+        &mut self,
+        lag: &L,
+        t: f64,
+        q: &[Lanes; N],
+        p: &[Lanes; N],
+    ) -> [bool; LANES] {
         let v = lag.potential_lanes(t, q).unwrap_or([f64::NAN; LANES]);
         let mut pv = [0.0; LANES];
         for c in 0..N {
@@ -47,13 +54,16 @@ impl Energy {
             }
         }
         // Selects, not branches, so that the loop is one of vector operations.
+        let mut bad = [false; LANES];
         for l in 0..LANES {
             let h = pv[l] - (pv[l] * 0.5 - v[l]);
             let e0 = if self.e0[l].is_nan() { h } else { self.e0[l] };
             let dev = if h.is_finite() { (h - e0).abs() } else { 0.0 };
             self.e0[l] = e0;
             self.max_dev[l] = self.max_dev[l].max(dev);
+            bad[l] = !h.is_finite();
         }
+        bad
     }
 
     /// The largest relative error of lane l, as `EnergyTracker::report` gives it.
@@ -157,6 +167,28 @@ fn record<const N: usize>(
     }
 }
 
+/// The lanes of group `g` whose energy at the new node (k + 1, t_next) is not finite end
+/// at the node before it, (k, t), as a run does ([`Error::NonFiniteEnergy`]), unless they
+/// ended already.
+#[inline(never)]
+fn energy_failed<const N: usize>(
+    ends: &mut [Option<MemberEnd>],
+    g: usize,
+    (c, energy, bad): (&Carry<N>, &Energy, &[bool; LANES]),
+    ((k, t), (k1, t1)): ((usize, f64), (usize, f64)),
+) {
+    for l in 0..LANES {
+        if let Some(end) = ends.get_mut(g * LANES + l) {
+            if bad[l] && end.is_none() {
+                let mut e = reached(c, energy, l, (k, t));
+                e.steps = k1;
+                e.error = Some(Error::NonFiniteEnergy { step: k1, t: t1 });
+                *end = Some(e);
+            }
+        }
+    }
+}
+
 /// Lane l of a group that reached the end of the grid at node (k, t).
 fn reached<const N: usize>(c: &Carry<N>, energy: &Energy, l: usize, (k, t): (usize, f64)) -> MemberEnd {
     let p = c.momentum();
@@ -205,9 +237,23 @@ pub(super) fn run<L: Lagrangian, const N: usize>(
         max_dev: [0.0; LANES],
     };
     let (mut e0, mut e1) = (blank, blank);
-    e0.node(lag, t0, &c0.q, &c0.p);
-    e1.node(lag, t0, &c1.q, &c1.p);
     let mut ends: Vec<Option<MemberEnd>> = vec![None; 2 * LANES];
+    // A start whose energy is not finite ends there, with no node.
+    let bad = [e0.node(lag, t0, &c0.q, &c0.p), e1.node(lag, t0, &c1.q, &c1.p)];
+    for (m, end) in ends.iter_mut().enumerate() {
+        if bad[m / LANES][m % LANES] {
+            let energy = if m < LANES { &e0 } else { &e1 };
+            *end = Some(MemberEnd {
+                k: 0,
+                t: t0,
+                q: vec![f64::NAN; N],
+                p: vec![f64::NAN; N],
+                steps: 0,
+                energy_error: energy.max_rel(m % LANES),
+                error: Some(Error::NonFiniteEnergy { step: 0, t: t0 }),
+            });
+        }
+    }
     let (mut k, mut t, mut hprev) = (0usize, t0, 0.0);
     let mut k1 = 1.0;
     let uniform = grid.uniform_rule();
@@ -237,13 +283,18 @@ pub(super) fn run<L: Lagrangian, const N: usize>(
             record(&mut ends, 0, (&c0, &e0, &w0), (k, t));
             record(&mut ends, 1, (&c1, &e1, &w1), (k, t));
         }
+        let bad0 = e0.node(lag, t_next, &n0.q, &n0.momentum());
+        let bad1 = e1.node(lag, t_next, &n1.q, &n1.momentum());
+        if bad0.iter().chain(&bad1).any(|&b| b) {
+            let at = ((k, t), (k + 1, t_next));
+            energy_failed(&mut ends, 0, (&c0, &e0, &bad0), at);
+            energy_failed(&mut ends, 1, (&c1, &e1, &bad1), at);
+        }
         (c0, c1) = (n0, n1);
         hprev = h;
         k += 1;
         k1 += 1.0;
         t = t_next;
-        e0.node(lag, t, &c0.q, &c0.momentum());
-        e1.node(lag, t, &c1.q, &c1.momentum());
     }
     ends.into_iter()
         .enumerate()

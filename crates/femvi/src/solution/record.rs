@@ -115,6 +115,34 @@ impl Recorder {
         self.energy.push(self.node_h);
     }
 
+    /// The node before node `k`, whose energy failed the run, ends the arrays if it is not
+    /// kept yet (a run that keeps every `every`-th node, or only its first and last, would
+    /// otherwise end on an older node than it reached): its energy and velocity as the node
+    /// had them, or computed now if the node was not tracked; left out if that energy is not
+    /// finite.
+    fn keep_previous<L: Lagrangian>(&mut self, lag: &L, k: usize) {
+        let Some(prev) = self.prev.take() else { return };
+        if prev.k + 1 == k && self.last_kept != Some(prev.k) {
+            let tracked = self.tracker.is_some() && self.tracked == Some(prev.k);
+            let h = if tracked {
+                Ok(self.node_h)
+            } else {
+                let mut v = vec![0.0; self.n];
+                let h = hamiltonian(lag, prev.t, &prev.q, &prev.p, &mut v, &mut self.work);
+                self.node_v = v;
+                h
+            };
+            if let Ok(h) = h.and_then(|h| finite_energy(h, prev.k, prev.t)) {
+                self.node_h = h;
+                if tracked {
+                    self.node_v.copy_from_slice(&prev.v);
+                }
+                self.keep(prev.k, prev.t, &prev.q, &prev.p);
+            }
+        }
+        self.prev = Some(prev);
+    }
+
     fn save(&mut self, t: f64, q: &[f64], v: &[f64], p: &[f64]) {
         self.saved.t.push(t);
         self.saved.q.extend_from_slice(q);
@@ -265,6 +293,7 @@ impl<L: Lagrangian> Observer<L> for Recorder {
         // on a node whose energy cannot be had fails there (no node is left out silently).
         let node = it.node();
         if energy_failed_at(error, node.k) {
+            self.keep_previous(it.lagrangian(), node.k);
             return Ok(());
         }
         if error.is_none() && self.kept_only && self.tracker.is_some() && self.tracked != Some(node.k) {
