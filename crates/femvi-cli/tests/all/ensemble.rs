@@ -268,3 +268,57 @@ fn members_in_lanes_equal_single_runs() {
     assert_eq!(failed, 1);
     assert_eq!(status.code(), Some(1));
 }
+
+/// An expression Lagrangian (mechanical, M = I) in lanes takes the per-lane defaults of
+/// `force_lanes` and `potential_lanes` (its compiled force, one lane at a time): members
+/// still equal their runs one by one (`run_member`) bit for bit, 9 of them (a partial chunk).
+#[test]
+fn expression_members_in_lanes_equal_single_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let problem_file = dir.path().join("quartic.toml");
+    std::fs::write(
+        &problem_file,
+        "[system]\ncoordinates = [\"x\", \"y\", \"z\"]\nparameters = { a = 0.3 }\n\
+         lagrangian = \"0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 0.25*(x^2 + y^2 + z^2)^2 - a*sin(x)*y\"\n\
+         [initial]\nq = [1.0, 0.0, 0.0]\np = [0.0, 0.5, 0.1]\n\
+         [scheme]\ndegree = 1\nquadrature = \"trapezoid\"\n[time]\nstep = 0.01\nend = 3.0\n",
+    )
+    .unwrap();
+    let rows_in: Vec<[f64; 6]> = (0..9)
+        .map(|i| [1.0, 0.1 * i as f64, 0.0, 0.0, 0.5, 0.05 * i as f64])
+        .collect();
+    let states = dir.path().join("states.csv");
+    let text: String = rows_in
+        .iter()
+        .map(|r| r.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(",") + "\n")
+        .collect();
+    std::fs::write(&states, text).unwrap();
+    let out = dir.path().join("out");
+    femvi()
+        .args(["ensemble", "--workers", "1", "--quiet", "--states"])
+        .arg(&states)
+        .arg(&problem_file)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let r = rows(&out);
+    let problem = femvi_cli::problem::load_with(&problem_file, &[]).unwrap();
+    for (i, s) in rows_in.iter().enumerate() {
+        let start = femvi::Start::Momentum {
+            q: s[..3].to_vec(),
+            p: s[3..].to_vec(),
+        };
+        let one = femvi_cli::ensemble::run_member(&problem, start);
+        let row = &r[i + 1];
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&numbers(row, 2..5)), bits(&one.q), "member {i}: q");
+        assert_eq!(bits(&numbers(row, 5..8)), bits(&one.p), "member {i}: p");
+        assert_eq!(
+            row[8].parse::<f64>().unwrap().to_bits(),
+            one.energy_error.to_bits(),
+            "member {i}"
+        );
+        assert_eq!((row[9].as_str(), one.steps), ("300", 300), "member {i}");
+    }
+}

@@ -228,3 +228,22 @@ impl Potential for Driven {
         q[0] * q[0] * 0.5 - q[0] * t.sin()
     }
 }
+
+/// An expression Lagrangian (mechanical, M = I, no `potential_value`): its compiled force and
+/// L itself lane by lane, equal to single runs; 2-D with a parameterless potential.
+#[test]
+fn expression_members_equal_their_single_runs() {
+    let coords = vec!["x".to_string(), "y".to_string()];
+    let lag = crate::expr::ExprLagrangian::new(
+        "0.5*(x_dot^2 + y_dot^2) - 0.25*(x^2 + y^2)^2 - 0.3*sin(x)*y",
+        &coords,
+        &[],
+    )
+    .expect("expression");
+    let grid = TimeGrid::uniform(0.0, 0.01, 5.0).expect("grid");
+    let starts: Vec<Start> = (0..13).map(|i| momentum([1.0, 0.1 * i as f64], [0.0, 0.5])).collect();
+    let el = verlet();
+    let template = Integrator::new(&lag, &el, grid.clone(), starts[0].clone(), SolverOptions::default()).expect("run");
+    assert!(in_lanes(&template));
+    assert_eq!(agree::<_, 2>(&lag, &grid, &starts), 0);
+}

@@ -46,17 +46,28 @@ impl Energy {
         q: &[Lanes; N],
         p: &[Lanes; N],
     ) -> [bool; LANES] {
-        let v = lag.potential_lanes(t, q).unwrap_or([f64::NAN; LANES]);
         let mut pv = [0.0; LANES];
         for c in 0..N {
             for l in 0..LANES {
                 pv[l] += p[c][l] * p[c][l];
             }
         }
+        // L at v = p (M = I): p·p·½ − V as `Mechanical::value` forms it where V is known,
+        // else L itself lane by lane (`EnergyTracker::node`'s mechanical case, pv − L).
+        let lagrangian = match lag.potential_lanes(t, q) {
+            Some(v) => {
+                let mut l = [0.0; LANES];
+                for i in 0..LANES {
+                    l[i] = pv[i] * 0.5 - v[i];
+                }
+                l
+            }
+            None => lagrangian_per_lane(lag, t, q, p),
+        };
         // Selects, not branches, so that the loop is one of vector operations.
         let mut bad = [false; LANES];
         for l in 0..LANES {
-            let h = pv[l] - (pv[l] * 0.5 - v[l]);
+            let h = pv[l] - lagrangian[l];
             let e0 = if self.e0[l].is_nan() { h } else { self.e0[l] };
             let dev = if h.is_finite() { (h - e0).abs() } else { 0.0 };
             self.e0[l] = e0;
@@ -72,6 +83,17 @@ impl Energy {
         let rel = if e0 != 0.0 { dev / e0.abs() } else { dev };
         0.0f64.max(rel)
     }
+}
+
+/// L(t, q, p) lane by lane (a Lagrangian without [`Lagrangian::potential_lanes`]).
+#[inline(never)]
+fn lagrangian_per_lane<L: Lagrangian, const N: usize>(lag: &L, t: f64, q: &[Lanes; N], p: &[Lanes; N]) -> Lanes {
+    let mut out = [0.0; LANES];
+    for (l, o) in out.iter_mut().enumerate() {
+        let (ql, pl): ([f64; N], [f64; N]) = (q.map(|c| c[l]), p.map(|c| c[l]));
+        *o = lag.value(t, &ql, &pl);
+    }
+    out
 }
 
 /// The carried values of the fast loop (`Carry` in `step/explicit.rs`), lane by lane.
@@ -147,7 +169,8 @@ fn update<const N: usize>(c: &Carry<N>, n: &mut Carry<N>, s: &mut Scratch<N>, ha
         }
     }
     n.f0 = s.f1;
-    s.probe.iter().any(|x| x.is_nan())
+    // Not `any`, whose early exit tests lane after lane: one reduction of the whole register.
+    s.probe.iter().fold(false, |a, x| a | x.is_nan())
 }
 
 /// The lanes of group `g` whose probe says their new node is not finite end at the node
@@ -285,7 +308,7 @@ pub(super) fn run<L: Lagrangian, const N: usize>(
         }
         let bad0 = e0.node(lag, t_next, &n0.q, &n0.momentum());
         let bad1 = e1.node(lag, t_next, &n1.q, &n1.momentum());
-        if bad0.iter().chain(&bad1).any(|&b| b) {
+        if bad0.iter().chain(&bad1).fold(false, |a, &b| a | b) {
             let at = ((k, t), (k + 1, t_next));
             energy_failed(&mut ends, 0, (&c0, &e0, &bad0), at);
             energy_failed(&mut ends, 1, (&c1, &e1, &bad1), at);
