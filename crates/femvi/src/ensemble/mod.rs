@@ -4,7 +4,7 @@
 //! (degree 1 with the trapezoid rule, the paper's linear element §2.3, on L = ½|v|² − V(q)
 //! with M = I and V autonomous): [`run_in_lanes`] then advances [`LANES`] members a step at
 //! a time through [`Lagrangian::force_lanes`] and [`Lagrangian::potential_lanes`], with
-//! each member's numbers those of its single run ([`crate::step::drive`] with an
+//! each member's numbers those of its single run ([`crate::step::drive()`] with an
 //! [`crate::solution::EnergyTracker`] at every node) bit for bit: the same IEEE operations
 //! in the same order, lane by lane. The loop is compiled three times, for AVX-512, AVX2
 //! and the baseline instruction set, and the processor's best is taken at run time; no
