@@ -17,23 +17,7 @@ const STEPS: usize = 1000;
 const H: f64 = 0.01;
 
 fn starts(kepler: bool) -> Vec<Start> {
-    (0..MEMBERS)
-        .map(|i| {
-            let a = i as f64 / MEMBERS as f64;
-            if kepler {
-                let x = 0.5 + a;
-                Start::Momentum {
-                    q: vec![x, 0.0],
-                    p: vec![0.0, (1.0 / x).sqrt() * (0.8 + 0.4 * a)],
-                }
-            } else {
-                Start::Momentum {
-                    q: vec![0.0, 0.1],
-                    p: vec![0.1 + 0.4 * a, 0.0],
-                }
-            }
-        })
-        .collect()
+    femvi_bench::ensemble_starts(kepler, MEMBERS)
 }
 
 /// Members one at a time, each with its energy at every node.

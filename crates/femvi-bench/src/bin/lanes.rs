@@ -28,23 +28,7 @@ fn main() {
 }
 
 fn run<L: Lagrangian + Sync>(lag: &L, kepler: bool, members: usize, steps: usize, width: &str) -> f64 {
-    let starts: Vec<Start> = (0..members)
-        .map(|i| {
-            let a = i as f64 / members as f64;
-            if kepler {
-                let x = 0.5 + a;
-                Start::Momentum {
-                    q: vec![x, 0.0],
-                    p: vec![0.0, (1.0 / x).sqrt() * (0.8 + 0.4 * a)],
-                }
-            } else {
-                Start::Momentum {
-                    q: vec![0.0, 0.1],
-                    p: vec![0.1 + 0.4 * a, 0.0],
-                }
-            }
-        })
-        .collect();
+    let starts = femvi_bench::ensemble_starts(kepler, members);
     let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).expect("verlet");
     let grid = TimeGrid::uniform(0.0, 0.01, 0.01 * steps as f64).expect("grid");
     let template =

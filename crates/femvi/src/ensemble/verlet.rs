@@ -333,20 +333,13 @@ pub(super) fn run<L: Lagrangian, const N: usize>(
 /// there (also at k = 0, where −0 becomes +0).
 #[inline(never)]
 fn failed<const N: usize>(c: &Carry<N>, energy: &Energy, l: usize, (k, t): (usize, f64)) -> MemberEnd {
-    let p = c.momentum();
-    MemberEnd {
-        k,
+    let mut end = reached(c, energy, l, (k, t));
+    end.error = Some(Error::Step(StepError {
+        step: k,
         t,
-        q: (0..N).map(|i| c.q[i][l]).collect(),
-        p: (0..N).map(|i| p[i][l]).collect(),
-        steps: k,
-        energy_error: energy.max_rel(l),
-        error: Some(Error::Step(StepError {
-            step: k,
-            t,
-            residual: f64::NAN,
-            iterations: 0,
-            failure: StepFailure::NonFinite,
-        })),
-    }
+        residual: f64::NAN,
+        iterations: 0,
+        failure: StepFailure::NonFinite,
+    }));
+    end
 }

@@ -15,13 +15,6 @@ impl<L: Lagrangian> Integrator<'_, L> {
     pub(super) fn start(&mut self, start: Start) -> Result<()> {
         let n = self.state.n;
         let t0 = self.state.t;
-        let finite = |what: &str, x: &[f64]| {
-            if x.iter().all(|v| v.is_finite()) {
-                Ok(())
-            } else {
-                Err(invalid(what, "contains a non-finite number"))
-            }
-        };
         match start {
             Start::Positions { q0, q1 } => {
                 check_len("initial q", n, q0.len())?;
@@ -115,13 +108,6 @@ impl<L: Lagrangian> Integrator<'_, L> {
 pub(crate) fn initial_node<L: Lagrangian>(lag: &L, t0: f64, start: Start) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
     let n = lag.dim();
     let mut work = PointDerivatives::new(n);
-    let finite = |what: &str, x: &[f64]| {
-        if x.iter().all(|v| v.is_finite()) {
-            Ok(())
-        } else {
-            Err(invalid(what, "contains a non-finite number"))
-        }
-    };
     match start {
         Start::Velocity { q, v } => {
             check_len("initial q", n, q.len())?;
@@ -151,5 +137,14 @@ pub(crate) fn initial_node<L: Lagrangian>(lag: &L, t0: f64, start: Start) -> Res
             Ok((q, p, v))
         }
         Start::Positions { .. } => Err(invalid("start", "from two positions it needs the first element")),
+    }
+}
+
+/// Ok if every number of `x` is finite, else an error naming `what`.
+fn finite(what: &str, x: &[f64]) -> Result<()> {
+    if x.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(invalid(what, "contains a non-finite number"))
     }
 }
