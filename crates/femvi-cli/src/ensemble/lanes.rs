@@ -77,8 +77,7 @@ fn in_lanes<L: Lagrangian + Clone + Sync>(
                     saved_q: vec![],
                     saved_p: vec![],
                 },
-                Some(Err(femvi::Error::Step(e))) => Member::failed(n, t0, format!("first element: {e}")),
-                Some(Err(e)) => Member::failed(n, t0, e.to_string()),
+                Some(Err(e)) => Member::not_started(n, t0, &e),
                 None => Member::failed(n, t0, "no result for this member".into()),
             },
         })

@@ -42,6 +42,16 @@ pub struct Member {
 }
 
 impl Member {
+    /// A member whose run could not be made at t0 (its start was refused, or the first
+    /// element of a start from two positions failed: "first element: …").
+    pub fn not_started(n: usize, t0: f64, error: &femvi::Error) -> Self {
+        let why = match error {
+            femvi::Error::Step(e) => format!("first element: {e}"),
+            e => e.to_string(),
+        };
+        Member::failed(n, t0, why)
+    }
+
     /// A member that did not start.
     pub fn failed(n: usize, t: f64, error: String) -> Self {
         Member {
@@ -74,8 +84,7 @@ fn drive_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
     let made = problem.integrator(lag, &problem.element, problem.grid.clone(), start, problem.energy);
     let mut it = match made {
         Ok(it) => it,
-        Err(femvi::Error::Step(e)) => return Member::failed(n, problem.grid.t0(), format!("first element: {e}")),
-        Err(e) => return Member::failed(n, problem.grid.t0(), e.to_string()),
+        Err(e) => return Member::not_started(n, problem.grid.t0(), &e),
     };
     let report = drive(&mut it, &mut [&mut energy]);
     let node = it.node();
@@ -217,8 +226,7 @@ fn solve_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
         .and_then(|mut it| femvi::solution::solve_on(&mut it, &p, el, &options, &mut [&mut balance]));
     let sol = match solved {
         Ok(sol) => sol,
-        Err(femvi::Error::Step(e)) => return Member::failed(n, t0, format!("first element: {e}")),
-        Err(e) => return Member::failed(n, t0, e.to_string()),
+        Err(e) => return Member::not_started(n, t0, &e),
     };
     let energy_error = match balance.balance {
         Some(b) => b.max_rel(),
