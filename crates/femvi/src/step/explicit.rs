@@ -113,15 +113,14 @@ impl ExplicitStep {
         Ok(())
     }
 
-    /// One Verlet step of size h from the current node into `out`, and the last element's
-    /// end increment into `last` (explicit steps do not swap increments).
+    /// One Verlet step of size h from the current node into `out` (`RunState::commit` makes
+    /// its dq the last element's end increment: explicit steps do not swap increments).
     #[inline]
     pub(crate) fn step<L: Lagrangian>(
         &mut self,
         lag: &L,
         mass: &MassMatrix,
         state: &RunState,
-        last: &mut LastElement,
         h: f64,
         out: &mut Increments,
     ) {
@@ -152,7 +151,6 @@ impl ExplicitStep {
         lag.force(state.t + h, &self.y[..n], f1);
         for c in 0..n {
             out.dp[c] = 0.5 * h * (f0[c] + f1[c]);
-            last.incr[n + c] = out.dq[c];
         }
         self.fsal_slot ^= 1;
         self.force0_valid = true;

@@ -16,11 +16,13 @@
 //! Updating q in place loses q_k, the base of the last element, which the run must show
 //! after every call. The last step of a call is therefore taken out of place (q_{k+1} into
 //! the last element's buffer, the buffers then swapped, as `commit` does), and a call of
-//! more than one step first keeps its start (q in the last element's base, the
-//! compensations, p and the carried force in `start`). When a call ends after a step taken
-//! in place (the callback said stop, or the node is not finite), it goes back to that start
-//! and replays the steps without the callback, the last of them out of place: the same
-//! operations, so the same bits, and the last element of the step that ended the call.
+//! more than one step first keeps its start (q, p, their compensations and the carried
+//! force, in `start`). When a call ends
+//! after a step taken in place (the callback said stop, or the node is not finite), it goes
+//! back to that start and replays the steps without the callback, the last of them out of
+//! place: the same operations, so the same bits, and the last element of the step that
+//! ended the call. A step whose node is not finite moves nothing, as `commit` does: the
+//! call ends at the last good node, with that node's element.
 
 use super::ExplicitStep;
 use crate::error::{Error, Result, StepError, StepFailure};
@@ -78,51 +80,58 @@ impl ExplicitStep {
         }
         // One step, or the grid's last: out of place, nothing to keep.
         if max_steps == 1 || grid.next(state.k + 1, t_next).is_none() {
-            return self.run(lag, grid, state, last, 1, at_node).map(|(done, _)| done);
+            return match self.run(lag, grid, state, last, 1, at_node)? {
+                (_, End::NonFinite) => Err(non_finite(state)),
+                (done, _) => Ok(done),
+            };
         }
-        let start = self.keep(state, last);
+        let start = self.keep(state);
         // Steps in blocks when nobody looks at the nodes in between and the force is local;
         // after a node that is not finite, the steps again from the start, unblocked.
         let mut blocked = 0;
         if let Some(r) = radius.filter(|_| max_steps > 2) {
             match self.run_blocked(lag, grid, state, max_steps, r) {
                 Some(done) => blocked = done,
-                None => self.restore(start, state, last),
+                None => self.restore(start, state),
             }
         }
         match self.run(lag, grid, state, last, max_steps - blocked, at_node)? {
             (done, End::Kept) => Ok(blocked + done),
             (done, End::Stopped) => {
-                self.restore(start, state, last);
+                self.restore(start, state);
                 self.run(lag, grid, state, last, blocked + done, &mut |_| true)
                     .map(|(d, _)| d)
             }
             (done, End::NonFinite) => {
-                // The failing step again, out of place: its error and the state it leaves.
-                self.restore(start, state, last);
-                self.run(lag, grid, state, last, blocked + done + 1, &mut |_| true)
-                    .map(|(d, _)| d)
+                // The good steps again, the last of them out of place (the last element is
+                // that step's), then the failing step alone, out of place: its error, and
+                // nothing moved (as `commit`).
+                self.restore(start, state);
+                if blocked + done > 0 {
+                    self.run(lag, grid, state, last, blocked + done, &mut |_| true)?;
+                }
+                self.run(lag, grid, state, last, 1, &mut |_| true)?;
+                Err(non_finite(state))
             }
         }
     }
 
-    /// Keeps the start of a call: q in the last element's base (which the call's last step
-    /// overwrites anyway), the compensations, p and the carried force in `start`.
-    fn keep(&mut self, state: &RunState, last: &mut LastElement) -> Start {
+    /// Keeps the start of a call in `start`: q, the compensations, p and the carried force.
+    fn keep(&mut self, state: &RunState) -> Start {
         let n = state.n;
-        last.base.copy_from_slice(&state.q);
         let Self {
             force,
             fsal_slot,
             start,
             ..
         } = self;
-        start.resize(4 * n, 0.0);
-        let [cq, p, cp, f] = [0, 1, 2, 3].map(|i| i * n);
+        start.resize(5 * n, 0.0);
+        let [cq, p, cp, f, b] = [0, 1, 2, 3, 4].map(|i| i * n);
         start[cq..p].copy_from_slice(&state.comp_q);
         start[p..cp].copy_from_slice(&state.p);
         start[cp..f].copy_from_slice(&state.comp_p);
-        start[f..].copy_from_slice(&force[*fsal_slot * n..(*fsal_slot + 1) * n]);
+        start[f..b].copy_from_slice(&force[*fsal_slot * n..(*fsal_slot + 1) * n]);
+        start[b..].copy_from_slice(&state.q);
         Start {
             k: state.k,
             t: state.t,
@@ -132,20 +141,21 @@ impl ExplicitStep {
     }
 
     /// Puts back what [`Self::keep`] kept.
-    fn restore(&mut self, s: Start, state: &mut RunState, last: &LastElement) {
+    fn restore(&mut self, s: Start, state: &mut RunState) {
         let n = state.n;
-        state.q.copy_from_slice(&last.base);
-        let [cq, p, cp, f] = [0, 1, 2, 3].map(|i| i * n);
+        let [cq, p, cp, f, b] = [0, 1, 2, 3, 4].map(|i| i * n);
+        state.q.copy_from_slice(&self.start[b..]);
         state.comp_q.copy_from_slice(&self.start[cq..p]);
         state.p.copy_from_slice(&self.start[p..cp]);
         state.comp_p.copy_from_slice(&self.start[cp..f]);
         (state.k, state.t, state.steps) = (s.k, s.t, s.steps);
         self.fsal_slot = s.slot;
-        self.force[s.slot * n..(s.slot + 1) * n].copy_from_slice(&self.start[f..]);
+        self.force[s.slot * n..(s.slot + 1) * n].copy_from_slice(&self.start[f..b]);
     }
 
     /// Up to `max_steps` steps (the carried force valid), all but the last of the call in
-    /// place; how many, and how the run ended. Errors: a non-finite node from the last step.
+    /// place; how many, and how the run ended ([`End::NonFinite`]: a step's node is not
+    /// finite; after one taken in place the state is spoilt, after the last nothing moved).
     /// (One function: with the commit of a step moved into a helper, even an
     /// `#[inline(always)]` one, the FPU step at n = 10⁴ … 10⁶ measured 8–10 % slower.)
     fn run<L: Lagrangian, F: FnMut(Node<'_>) -> bool>(
@@ -197,6 +207,9 @@ impl ExplicitStep {
                     };
                     update_and_drift(s, [h, h2], [f0, f1])
                 }
+                // A last step whose node is not finite moves nothing (as `commit`): the run
+                // stays at its last good node.
+                None if !update_is_finite(state, h, [&*f0, &*f1]) => false,
                 None => {
                     last.valid = true;
                     last.t = state.t;
@@ -213,16 +226,7 @@ impl ExplicitStep {
             };
             if !finite {
                 *fsal_slot = carry(ids, slot, [f0, f1, yb]);
-                if next.is_some() {
-                    return Ok((done, End::NonFinite));
-                }
-                return Err(Error::Step(StepError {
-                    step: state.k,
-                    t: state.t,
-                    residual: f64::NAN,
-                    iterations: 0,
-                    failure: StepFailure::NonFinite,
-                }));
+                return Ok((done, End::NonFinite));
             }
             state.k += 1;
             state.t = t_next;
@@ -330,6 +334,34 @@ fn commit_one(base: f64, dq: f64, dp: f64, (q, cq): (&mut f64, &mut f64), (p, cp
     *cp = (*p - tp) + yp;
     *p = tp;
     (tq, tp)
+}
+
+/// The error of a step from the node `state` is at whose new node is not finite.
+fn non_finite(state: &RunState) -> Error {
+    Error::Step(StepError {
+        step: state.k,
+        t: state.t,
+        residual: f64::NAN,
+        iterations: 0,
+        failure: StepFailure::NonFinite,
+    })
+}
+
+/// Whether [`update`] from `state` (its q as the base) would give a finite node: the same
+/// sums, nothing written.
+fn update_is_finite(state: &RunState, h: f64, [f0, f1]: [&[f64]; 2]) -> bool {
+    let n = state.q.len();
+    let half_h2 = 0.5 * h * h;
+    let mut finite = true;
+    for c in 0..n {
+        let (p, base) = (state.p[c], state.q[c]);
+        let dq = h * p + half_h2 * f0[c];
+        let dp = 0.5 * h * (f0[c] + f1[c]);
+        let tq = base + (dq + state.comp_q[c]);
+        let tp = p + (dp + state.comp_p[c]);
+        finite &= tp.is_finite() & tq.is_finite();
+    }
+    finite
 }
 
 /// `RunState::commit` alone (the last step of a call), q from `base`, the step's dq into

@@ -111,7 +111,7 @@ impl Solver {
                 let Some(mass) = cx.lag.mass_matrix() else {
                     unreachable!("explicit steps are chosen for mechanical Lagrangians only")
                 };
-                e.step(cx.lag, mass, state, last, h, out);
+                e.step(cx.lag, mass, state, h, out);
                 Ok(0)
             }
             Solver::FixedPoint(f) => f.solve(cx, state, last, h, out),

@@ -118,7 +118,7 @@ impl RunState {
     /// more than the Verlet step itself); `swap_incr` is false for explicit steps, whose
     /// solver writes the last element's increments itself.
     ///
-    /// Errors: [`StepFailure::NonFinite`] if the new node is not finite.
+    /// Errors: [`StepFailure::NonFinite`] if the new node is not finite; nothing is moved then.
     #[inline]
     pub(crate) fn commit(
         &mut self,
@@ -128,14 +128,33 @@ impl RunState {
         h: f64,
         t_next: f64,
     ) -> Result<()> {
+        // The new node's finiteness first, from the same sums as below, so that a step that
+        // fails leaves the run at its last good node (the promise of `Integrator::step`).
+        let mut finite = true;
+        for c in 0..self.n {
+            let q = self.q[c] + (inc.dq[c] + self.comp_q[c]);
+            let p = self.p[c] + (inc.dp[c] + self.comp_p[c]);
+            finite &= p.is_finite() && q.is_finite();
+        }
+        if !finite {
+            return Err(Error::Step(StepError {
+                step: self.k,
+                t: self.t,
+                residual: f64::NAN,
+                iterations: 0,
+                failure: StepFailure::NonFinite,
+            }));
+        }
         last.valid = true;
         last.t = self.t;
         last.h = h;
         std::mem::swap(&mut self.q, &mut last.base);
         if swap_incr {
             std::mem::swap(&mut inc.incr, &mut last.incr);
+        } else {
+            // An explicit step: its element is q_k + τ dq (the end increment only).
+            last.incr[self.n..2 * self.n].copy_from_slice(&inc.dq[..self.n]);
         }
-        let mut finite = true;
         for c in 0..self.n {
             let base = last.base[c];
             let y = inc.dq[c] + self.comp_q[c];
@@ -146,16 +165,6 @@ impl RunState {
             let t = self.p[c] + y;
             self.comp_p[c] = (self.p[c] - t) + y;
             self.p[c] = t;
-            finite &= t.is_finite() && self.q[c].is_finite();
-        }
-        if !finite {
-            return Err(Error::Step(StepError {
-                step: self.k,
-                t: self.t,
-                residual: f64::NAN,
-                iterations: 0,
-                failure: StepFailure::NonFinite,
-            }));
         }
         self.k += 1;
         self.t = t_next;

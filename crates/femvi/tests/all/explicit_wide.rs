@@ -3,8 +3,8 @@
 //! drift of the next (`step/explicit_wide.rs`). Its nodes, last element and checkpoint (the
 //! carried force and its slot included) are those of `step()`, bit for bit, for any split of a
 //! run into calls, on uniform and variable grids; a false from the callback stops after that
-//! node and the run goes on from there; a run that overflows fails at the same step with the
-//! same state left behind.
+//! node and the run goes on from there; a run that overflows fails at the same step and
+//! stays at its last good node, with that node's element, as `step()` does.
 
 use crate::common::snapshot::{bits, chain_start, snapshot, verlet, Snapshot};
 use femvi::{models, Integrator, Lagrangian, SolverOptions, Start, TimeGrid};
@@ -61,6 +61,16 @@ fn by_chunks<L: Lagrangian>(
 fn check<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start) -> Option<String> {
     let (want, error) = by_step(lag, grid, start);
     assert!(want.len() >= 20, "{} steps", want.len());
+    if error.is_some() {
+        // A failed step moves nothing: the run stays at its last good node, with that
+        // node's element (only the solver's carried forces have changed).
+        let (failed, good) = (&want[want.len() - 1], &want[want.len() - 2]);
+        assert_eq!(
+            (failed.0, failed.1, &failed.2, &failed.3, &failed.4),
+            (good.0, good.1, &good.2, &good.3, &good.4),
+            "the state after the failure"
+        );
+    }
     let nodes: Vec<_> = want
         .iter()
         .take(want.len() - usize::from(error.is_some()))
