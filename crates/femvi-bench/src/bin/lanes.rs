@@ -1,8 +1,9 @@
 //! A fixed amount of ensemble work for timing whole processes against each other
-//! (`farm-bench --vs`): `lanes MODEL MEMBERS STEPS [WIDTH]` runs MEMBERS Störmer–Verlet
-//! members of `kepler` or `henon-heiles` for STEPS steps of 0.01 on one thread in SIMD lanes
-//! (WIDTH: best, avx512, avx2, portable; or `one` for one member at a time) and prints a
-//! checksum of the final states.
+//! (`farm-bench --vs`): `lanes MODEL MEMBERS STEPS [WIDTH] [DEGREE]` runs MEMBERS members of
+//! `kepler` or `henon-heiles` for STEPS steps of 0.01 on one thread in SIMD lanes (WIDTH:
+//! best, avx512, avx2, portable; or `one` for one member at a time) and prints a checksum of
+//! the final states. DEGREE 1 (the default) is Störmer–Verlet; 2 and 3 are the Gauss–Legendre
+//! elements of that degree, solved by the fixed-point iteration.
 
 use femvi::ensemble::{EnsembleLanes, Width};
 use femvi::solution::EnergyTracker;
@@ -10,7 +11,7 @@ use femvi::{models, Element, Integrator, Lagrangian, NodeFamily, QuadratureKind,
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let usage = "usage: lanes kepler|henon-heiles MEMBERS STEPS [best|avx512|avx2|portable|one]";
+    let usage = "usage: lanes kepler|henon-heiles MEMBERS STEPS [best|avx512|avx2|portable|one] [DEGREE]";
     let (Some(model), Some(members), Some(steps)) = (args.get(1), args.get(2), args.get(3)) else {
         eprintln!("{usage}");
         std::process::exit(2);
@@ -20,22 +21,43 @@ fn main() {
         std::process::exit(2);
     };
     let width = args.get(4).map_or("best", String::as_str);
+    let element = match args.get(5).map_or("1", String::as_str) {
+        "1" => Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid),
+        d => match d.parse::<usize>() {
+            Ok(s @ 2..=3) => Element::with_order(2 * s),
+            _ => {
+                eprintln!("{usage}");
+                std::process::exit(2);
+            }
+        },
+    }
+    .expect("element");
     let sum = match model.as_str() {
-        "kepler" => run(&models::kepler(1.0).expect("kepler"), true, members, steps, width),
-        _ => run(&models::henon_heiles(), false, members, steps, width),
+        "kepler" => run(
+            &models::kepler(1.0).expect("kepler"),
+            &element,
+            true,
+            (members, steps),
+            width,
+        ),
+        _ => run(&models::henon_heiles(), &element, false, (members, steps), width),
     };
     println!("{sum:e}");
 }
 
-fn run<L: Lagrangian + Sync>(lag: &L, kepler: bool, members: usize, steps: usize, width: &str) -> f64 {
+fn run<L: Lagrangian + Sync>(
+    lag: &L,
+    el: &Element,
+    kepler: bool,
+    (members, steps): (usize, usize),
+    width: &str,
+) -> f64 {
     let starts = femvi_bench::ensemble_starts(kepler, members);
-    let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).expect("verlet");
     let grid = TimeGrid::uniform(0.0, 0.01, 0.01 * steps as f64).expect("grid");
-    let template =
-        Integrator::new(lag, &verlet, grid.clone(), starts[0].clone(), SolverOptions::default()).expect("run");
+    let template = Integrator::new(lag, el, grid.clone(), starts[0].clone(), SolverOptions::default()).expect("run");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
     let width = match width {
-        "one" => return one_by_one(lag, &verlet, &grid, &starts),
+        "one" => return one_by_one(lag, el, &grid, &starts),
         "avx512" => Width::Avx512,
         "avx2" => Width::Avx2,
         "portable" => Width::Portable,
@@ -47,7 +69,7 @@ fn run<L: Lagrangian + Sync>(lag: &L, kepler: bool, members: usize, steps: usize
 }
 
 fn one_by_one<L: Lagrangian>(lag: &L, el: &Element, grid: &TimeGrid, starts: &[Start]) -> f64 {
-    let mut sum = 0.0;
+    let (mut sum, mut sweeps) = (0.0, 0.0);
     for s in starts {
         let mut it = Integrator::new(lag, el, grid.clone(), s.clone(), SolverOptions::default()).expect("run");
         let mut tracker = EnergyTracker::new(lag.dim(), s, true);
@@ -58,6 +80,10 @@ fn one_by_one<L: Lagrangian>(lag: &L, el: &Element, grid: &TimeGrid, starts: &[S
             let _ = tracker.node(lag, node.t, node.q, node.p);
         }
         sum += it.node().q[0] + tracker.report().max_rel_error;
+        sweeps += it.mean_iterations();
+    }
+    if std::env::var_os("LANES_SWEEPS").is_some() {
+        eprintln!("mean sweeps per step: {:.3}", sweeps / starts.len() as f64);
     }
     sum
 }

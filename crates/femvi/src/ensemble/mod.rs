@@ -40,14 +40,21 @@
 //! # Ok::<(), femvi::Error>(())
 //! ```
 
+mod energy;
+mod fixed_point;
+mod judge;
 mod verlet;
 
 pub use crate::lagrangian::{Lanes, LANES};
 
+use crate::discrete::Element;
 use crate::error::{Error, Result};
 use crate::lagrangian::Lagrangian;
+use crate::step::fixed_point::FixedPointTables;
 use crate::step::initial_node;
+use crate::step::SolverOptions;
 use crate::step::{Integrator, Start, TimeGrid};
+use fixed_point::Plan;
 use rayon::prelude::*;
 use verlet::Starts;
 
@@ -71,16 +78,26 @@ pub struct MemberEnd {
     pub error: Option<Error>,
 }
 
-/// Whether members of the run `template` (an integrator at its start) step in lanes: its
-/// steps are Störmer–Verlet ([`Integrator::step`] takes the explicit solver, with no force,
-/// constraint or energy mode), M = I, L autonomous, and n is 1, 2, 3, 4 or 6 (the sizes whose carried
-/// values stay in registers). See the [module](self) for an example.
+/// Whether members of the run `template` (an integrator at its start) step in lanes: M = I,
+/// L autonomous, n is 1, 2, 3, 4 or 6 (the sizes whose carried values stay in registers),
+/// and its steps are either Störmer–Verlet ([`Integrator::step`] takes the explicit solver)
+/// or the fixed-point iteration of an element of degree and points at most 3 (Gauss–Legendre
+/// of degree 2 or 3, the implicit midpoint rule, …), with no force, constraint or energy
+/// mode. See the [module](self) for an example.
 pub fn in_lanes<L: Lagrangian>(template: &Integrator<'_, L>) -> bool {
     let lag = template.lagrangian();
-    template.plain_explicit()
-        && lag.mass_matrix().is_some_and(|m| m.is_identity())
+    let mechanical = lag.mass_matrix().is_some_and(|m| m.is_identity())
         && lag.is_autonomous()
-        && matches!(lag.dim(), 1 | 2 | 3 | 4 | 6)
+        && matches!(lag.dim(), 1 | 2 | 3 | 4 | 6);
+    let el = template.element();
+    // Rules of fewer than `RICH_START_POINTS` points start every step from the last one's
+    // stage forces alone, which is what the fixed-point lanes do.
+    const _: () = assert!(fixed_point::MAX_POINTS < crate::step::RICH_START_POINTS);
+    const _: () = assert!(fixed_point::MAX_POINTS <= crate::step::START_MAX_POINTS);
+    let fixed_point = template.plain_fixed_point()
+        && el.points() <= fixed_point::MAX_POINTS
+        && el.degree() <= fixed_point::MAX_POINTS;
+    mechanical && (template.plain_explicit() || fixed_point)
 }
 
 /// Runs the members `starts` of the run `template` (its Lagrangian and grid) to the end of
@@ -119,6 +136,8 @@ pub struct EnsembleLanes<'a, L> {
     lag: &'a L,
     grid: &'a TimeGrid,
     width: Width,
+    /// The element and options of a fixed-point run (None: Störmer–Verlet).
+    fixed_point: Option<(&'a Element, SolverOptions)>,
 }
 
 // References only: copied whatever L is (a derive would ask L: Copy).
@@ -138,6 +157,9 @@ impl<'a, L: Lagrangian + Sync> EnsembleLanes<'a, L> {
             lag: template.lagrangian(),
             grid: template.grid(),
             width: Width::Best,
+            fixed_point: template
+                .plain_fixed_point()
+                .then(|| (template.element(), *template.options())),
         })
     }
 
@@ -149,12 +171,21 @@ impl<'a, L: Lagrangian + Sync> EnsembleLanes<'a, L> {
     /// Runs the members `starts` as [`run_in_lanes`] does.
     pub fn run(&self, starts: &[Start], done: &(dyn Fn(usize) + Sync)) -> Vec<Result<MemberEnd>> {
         let (lag, grid, width) = (self.lag, self.grid, self.width);
+        let plan = match self.fixed_point {
+            None => None,
+            Some((element, opts)) => match FixedPointTables::new(element) {
+                Ok(tab) => Some(Plan { element, opts, tab }),
+                // `Integrator::new` built the same tables for the template.
+                Err(e) => return starts.iter().map(|_| Err(e.clone())).collect(),
+            },
+        };
+        let plan = plan.as_ref();
         macro_rules! sized {
             ($N:literal) => {
                 starts
                     .par_chunks(CHUNK)
                     .flat_map_iter(|chunk| {
-                        let ends = chunk_of::<L, $N>(lag, grid, chunk, width);
+                        let ends = chunk_of::<L, $N>(lag, grid, plan, chunk, width);
                         done(chunk.len());
                         ends
                     })
@@ -193,20 +224,21 @@ pub(crate) const GROUPS: usize = 2;
 /// Members a loop advances together.
 pub(crate) const CHUNK: usize = GROUPS * LANES;
 
+/// A member's start as a node: q0, p0 and v0.
+type StartNode = (Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// One chunk of at most [`CHUNK`] members: the starts checked and made into nodes, the
 /// lanes of members whose start fails filled with a member that starts (their numbers
 /// dropped), and the loop of `width`.
 pub(crate) fn chunk_of<L: Lagrangian, const N: usize>(
     lag: &L,
     grid: &TimeGrid,
+    plan: Option<&Plan<'_>>,
     chunk: &[Start],
     width: Width,
 ) -> Vec<Result<MemberEnd>> {
     let t0 = grid.t0();
-    let nodes: Vec<Result<(Vec<f64>, Vec<f64>)>> = chunk
-        .iter()
-        .map(|s| initial_node(lag, t0, s.clone()).map(|(q, p, _)| (q, p)))
-        .collect();
+    let nodes: Vec<Result<StartNode>> = chunk.iter().map(|s| initial_node(lag, t0, s.clone())).collect();
     let Some(fill) = nodes.iter().find_map(|n| n.as_ref().ok()) else {
         // No member of the chunk starts: their errors are all there is.
         return nodes.into_iter().filter_map(Result::err).map(Err).collect();
@@ -214,20 +246,22 @@ pub(crate) fn chunk_of<L: Lagrangian, const N: usize>(
     let mut s = [(); GROUPS].map(|_| Starts {
         q: [[0.0; LANES]; N],
         p: [[0.0; LANES]; N],
+        v: [[0.0; LANES]; N],
     });
     for (m, group) in s.iter_mut().enumerate() {
         for l in 0..LANES {
-            let (q, p) = match nodes.get(m * LANES + l) {
+            let (q, p, v) = match nodes.get(m * LANES + l) {
                 Some(Ok(node)) => node,
                 _ => fill,
             };
             for i in 0..N {
                 group.q[i][l] = q.get(i).copied().unwrap_or(f64::NAN);
                 group.p[i][l] = p.get(i).copied().unwrap_or(f64::NAN);
+                group.v[i][l] = v.get(i).copied().unwrap_or(f64::NAN);
             }
         }
     }
-    let ends = run_width::<L, N>(lag, grid, &s, width);
+    let ends = run_width::<L, N>(lag, grid, plan, &s, width);
     nodes
         .into_iter()
         .zip(ends)
@@ -235,10 +269,12 @@ pub(crate) fn chunk_of<L: Lagrangian, const N: usize>(
         .collect()
 }
 
-/// The lane loop compiled for `width` (or the best the processor has).
+/// The lane loop (Störmer–Verlet, or the fixed-point step of `plan`) compiled for `width`
+/// (or the best the processor has).
 fn run_width<L: Lagrangian, const N: usize>(
     lag: &L,
     grid: &TimeGrid,
+    plan: Option<&Plan<'_>>,
     s: &[Starts<N>; GROUPS],
     width: Width,
 ) -> Vec<MemberEnd> {
@@ -248,20 +284,36 @@ fn run_width<L: Lagrangian, const N: usize>(
         let avx2 = std::arch::is_x86_feature_detected!("avx2");
         match width {
             // SAFETY: the processor has the instruction set the variant is compiled for.
-            Width::Best | Width::Avx512 if avx512 => return unsafe { x86::avx512::<L, N>(lag, grid, s) },
-            Width::Best | Width::Avx2 if avx2 => return unsafe { x86::avx2::<L, N>(lag, grid, s) },
+            Width::Best | Width::Avx512 if avx512 => return unsafe { x86::avx512::<L, N>(lag, grid, plan, s) },
+            Width::Best | Width::Avx2 if avx2 => return unsafe { x86::avx2::<L, N>(lag, grid, plan, s) },
             _ => {}
         }
     }
     let _ = width;
-    verlet::run::<L, N>(lag, grid, s)
+    run_loop::<L, N>(lag, grid, plan, s)
 }
 
-/// The lane loop compiled with wider vector instructions (the same operations).
+/// The loop of `plan` (Störmer–Verlet without one), inlined into each instruction-set
+/// variant.
+#[inline(always)]
+fn run_loop<L: Lagrangian, const N: usize>(
+    lag: &L,
+    grid: &TimeGrid,
+    plan: Option<&Plan<'_>>,
+    s: &[Starts<N>; GROUPS],
+) -> Vec<MemberEnd> {
+    match plan {
+        None => verlet::run::<L, N>(lag, grid, s),
+        Some(plan) => fixed_point::run::<L, N>(lag, grid, plan, s),
+    }
+}
+
+/// The lane loops compiled with wider vector instructions (the same operations).
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::verlet::{self, Starts};
-    use super::{MemberEnd, GROUPS};
+    use super::fixed_point::Plan;
+    use super::verlet::Starts;
+    use super::{run_loop, MemberEnd, GROUPS};
     use crate::lagrangian::Lagrangian;
     use crate::step::TimeGrid;
 
@@ -270,9 +322,10 @@ mod x86 {
     pub(super) fn avx512<L: Lagrangian, const N: usize>(
         lag: &L,
         grid: &TimeGrid,
+        plan: Option<&Plan<'_>>,
         s: &[Starts<N>; GROUPS],
     ) -> Vec<MemberEnd> {
-        verlet::run::<L, N>(lag, grid, s)
+        run_loop::<L, N>(lag, grid, plan, s)
     }
 
     /// With AVX2: two registers.
@@ -280,9 +333,10 @@ mod x86 {
     pub(super) fn avx2<L: Lagrangian, const N: usize>(
         lag: &L,
         grid: &TimeGrid,
+        plan: Option<&Plan<'_>>,
         s: &[Starts<N>; GROUPS],
     ) -> Vec<MemberEnd> {
-        verlet::run::<L, N>(lag, grid, s)
+        run_loop::<L, N>(lag, grid, plan, s)
     }
 }
 

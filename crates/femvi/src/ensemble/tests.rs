@@ -5,6 +5,7 @@
 
 use super::*;
 use crate::solution::EnergyTracker;
+use crate::step::fixed_point::FixedPointTables;
 use crate::{models, Element, NodeFamily, Potential, QuadratureKind, Scalar, SolverOptions};
 
 fn verlet() -> Element {
@@ -15,9 +16,9 @@ fn verlet() -> Element {
 /// shown every node, as `femvi ensemble` drives a member: a step that fails ends it at the
 /// node before; a node whose energy is not finite ends it at the node before that node
 /// (`Error::NonFiniteEnergy`, the step to it counted), or with no node at the start.
-fn single<L: Lagrangian>(lag: &L, grid: &TimeGrid, start: &Start) -> Result<MemberEnd> {
-    let el = verlet();
-    let mut it = Integrator::new(lag, &el, grid.clone(), start.clone(), SolverOptions::default())?;
+fn single<L: Lagrangian>(lag: &L, run: &Run<'_>, start: &Start) -> Result<MemberEnd> {
+    let (el, grid) = (run.element, run.grid);
+    let mut it = Integrator::new(lag, el, grid.clone(), start.clone(), run.opts)?;
     let n = lag.dim();
     let mut tracker = EnergyTracker::new(n, start, lag.is_autonomous());
     let report = |tracker: &EnergyTracker| tracker.report().max_rel_error;
@@ -80,18 +81,45 @@ fn bits(x: &[f64]) -> Vec<u64> {
     x.iter().map(|v| v.to_bits()).collect()
 }
 
-/// Every member of `starts` in lanes of every width equals its single run bit for bit.
+/// The run the members share besides their Lagrangian: grid, element and options.
+struct Run<'a> {
+    grid: &'a TimeGrid,
+    element: &'a Element,
+    opts: SolverOptions,
+}
+
+/// Every member of `starts` in lanes of every width equals its single run bit for bit
+/// (Störmer–Verlet); returns how many fail.
 fn agree<L: Lagrangian + Sync, const N: usize>(lag: &L, grid: &TimeGrid, starts: &[Start]) -> usize {
+    let el = verlet();
+    let run = Run {
+        grid,
+        element: &el,
+        opts: SolverOptions::default(),
+    };
+    agree_on::<L, N>(lag, &run, starts)
+}
+
+/// As [`agree`] for any run that goes in lanes.
+fn agree_on<L: Lagrangian + Sync, const N: usize>(lag: &L, run: &Run<'_>, starts: &[Start]) -> usize {
+    let grid = run.grid;
+    let template = Integrator::new(lag, run.element, grid.clone(), starts[0].clone(), run.opts).expect("template");
+    assert!(in_lanes(&template), "the run goes in lanes");
+    let plan = template.plain_fixed_point().then(|| Plan {
+        element: run.element,
+        opts: run.opts,
+        tab: FixedPointTables::new(run.element).expect("tables"),
+    });
     let mut failures = 0;
     for width in [Width::Portable, Width::Avx2, Width::Avx512, Width::Best] {
         let ends: Vec<_> = starts
             .chunks(LANES)
-            .flat_map(|c| chunk_of::<L, N>(lag, grid, c, width))
+            .flat_map(|c| chunk_of::<L, N>(lag, grid, plan.as_ref(), c, width))
             .collect();
         assert_eq!(ends.len(), starts.len());
         failures = 0;
         for (i, (end, start)) in ends.iter().zip(starts).enumerate() {
-            match (end, single(lag, grid, start)) {
+            match (end, single(lag, run, start)) {
                 (Ok(a), Ok(b)) => {
                     let at = format!("member {i}, {width:?}");
                     assert_eq!((a.k, a.steps, a.t.to_bits()), (b.k, b.steps, b.t.to_bits()), "{at}");
@@ -193,8 +221,8 @@ fn run_in_lanes_refuses_what_it_does_not_take() {
     let kepler = models::kepler(1.0).expect("kepler");
     let grid = TimeGrid::uniform(0.0, 0.1, 1.0).expect("grid");
     let start = momentum([1.0, 0.0], [0.0, 1.0]);
-    // Degree 2 takes the fixed-point solver, not Störmer–Verlet.
-    let quadratic = Element::with_order(4).expect("element");
+    // Degree 4: four Gauss points, more than the fixed-point lanes hold.
+    let quadratic = Element::with_order(8).expect("element");
     let it = Integrator::new(
         &kepler,
         &quadratic,
@@ -246,4 +274,101 @@ fn expression_members_equal_their_single_runs() {
     let template = Integrator::new(&lag, &el, grid.clone(), starts[0].clone(), SolverOptions::default()).expect("run");
     assert!(in_lanes(&template));
     assert_eq!(agree::<_, 2>(&lag, &grid, &starts), 0);
+}
+
+/// The fixed-point run of `element` (with polish or without).
+fn fixed_point_run<'a>(grid: &'a TimeGrid, element: &'a Element, polish: bool) -> Run<'a> {
+    let opts = SolverOptions {
+        polish,
+        ..SolverOptions::default()
+    };
+    Run { grid, element, opts }
+}
+
+/// Kepler with the fixed-point step (Gauss–Legendre of degrees 1 to 3, a Lobatto rule with
+/// end points, polish on and off): members in lanes equal single runs, including members
+/// whose iteration fails mid-run (a stall, the cap of sweeps) and one whose start fails.
+#[test]
+fn fixed_point_kepler_members_equal_their_single_runs_on_every_width() {
+    let lag = models::kepler(1.0).expect("kepler");
+    let grid = TimeGrid::uniform(0.0, 0.05, 15.0).expect("grid");
+    let mut starts: Vec<Start> = (0..19)
+        .map(|i| momentum([1.0, 0.0], [0.0, 0.5 + 0.04 * i as f64]))
+        .collect();
+    starts.insert(3, momentum([1e-170, 0.0], [-0.0, 1.0]));
+    starts.insert(9, momentum([f64::NAN, 0.0], [0.0, 1.0]));
+    let elements = [
+        Element::with_order(2).expect("midpoint"),
+        Element::with_order(4).expect("degree 2"),
+        Element::with_order(6).expect("degree 3"),
+        Element::galerkin(2, NodeFamily::Equispaced, QuadratureKind::GaussLobatto(3)).expect("Lobatto"),
+    ];
+    for el in &elements {
+        for polish in [true, false] {
+            // The start at r ≈ 0 ends there (its energy is not finite). With some elements the
+            // iteration fails mid-run on the most eccentric orbits, at h = 0.05 near their
+            // pericentre: it stalls, or reaches the cap of sweeps (lanes and single run alike).
+            let failed = agree_on::<_, 2>(&lag, &fixed_point_run(&grid, el, polish), &starts);
+            assert!(
+                failed >= 1,
+                "degree {}, polish {polish}: the start at r ≈ 0 fails",
+                el.degree()
+            );
+        }
+    }
+}
+
+/// Hénon–Heiles at degree 2 (the fixed-point ensemble): members above the escape
+/// energy fail mid-run, alone.
+#[test]
+fn fixed_point_henon_heiles_members_that_escape_fail_alone() {
+    let lag = models::henon_heiles();
+    let grid = TimeGrid::uniform(0.0, 0.1, 150.0).expect("grid");
+    let starts: Vec<Start> = (0..19)
+        .map(|i| {
+            let e = 0.02 + 0.02 * i as f64;
+            momentum([0.0, 0.1], [(2.0 * e).sqrt(), 0.0])
+        })
+        .collect();
+    let el = Element::with_order(4).expect("degree 2");
+    let failed = agree_on::<_, 2>(&lag, &fixed_point_run(&grid, &el, true), &starts);
+    assert!(failed >= 2, "{failed} members fail");
+    assert!(failed < starts.len() - 4, "{failed} members fail");
+}
+
+/// A variable grid whose step changes by more than 2× (the start from the last element's
+/// polynomial instead of the stage forces), a potential without lane code, in 3-D.
+#[test]
+fn fixed_point_members_equal_single_runs_on_a_grid_of_jumps() {
+    let lag = crate::Mechanical::unit_mass(Anharmonic);
+    let grid = TimeGrid::steps(0.0, vec![0.02, 0.05, 0.01, 0.012], 6.0).expect("grid");
+    let starts: Vec<Start> = (0..11)
+        .map(|i| Start::Velocity {
+            q: vec![0.3, -0.1 * i as f64, 0.2],
+            v: vec![0.1 * i as f64, 0.0, -0.5],
+        })
+        .collect();
+    for el in [
+        Element::with_order(4).expect("degree 2"),
+        Element::with_order(6).expect("degree 3"),
+    ] {
+        assert_eq!(agree_on::<_, 3>(&lag, &fixed_point_run(&grid, &el, true), &starts), 0);
+    }
+}
+
+/// An expression Lagrangian with the fixed-point step (its compiled forces at all stages
+/// in the single run, lane by lane here).
+#[test]
+fn fixed_point_expression_members_equal_their_single_runs() {
+    let coords = vec!["x".to_string(), "y".to_string()];
+    let lag = crate::expr::ExprLagrangian::new(
+        "0.5*(x_dot^2 + y_dot^2) - 0.25*(x^2 + y^2)^2 - 0.3*sin(x)*y",
+        &coords,
+        &[],
+    )
+    .expect("expression");
+    let grid = TimeGrid::uniform(0.0, 0.02, 5.0).expect("grid");
+    let starts: Vec<Start> = (0..13).map(|i| momentum([1.0, 0.1 * i as f64], [0.0, 0.5])).collect();
+    let el = Element::with_order(4).expect("degree 2");
+    assert_eq!(agree_on::<_, 2>(&lag, &fixed_point_run(&grid, &el, true), &starts), 0);
 }

@@ -12,6 +12,7 @@
 //! point and the lane goes on computing without being read, so the other lanes are not
 //! held up.
 
+use super::energy::{end_at, start_failed, Energy};
 use super::MemberEnd;
 use crate::error::{Error, StepError, StepFailure};
 use crate::lagrangian::{Lagrangian, Lanes, LANES};
@@ -21,79 +22,8 @@ use crate::step::TimeGrid;
 pub(super) struct Starts<const N: usize> {
     pub(super) q: [Lanes; N],
     pub(super) p: [Lanes; N],
-}
-
-/// The energy tracker of every lane (`EnergyTracker` with every node shown, M = I). Aligned
-/// to a vector register, like the carried values: a register spilled to the stack across a
-/// cache line costs a split load (`femvi ensemble` measured 6.4 against 3.9 ns per
-/// member-step when its frame happened to be misaligned).
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-struct Energy {
-    e0: Lanes,
-    max_dev: Lanes,
-}
-
-impl Energy {
-    /// Records the nodes (q, p) of every lane: H = p·p − (p·p·½ − V(q)), its first value
-    /// that is not NaN as H0, and the largest |H − H0| over the finite ones. True for the
-    /// lanes whose H is not finite (where a run ends, before that node).
-    #[inline(always)]
-    fn node<L: Lagrangian, const N: usize>(
-        &mut self,
-        lag: &L,
-        t: f64,
-        q: &[Lanes; N],
-        p: &[Lanes; N],
-    ) -> [bool; LANES] {
-        let mut pv = [0.0; LANES];
-        for c in 0..N {
-            for l in 0..LANES {
-                pv[l] += p[c][l] * p[c][l];
-            }
-        }
-        // L at v = p (M = I): p·p·½ − V as `Mechanical::value` forms it where V is known,
-        // else L itself lane by lane (`EnergyTracker::node`'s mechanical case, pv − L).
-        let lagrangian = match lag.potential_lanes(t, q) {
-            Some(v) => {
-                let mut l = [0.0; LANES];
-                for i in 0..LANES {
-                    l[i] = pv[i] * 0.5 - v[i];
-                }
-                l
-            }
-            None => lagrangian_per_lane(lag, t, q, p),
-        };
-        // Selects, not branches, so that the loop is one of vector operations.
-        let mut bad = [false; LANES];
-        for l in 0..LANES {
-            let h = pv[l] - lagrangian[l];
-            let e0 = if self.e0[l].is_nan() { h } else { self.e0[l] };
-            let dev = if h.is_finite() { (h - e0).abs() } else { 0.0 };
-            self.e0[l] = e0;
-            self.max_dev[l] = self.max_dev[l].max(dev);
-            bad[l] = !h.is_finite();
-        }
-        bad
-    }
-
-    /// The largest relative error of lane l, as `EnergyTracker::report` gives it.
-    fn max_rel(&self, l: usize) -> f64 {
-        let (e0, dev) = (self.e0[l], self.max_dev[l]);
-        let rel = if e0 != 0.0 { dev / e0.abs() } else { dev };
-        0.0f64.max(rel)
-    }
-}
-
-/// L(t, q, p) lane by lane (a Lagrangian without [`Lagrangian::potential_lanes`]).
-#[inline(never)]
-fn lagrangian_per_lane<L: Lagrangian, const N: usize>(lag: &L, t: f64, q: &[Lanes; N], p: &[Lanes; N]) -> Lanes {
-    let mut out = [0.0; LANES];
-    for (l, o) in out.iter_mut().enumerate() {
-        let (ql, pl): ([f64; N], [f64; N]) = (q.map(|c| c[l]), p.map(|c| c[l]));
-        *o = lag.value(t, &ql, &pl);
-    }
-    out
+    /// v0 (the fixed-point loop's first guess; the same as p0 where M = I).
+    pub(super) v: [Lanes; N],
 }
 
 /// The carried values of the fast loop (`Carry` in `step/explicit.rs`), lane by lane.
@@ -213,17 +143,8 @@ fn energy_failed<const N: usize>(
 }
 
 /// Lane l of a group that reached the end of the grid at node (k, t).
-fn reached<const N: usize>(c: &Carry<N>, energy: &Energy, l: usize, (k, t): (usize, f64)) -> MemberEnd {
-    let p = c.momentum();
-    MemberEnd {
-        k,
-        t,
-        q: (0..N).map(|i| c.q[i][l]).collect(),
-        p: (0..N).map(|i| p[i][l]).collect(),
-        steps: k,
-        energy_error: energy.max_rel(l),
-        error: None,
-    }
+fn reached<const N: usize>(c: &Carry<N>, energy: &Energy, l: usize, at: (usize, f64)) -> MemberEnd {
+    end_at(&c.q, &c.momentum(), energy, l, at)
 }
 
 /// The members of `starts` (two groups of [`LANES`]) from t0 to the end of `grid`: one
@@ -255,28 +176,13 @@ pub(super) fn run<L: Lagrangian, const N: usize>(
         c
     };
     let (mut c0, mut c1) = (carry(s0), carry(s1));
-    let blank = Energy {
-        e0: [f64::NAN; LANES],
-        max_dev: [0.0; LANES],
-    };
-    let (mut e0, mut e1) = (blank, blank);
+    let (mut e0, mut e1) = (Energy::blank(), Energy::blank());
     let mut ends: Vec<Option<MemberEnd>> = vec![None; 2 * LANES];
     // A start whose energy is not finite ends there, with no node.
     let bad = [e0.node(lag, t0, &c0.q, &c0.p), e1.node(lag, t0, &c1.q, &c1.p)];
-    for (m, end) in ends.iter_mut().enumerate() {
-        if bad[m / LANES][m % LANES] {
-            let energy = if m < LANES { &e0 } else { &e1 };
-            *end = Some(MemberEnd {
-                k: 0,
-                t: t0,
-                q: vec![f64::NAN; N],
-                p: vec![f64::NAN; N],
-                steps: 0,
-                energy_error: energy.max_rel(m % LANES),
-                error: Some(Error::NonFiniteEnergy { step: 0, t: t0 }),
-            });
-        }
-    }
+    let (first, second) = ends.split_at_mut(LANES);
+    start_failed::<N>(first, &bad[0], &e0, t0);
+    start_failed::<N>(second, &bad[1], &e1, t0);
     let (mut k, mut t, mut hprev) = (0usize, t0, 0.0);
     let mut k1 = 1.0;
     let uniform = grid.uniform_rule();

@@ -16,6 +16,7 @@ use super::state::{Increments, LastElement, RunState};
 use crate::discrete::Element;
 use crate::error::{Error, Result, StepError, StepFailure};
 use crate::lagrangian::{Lagrangian, MassMatrix};
+use crate::step::SolverOptions;
 
 /// nodes and one predicted force, interpolated in time (step/start.rs), when the rule has at
 /// most this many points and the step changed by at most 2×; otherwise from the last element's
@@ -26,7 +27,7 @@ use crate::lagrangian::{Lagrangian, MassMatrix};
 /// the last step alone left a starting error of 2e-4 … 1e-3 on P3 at h = 0.5 (degree 6), the
 /// interpolation 1e-7 … 2e-6 there (5e-4 … 3e-3 at h = 1.25); two steps of stage forces (2r
 /// points) were no better than one.
-const START_MAX_POINTS: usize = 12;
+pub(crate) const START_MAX_POINTS: usize = 12;
 
 /// Step-scaled tables kept by the fixed-point solver (see `Integrator::step_tables`).
 /// Measured on P3 (degree 8) with steps cycling through 0.45/0.55: 1.35 µs per step when they
@@ -42,7 +43,7 @@ const CACHED_STEPS: usize = 4;
 /// 0.186 s against 0.203 s.
 const RICH_START_SWEEPS: usize = 2;
 /// See [`RICH_START_SWEEPS`].
-const RICH_START_POINTS: usize = 4;
+pub(crate) const RICH_START_POINTS: usize = 4;
 
 /// The fixed-point polish stops once a sweep changes the stages by at most this many units of
 /// round-off (relative to the largest stage or coordinate). Four units were tried: 0.2–0.4
@@ -50,7 +51,7 @@ const RICH_START_POINTS: usize = 4;
 /// step sizes (degree 8, 100–300 steps per period, with `COEFFICIENT_ROUNDING`) went from
 /// 1.0e-10 to 1.8e-10: a start already within a few units stops the iteration after its first
 /// sweep, and the start's error, a smooth function of the state, has a sign.
-const ROUNDOFF_ULPS: f64 = 1.0;
+pub(crate) const ROUNDOFF_ULPS: f64 = 1.0;
 
 /// With the polish on, the update's h-scaled coefficients (h α, h² β, h b: ΔQ and Δp from the
 /// stage forces) enter as f64 value plus rounding error, the errors applied as a second, small
@@ -63,7 +64,7 @@ const ROUNDOFF_ULPS: f64 = 1.0;
 /// they are correctly rounded from their exact products instead (rounding h² first and then
 /// h²·B, as before, gave a median of 2.5e-10). (A correctly rounded Kepler force changed
 /// nothing either: the force's own rounding is not what drifts.)
-const COEFFICIENT_ROUNDING: bool = true;
+pub(crate) const COEFFICIENT_ROUNDING: bool = true;
 
 /// The fixed-point solver's tables, caches and workspace.
 #[derive(Debug, Clone)]
@@ -236,9 +237,8 @@ impl FixedPointStep {
         let (n, r) = (state.n, cx.element.points());
         let st = &self.step_tables[self.cur_tables];
         let qscale = state.qscale();
-        let (tol, opts) = (cx.opts.tolerance, cx.opts);
-        let mut prev = f64::INFINITY;
-        let (mut non_decreasing, mut iterations, mut polish) = (0, 0, 0);
+        let mut judge = Judge::new(&cx.opts);
+        let mut iterations = 0;
         loop {
             iterations += 1;
             // The sweep with the dimension fixed at compile time for n ≤ 3 (inlined: through a
@@ -267,52 +267,19 @@ impl FixedPointStep {
                 3 => sweep!(3),
                 _ => sweep!(0),
             };
-            let scale = qscale.max(ymax);
-            let fail = |failure| {
-                Error::Step(StepError {
-                    step: state.k,
-                    t: state.t,
-                    residual: delta,
-                    iterations,
-                    failure,
-                })
-            };
-            if !delta.is_finite() {
-                return Err(fail(StepFailure::NonFinite));
-            }
-            if delta <= tol * scale {
-                // Polish: the error left by a truncated iteration has the same sign every
-                // step and would drift conserved quantities linearly, so iterate on while the
-                // increments still decrease (as GNI_IRK2 does), at most three more times.
-                // Stopping earlier on the estimate δ²/δ_prev is wrong: the momentum update
-                // h Σ b_i f_i carries the stages' error δ times h|∂f/∂q|, not times the
-                // contraction (measured: P3's energy error, degree 6, h = 0.5, doubled from
-                // 9.3e-12 to 2.0e-11).
-                if !opts.polish
-                    || delta == 0.0
-                    || delta >= prev
-                    || polish >= 3
-                    || delta <= ROUNDOFF_ULPS * f64::EPSILON * scale
-                {
-                    break;
-                }
-                polish += 1;
-            } else if delta >= prev {
-                if delta <= 64.0 * f64::EPSILON * scale {
-                    break; // Round-off level: it cannot get any better.
-                }
-                non_decreasing += 1;
-                if non_decreasing >= 3 {
-                    return Err(fail(StepFailure::Stalled));
+            match judge.sweep(delta, ymax, qscale, iterations) {
+                Verdict::Continue => {}
+                Verdict::Converged => break,
+                Verdict::Failed(failure) => {
+                    return Err(Error::Step(StepError {
+                        step: state.k,
+                        t: state.t,
+                        residual: delta,
+                        iterations,
+                        failure,
+                    }))
                 }
             }
-            if iterations >= opts.max_iterations && delta > tol * scale {
-                return Err(fail(StepFailure::NotConverged));
-            }
-            if iterations >= opts.max_iterations {
-                break;
-            }
-            prev = delta;
         }
         Ok(iterations)
     }
@@ -375,6 +342,90 @@ impl FixedPointStep {
         let w = if identity { &self.force } else { &self.wforce };
         self.stage_start.data[..r * n].copy_from_slice(&w[..r * n]);
         self.have_last_w = true;
+    }
+}
+
+/// What a sweep of the fixed-point iteration decides ([`Judge::sweep`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Verdict {
+    /// Sweep again.
+    Continue,
+    /// The stages are converged (and polished): the last sweep's forces make the step.
+    Converged,
+    /// The step fails.
+    Failed(StepFailure),
+}
+
+/// The stopping rule of the fixed-point iteration, one step's worth of its memory: shared by
+/// the single run and the ensemble lanes (`ensemble/fixed_point.rs`), whose members must stop
+/// after the same sweeps.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Judge {
+    tol: f64,
+    max_iterations: usize,
+    polish_on: bool,
+    prev: f64,
+    non_decreasing: usize,
+    polish: usize,
+}
+
+impl Judge {
+    /// Before the first sweep of a step.
+    #[inline]
+    pub(crate) fn new(opts: &SolverOptions) -> Self {
+        Self {
+            tol: opts.tolerance,
+            max_iterations: opts.max_iterations,
+            polish_on: opts.polish,
+            prev: f64::INFINITY,
+            non_decreasing: 0,
+            polish: 0,
+        }
+    }
+
+    /// The verdict after sweep number `iterations` (from 1), which changed the stages by at
+    /// most `delta` and left them at most `ymax` (NaN if a value is not finite), from a node
+    /// whose largest |q| is `qscale`.
+    #[inline]
+    pub(crate) fn sweep(&mut self, delta: f64, ymax: f64, qscale: f64, iterations: usize) -> Verdict {
+        let scale = qscale.max(ymax);
+        if !delta.is_finite() {
+            return Verdict::Failed(StepFailure::NonFinite);
+        }
+        if delta <= self.tol * scale {
+            // Polish: the error left by a truncated iteration has the same sign every
+            // step and would drift conserved quantities linearly, so iterate on while the
+            // increments still decrease (as GNI_IRK2 does), at most three more times.
+            // Stopping earlier on the estimate δ²/δ_prev is wrong: the momentum update
+            // h Σ b_i f_i carries the stages' error δ times h|∂f/∂q|, not times the
+            // contraction (measured: P3's energy error, degree 6, h = 0.5, doubled from
+            // 9.3e-12 to 2.0e-11).
+            if !self.polish_on
+                || delta == 0.0
+                || delta >= self.prev
+                || self.polish >= 3
+                || delta <= ROUNDOFF_ULPS * f64::EPSILON * scale
+            {
+                return Verdict::Converged;
+            }
+            self.polish += 1;
+        } else if delta >= self.prev {
+            if delta <= 64.0 * f64::EPSILON * scale {
+                return Verdict::Converged; // Round-off level: it cannot get any better.
+            }
+            self.non_decreasing += 1;
+            if self.non_decreasing >= 3 {
+                return Verdict::Failed(StepFailure::Stalled);
+            }
+        }
+        if iterations >= self.max_iterations && delta > self.tol * scale {
+            return Verdict::Failed(StepFailure::NotConverged);
+        }
+        if iterations >= self.max_iterations {
+            return Verdict::Converged;
+        }
+        self.prev = delta;
+        Verdict::Continue
     }
 }
 

@@ -504,6 +504,26 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             && self.term.is_none()
     }
 
+    /// Whether the run's steps are plain fixed-point steps (`fixed_point_step.rs`, with no
+    /// term, no energy mode and no pending first element): what ensembles take in lanes for
+    /// elements of degree 2 and more ([`crate::ensemble`]).
+    pub(crate) fn plain_fixed_point(&self) -> bool {
+        matches!(self.solver, Solver::FixedPoint(_))
+            && self.pending.is_none()
+            && self.energy.is_none()
+            && self.term.is_none()
+    }
+
+    /// The run's element.
+    pub(crate) fn element(&self) -> &Element {
+        &self.element
+    }
+
+    /// The run's solver options.
+    pub(crate) fn options(&self) -> &SolverOptions {
+        &self.opts
+    }
+
     /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).
     fn fast_explicit<F: FnMut(Node<'_>) -> bool>(
         &mut self,

@@ -79,9 +79,13 @@ pub use element_work::MAX_DENSE_NEWTON;
 pub(crate) use energy::check_bounds as energy_bounds;
 pub use energy::{Degenerate, EnergyOptions, EnergyStats};
 pub(crate) use first::initial_node;
+#[cfg(test)]
+pub(crate) use fixed_point_step::{Judge, Verdict};
+pub(crate) use fixed_point_step::{COEFFICIENT_ROUNDING, RICH_START_POINTS, ROUNDOFF_ULPS, START_MAX_POINTS};
 pub use grid::{TimeGrid, UniformRule};
 pub(crate) use guess::Guess;
 pub use integrator::Integrator;
 pub use options::{Method, SolverOptions, Start};
+pub(crate) use start::StageStart;
 pub(crate) use state::LastElement;
 pub use state::{ElementNodes, Node};

@@ -28,7 +28,7 @@ const PREDICTOR_THETA: f64 = 0.6;
 
 /// Cached tables and the force data of the starting procedure.
 #[derive(Debug, Clone)]
-pub(super) struct StageStart {
+pub(crate) struct StageStart {
     r: usize,
     n: usize,
     /// The rule has a point at c = 1 or c = 0: the last step's stage forces already include the
@@ -99,7 +99,7 @@ impl StageStart {
     }
 
     /// Workspace for `element` in dimension n.
-    pub(super) fn new(element: &Element, n: usize) -> Self {
+    pub(crate) fn new(element: &Element, n: usize) -> Self {
         let r = element.points();
         // Rules with a point at c = 1 also have one at c = 0 (all of them are symmetric).
         let end_point = element.rule.nodes.contains(&1.0) || element.rule.nodes.contains(&0.0);
@@ -203,6 +203,16 @@ impl StageStart {
             }
         }
         (set, e)
+    }
+
+    /// The table of the start from the last step's stage forces alone (what [`Self::start`]
+    /// does without `rich`, for a rule without end points): y_l = h a_l u + Σ_j mat_jl w_j,
+    /// `mat` column-major r × r (entry (l, j) at j r + l), for the step h after a step
+    /// `last_h`. The ensemble lanes start their stages with it (`ensemble/fixed_point.rs`).
+    pub(crate) fn plain_table(&mut self, element: &Element, tab: &FixedPointTables, h: f64, last_h: f64) -> &[f64] {
+        let r = self.r;
+        let (set, e) = self.tables(element, tab, h, last_h, r, false);
+        &self.sets[set][e].mat[..r * r]
     }
 
     /// Starting stage values y (r × n) for the step h from node k with u = M⁻¹p_k, after a
