@@ -1,6 +1,7 @@
 //! Ensemble throughput on one core (issue 39 item 2), in member-steps per second (criterion's
-//! element throughput; ns per member-step is its inverse): Kepler at degree 1 (Störmer–Verlet)
-//! and Hénon–Heiles, 4096 members × 1000 steps, each member's energy checked at every node as
+//! element throughput; ns per member-step is its inverse): Kepler and Hénon–Heiles at degree 1
+//! (Störmer–Verlet) and at degree 2 (2-point Gauss–Legendre, the fixed-point step), 4096
+//! members × 1000 steps, each member's energy checked at every node as
 //! `femvi ensemble` does. Members in SIMD lanes (`femvi::ensemble`, each compiled width)
 //! against the same members one at a time (`Integrator::step` with an `EnergyTracker`, the
 //! path of other schemes) and against a hand-written Verlet loop of one trajectory with the
@@ -73,7 +74,13 @@ fn bench(c: &mut Criterion) {
     let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     let kepler = models::kepler(1.0).unwrap();
     let hh = models::henon_heiles();
-    for (name, is_kepler) in [("kepler", true), ("henon_heiles", false)] {
+    let degree2 = Element::with_order(4).unwrap();
+    for (name, is_kepler, element) in [
+        ("kepler", true, &verlet),
+        ("henon_heiles", false, &verlet),
+        ("kepler_degree2", true, &degree2),
+        ("henon_heiles_degree2", false, &degree2),
+    ] {
         let mut g = c.benchmark_group(format!("ensemble_{name}_4096x1000"));
         g.sample_size(10);
         g.throughput(Throughput::Elements((MEMBERS * STEPS) as u64));
@@ -82,7 +89,7 @@ fn bench(c: &mut Criterion) {
             ($lag:expr) => {{
                 let template = Integrator::new(
                     $lag,
-                    &verlet,
+                    element,
                     grid.clone(),
                     s[0].clone(),
                     SolverOptions::default(),
@@ -103,13 +110,15 @@ fn bench(c: &mut Criterion) {
                     b.iter(|| two.install(|| lanes.run(black_box(&s), &|_| {})).len())
                 });
                 g.bench_function("one_by_one", |b| {
-                    b.iter(|| one_by_one($lag, &verlet, &grid, black_box(&s)))
+                    b.iter(|| one_by_one($lag, element, &grid, black_box(&s)))
                 });
             }};
         }
         if is_kepler {
             lanes!(&kepler);
-            g.bench_function("hand_loop_one_by_one", |b| b.iter(|| hand_loop(black_box(&s))));
+            if element.degree() == 1 {
+                g.bench_function("hand_loop_one_by_one", |b| b.iter(|| hand_loop(black_box(&s))));
+            }
         } else {
             lanes!(&hh);
         }

@@ -192,14 +192,22 @@ fn summary(set: &[String]) -> (f64, Vec<f64>, Vec<f64>, f64, usize, Option<Strin
     )
 }
 
-/// Störmer–Verlet (degree 1, trapezoid) takes the members eight at a time in SIMD lanes:
-/// eleven members (a chunk and a partial one), one of which fails at its start (its energy
-/// overflows), each equal bit for bit to its run member by member
-/// (`femvi_cli::ensemble::run_member`, the path of other schemes: the final node, the energy
-/// error over every node, the steps, the error) and, where it does not fail, to `femvi run`
-/// of its start.
+/// Störmer–Verlet (degree 1, trapezoid) and the fixed-point step of degree 2 take the
+/// members eight at a time in SIMD lanes: eleven members (a chunk and a partial one), one of
+/// which fails at its start (its energy overflows), each equal bit for bit to its run member
+/// by member (`femvi_cli::ensemble::run_member`, the path of other schemes: the final node,
+/// the energy error over every node, the steps, the error) and, where it does not fail, to
+/// `femvi run` of its start.
 #[test]
 fn members_in_lanes_equal_single_runs() {
+    // Störmer–Verlet, and degree 2 with 2-point Gauss–Legendre (the fixed-point lanes).
+    lanes_against_single_runs(&["scheme.degree=1", "scheme.quadrature=trapezoid"]);
+    lanes_against_single_runs(&["scheme.degree=2", "scheme.quadrature=gauss-legendre"]);
+}
+
+/// `femvi ensemble --states` of Kepler members with `scheme` against `run_member` and
+/// `femvi run` of each start.
+fn lanes_against_single_runs(scheme: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let states = dir.path().join("states.csv");
     let mut rows_in: Vec<[f64; 4]> = (0..10)
@@ -213,24 +221,19 @@ fn members_in_lanes_equal_single_runs() {
         .map(|r| format!("{:?},{:?},{:?},{:?}\n", r[0], r[1], r[2], r[3]))
         .collect();
     std::fs::write(&states, text).unwrap();
-    let verlet = [
-        "scheme.degree=1",
-        "scheme.quadrature=trapezoid",
-        "time.end=4",
-        "time.step=0.01",
-    ];
+    let settings: Vec<&str> = scheme.iter().copied().chain(["time.end=4", "time.step=0.01"]).collect();
     let out = dir.path().join("out");
     let mut cmd = femvi();
     cmd.args(["ensemble", "--workers", "2", "--quiet", "--states"])
         .arg(&states)
         .arg(kepler());
-    for s in verlet {
+    for s in &settings {
         cmd.arg("--set").arg(s);
     }
     let status = cmd.arg("--out").arg(&out).output().unwrap().status;
     let r = rows(&out);
     assert_eq!(r.len(), 12);
-    let set: Vec<String> = verlet.iter().map(|x| x.to_string()).collect();
+    let set: Vec<String> = settings.iter().map(|x| x.to_string()).collect();
     let problem = femvi_cli::problem::load_with(&kepler(), &set).unwrap();
     let mut failed = 0;
     for (i, s) in rows_in.iter().enumerate() {
@@ -242,7 +245,11 @@ fn members_in_lanes_equal_single_runs() {
         let row = &r[i + 1];
         let num = |k: usize| row[k].parse::<f64>().unwrap();
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(num(1).to_bits(), one.final_t.to_bits(), "member {i}: final_t");
+        assert_eq!(
+            num(1).to_bits(),
+            one.final_t.to_bits(),
+            "{scheme:?} member {i}: final_t"
+        );
         assert_eq!(bits(&numbers(row, 2..4)), bits(&one.q), "member {i}: q");
         assert_eq!(bits(&numbers(row, 4..6)), bits(&one.p), "member {i}: p");
         assert_eq!(num(6).to_bits(), one.energy_error.to_bits(), "member {i}: energy error");

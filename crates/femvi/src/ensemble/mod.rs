@@ -1,9 +1,12 @@
 //! Ensembles in SIMD lanes (issue 39 item 2): many runs of one problem (the same Lagrangian,
 //! element and time grid) that differ only in their start, taken [`LANES`] at a time, one
-//! member per lane of a vector register. A run qualifies when its steps are Störmer–Verlet
-//! (degree 1 with the trapezoid rule, the paper's linear element §2.3, on L = ½|v|² − V(q)
-//! with M = I and V autonomous): [`run_in_lanes`] then advances [`LANES`] members a step at
-//! a time through [`Lagrangian::force_lanes`] and [`Lagrangian::potential_lanes`], with
+//! member per lane of a vector register. A run of L = ½|v|² − V(q) (M = I, V autonomous)
+//! qualifies when its steps are Störmer–Verlet (degree 1 with the trapezoid rule, the
+//! paper's linear element §2.3; `verlet.rs`) or the fixed-point iteration of an element of
+//! up to three quadrature points and degree 3 (`fixed_point.rs`, the stage equations of
+//! DESIGN.md §2 with the single run's stopping rule in lanes, `judge.rs`): [`run_in_lanes`]
+//! then advances [`LANES`] members a step at a time through [`Lagrangian::force_lanes`] and
+//! [`Lagrangian::potential_lanes`], with
 //! each member's numbers those of its single run ([`crate::step::drive()`] with an
 //! [`crate::solution::EnergyTracker`] at every node) bit for bit: the same IEEE operations
 //! in the same order, lane by lane. The loop is compiled three times, for AVX-512, AVX2

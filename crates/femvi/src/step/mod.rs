@@ -53,6 +53,7 @@ mod energy_search;
 mod explicit;
 mod first;
 pub mod fixed_point;
+mod fixed_point_judge;
 pub(crate) mod fixed_point_step;
 pub mod grid;
 mod guess;
@@ -80,7 +81,7 @@ pub(crate) use energy::check_bounds as energy_bounds;
 pub use energy::{Degenerate, EnergyOptions, EnergyStats};
 pub(crate) use first::initial_node;
 #[cfg(test)]
-pub(crate) use fixed_point_step::{Judge, Verdict};
+pub(crate) use fixed_point_judge::{Judge, Verdict};
 pub(crate) use fixed_point_step::{COEFFICIENT_ROUNDING, RICH_START_POINTS, ROUNDOFF_ULPS, START_MAX_POINTS};
 pub use grid::{TimeGrid, UniformRule};
 pub(crate) use guess::Guess;
