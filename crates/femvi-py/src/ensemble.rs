@@ -10,7 +10,7 @@
 use crate::arrays::{rows, vec1};
 use crate::input_error;
 use crate::run::load;
-use femvi_cli::ensemble::{run_all, run_member, run_member_saving, run_shared, start_of, Member};
+use femvi_cli::ensemble::{run_all, run_member, run_member_saving, run_shared, start_of, with_body, Member};
 use numpy::{PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -93,8 +93,8 @@ pub fn ensemble_file<'py>(
             },
         };
         match start_of(p, states.as_deref(), i, velocity) {
-            Ok(start) if saveat.is_empty() => run_member(p, start),
-            Ok(start) => run_member_saving(p, start, &saveat),
+            Ok(start) if saveat.is_empty() => with_body(p, run_member(p, start)),
+            Ok(start) => with_body(p, run_member_saving(p, start, &saveat)),
             Err(e) => {
                 bad_input.fetch_min(i, Ordering::Relaxed);
                 Member::failed(n, f64::NAN, e)
@@ -114,6 +114,7 @@ pub fn ensemble_file<'py>(
             let worker = scope.spawn(|| {
                 if shared {
                     run_shared(&problem, size, workers, &done, start)
+                        .map(|all| all.into_iter().map(|m| with_body(&problem, m)).collect())
                 } else {
                     run_all(size, workers, &done, member)
                 }
@@ -140,10 +141,18 @@ pub fn ensemble_file<'py>(
         let msg = members[first_bad].error.clone().unwrap_or_default();
         return Err(input_error(format!("member {first_bad}: {msg}")));
     }
-    gather(py, members, n, &saveat)
+    let body = 6 * femvi_cli::record::rotation_names(&problem).len();
+    gather(py, members, (n, body), &saveat)
 }
 
-fn gather<'py>(py: Python<'py>, members: Vec<Member>, n: usize, saveat: &[f64]) -> PyResult<Bound<'py, PyDict>> {
+/// The members' results stacked into the arrays of `femvi.EnsembleResult` (n coordinates,
+/// `body` numbers of [`Member::body`] per member: each rotation's w and Π).
+fn gather<'py>(
+    py: Python<'py>,
+    members: Vec<Member>,
+    (n, body): (usize, usize),
+    saveat: &[f64],
+) -> PyResult<Bound<'py, PyDict>> {
     let m = members.len();
     let (mut t, mut q, mut p, mut e, mut steps) = (
         Vec::with_capacity(m),
@@ -153,6 +162,7 @@ fn gather<'py>(py: Python<'py>, members: Vec<Member>, n: usize, saveat: &[f64]) 
         Vec::with_capacity(m),
     );
     let mut errors: Vec<Option<String>> = Vec::with_capacity(m);
+    let mut bodies = Vec::with_capacity(m * body);
     let (mut sq, mut sp) = (
         Vec::with_capacity(m * saveat.len() * n),
         Vec::with_capacity(m * saveat.len() * n),
@@ -174,6 +184,7 @@ fn gather<'py>(py: Python<'py>, members: Vec<Member>, n: usize, saveat: &[f64]) 
         e.push(mb.energy_error);
         steps.push(mb.steps);
         errors.push(mb.error);
+        bodies.extend((0..body).map(|k| mb.body.get(k).copied().unwrap_or(f64::NAN)));
     }
     let d = PyDict::new(py);
     d.set_item("final_t", vec1(py, t))?;
@@ -182,6 +193,9 @@ fn gather<'py>(py: Python<'py>, members: Vec<Member>, n: usize, saveat: &[f64]) 
     d.set_item("energy_error", vec1(py, e))?;
     d.set_item("steps", crate::arrays::index1(py, steps))?;
     d.set_item("errors", errors)?;
+    if body > 0 {
+        d.set_item("body", rows(py, bodies, body)?)?;
+    }
     if !saveat.is_empty() {
         let shape = [m, saveat.len(), n];
         d.set_item("saved_t", vec1(py, saveat.to_vec()))?;

@@ -66,3 +66,8 @@ def test_ensemble_members_are_single_runs():
     res = femvi.ensemble(path, states, overrides={"time.end": 2.0}, progress=False)
     assert same(res.final_q[0], one.final_q) and same(res.final_p[0], one.final_p)
     assert defect(res.final_q[1]) < 1e-14
+    # The body columns: w and Pi at the last node, against the solution's own (NumPy) ones.
+    body = one.rotation("R")
+    assert res.body.shape == (2, 6)
+    assert np.abs(res.body[0, :3] - body.w[-1]).max() < 1e-13 * np.abs(body.w[-1]).max()
+    assert np.abs(res.body[0, 3:] - body.pi[-1]).max() < 1e-13 * np.abs(body.pi[-1]).max()

@@ -1,18 +1,23 @@
 //! `femvi ensemble`: its options, the initial states it reads, the tables it writes
 //! (ensemble.csv, ensemble.npy) and the command itself with its progress bar.
 
-use super::{run_all, run_member, run_shared, start_of, Member};
+use super::{run_all, run_member, run_shared, start_of, with_body, Member};
 use crate::problem::Problem;
 use crate::record::write_table;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The column names of an ensemble table: `member`, `final_t`, the coordinates, `p_` and the
-/// coordinates, `energy_error`, `steps`.
-pub fn columns(coordinates: &[String]) -> Vec<String> {
+/// coordinates, for each rotation X its body angular velocity `X_w1` … `X_w3` and momentum
+/// `p_X1` … `p_X3` (as `femvi run` writes them), `energy_error`, `steps`.
+pub fn columns(coordinates: &[String], rotations: &[String]) -> Vec<String> {
     let mut c = vec!["member".to_string(), "final_t".to_string()];
     c.extend(coordinates.iter().cloned());
     c.extend(coordinates.iter().map(|x| format!("p_{x}")));
+    for x in rotations {
+        c.extend((1..=3).map(|i| format!("{x}_w{i}")));
+        c.extend((1..=3).map(|i| format!("p_{x}{i}")));
+    }
     c.push("energy_error".into());
     c.push("steps".into());
     c
@@ -24,9 +29,10 @@ pub fn columns(coordinates: &[String]) -> Vec<String> {
 ///
 /// # Errors
 /// The files cannot be written.
-pub fn write(dir: &Path, coordinates: &[String], members: &[Member]) -> std::io::Result<()> {
+pub fn write(dir: &Path, (coordinates, rotations): (&[String], &[String]), members: &[Member]) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
-    let cols = columns(coordinates);
+    let cols = columns(coordinates, rotations);
+    let body = 6 * rotations.len();
     let mut table = Vec::with_capacity(members.len() * cols.len());
     let mut w = csv::Writer::from_path(dir.join("ensemble.csv"))?;
     let mut header = cols.clone();
@@ -36,6 +42,7 @@ pub fn write(dir: &Path, coordinates: &[String], members: &[Member]) -> std::io:
         let mut row = vec![i as f64, m.final_t];
         row.extend(&m.q);
         row.extend(&m.p);
+        row.extend((0..body).map(|k| m.body.get(k).copied().unwrap_or(f64::NAN)));
         row.push(m.energy_error);
         row.push(m.steps as f64);
         let mut text: Vec<String> = row.iter().map(|x| x.to_string()).collect();
@@ -173,7 +180,7 @@ pub fn command(path: &Path, args: &EnsembleArgs) -> Result<bool, (String, u8)> {
             None => &problem,
         };
         match start_of(p, rows, i, args.velocity) {
-            Ok(start) => run_member(p, start),
+            Ok(start) => with_body(p, run_member(p, start)),
             Err(e) => Member::failed(n, f64::NAN, e),
         }
     };
@@ -182,13 +189,15 @@ pub fn command(path: &Path, args: &EnsembleArgs) -> Result<bool, (String, u8)> {
             let start = |i: usize| start_of(&problem, rows, i, args.velocity);
             with_progress(size, args.quiet, &done, || {
                 run_shared(&problem, size, args.workers, &done, start)
+                    .map(|all| all.into_iter().map(|m| with_body(&problem, m)).collect())
             })
         }
         Some(_) => with_progress(size, args.quiet, &done, || run_all(size, args.workers, &done, member)),
     }
     .map_err(|e| (e, crate::NUMERICAL))?;
     let dir = args.out.clone().unwrap_or_else(|| problem.directory.clone());
-    write(&dir, &problem.coordinates, &members)
+    let rotations = crate::record::rotation_names(&problem);
+    write(&dir, (&problem.coordinates, &rotations), &members)
         .map_err(|e| (format!("cannot write {}: {e}", dir.display()), crate::BAD_INPUT))?;
     let failed = members.iter().filter(|m| m.error.is_some()).count();
     if !args.quiet {

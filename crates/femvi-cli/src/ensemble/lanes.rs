@@ -76,6 +76,7 @@ fn in_lanes<L: Lagrangian + Clone + Sync>(
                     error: end.error.map(|e| e.to_string()),
                     saved_q: vec![],
                     saved_p: vec![],
+                    body: vec![],
                 },
                 Some(Err(e)) => Member::not_started(n, t0, &e),
                 None => Member::failed(n, t0, "no result for this member".into()),

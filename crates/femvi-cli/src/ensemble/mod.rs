@@ -39,6 +39,27 @@ pub struct Member {
     pub saved_q: Vec<f64>,
     /// p at the requested times.
     pub saved_p: Vec<f64>,
+    /// For each rotation of the problem, the body angular velocity w and momentum Π at the
+    /// last node ([`with_body`]; empty before, and without rotations).
+    pub body: Vec<f64>,
+}
+
+/// `m` with its [`Member::body`] set from its last node, for a problem with rotations (as
+/// `femvi run` writes them: each rotation's w, then Π; NaN where the node is not known or its
+/// velocity cannot be recovered).
+pub fn with_body(problem: &Problem, m: Member) -> Member {
+    if problem.terms.rotations.is_none() {
+        return m;
+    }
+    crate::with_system!(&problem.system, l => body_of(l, problem, m))
+}
+
+fn body_of<L: Lagrangian>(lag: &L, problem: &Problem, mut m: Member) -> Member {
+    if let Some(layout) = &problem.terms.rotations {
+        let states = femvi::rotation::body_states(lag, layout, m.final_t, &m.q, &m.p);
+        m.body = states.iter().flat_map(|b| b.w.iter().chain(&b.pi).copied()).collect();
+    }
+    m
 }
 
 impl Member {
@@ -63,6 +84,7 @@ impl Member {
             error: Some(error),
             saved_q: vec![],
             saved_p: vec![],
+            body: vec![],
         }
     }
 }
@@ -103,6 +125,7 @@ fn drive_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
         error: report.error.map(|e| e.to_string()),
         saved_q: vec![],
         saved_p: vec![],
+        body: vec![],
     }
 }
 
@@ -139,6 +162,7 @@ fn constrained_member<L: Lagrangian + Clone + Sync>(
         error: sol.error.map(|e| e.to_string()),
         saved_q: vec![],
         saved_p: vec![],
+        body: vec![],
     }
 }
 
@@ -174,6 +198,7 @@ fn adaptive_member<L: Lagrangian + Clone>(
         error: sol.error.map(|e| e.to_string()),
         saved_q,
         saved_p,
+        body: vec![],
     }
 }
 
@@ -243,6 +268,7 @@ fn solve_member<L: Lagrangian + Clone + Sync>(lag: &L, problem: &Problem, start:
         error: sol.error.map(|e| e.to_string()),
         saved_q,
         saved_p,
+        body: vec![],
     }
 }
 

@@ -3,8 +3,8 @@
 //! The convergence study fits the element's nodal order 2s (independently established
 //! against the 50-digit reference in the library's `rotations.rs`); a chaos map's axis over a
 //! component of the body angular velocity gives, at each point, the one-orbit indicators of
-//! the file with that start; an ensemble member is the `femvi run` of its start bit for bit,
-//! and a start off SO(3) fails its member alone.
+//! the file with that start; an ensemble member is the `femvi run` of its start bit for bit
+//! (its body columns too), and a start off SO(3) fails its member alone.
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
@@ -161,6 +161,27 @@ fn ensemble_members_are_their_runs_and_a_start_off_so3_fails_alone() {
         assert_eq!(a.to_bits(), b.to_bits(), "member 0 against femvi run");
     }
     assert!(lines[1].last().unwrap().contains("not a rotation"), "{:?}", lines[1]);
+    // The body columns (R_w1 … p_R3) are those of the run's last trajectory row, which
+    // `femvi run` computes on its own path (the recorder's rows).
+    let header: Vec<&str> = table.lines().next().unwrap().split(',').collect();
+    let traj = std::fs::read_to_string(dir.path().join("run/trajectory.csv")).unwrap();
+    let run_header: Vec<&str> = traj.lines().next().unwrap().split(',').collect();
+    let last: Vec<&str> = traj.lines().last().unwrap().split(',').collect();
+    let t = run_header.iter().position(|h| *h == "t").unwrap();
+    assert_eq!(last[t].parse::<f64>().unwrap(), 2.0, "the run's last row is at t = 2");
+    let body = ["R_w1", "R_w2", "R_w3", "p_R1", "p_R2", "p_R3"];
+    for name in body {
+        let (e, r) = (
+            header.iter().position(|h| *h == name).expect(name),
+            run_header.iter().position(|h| *h == name).expect(name),
+        );
+        let (a, b): (f64, f64) = (lines[0][e].parse().unwrap(), last[r].parse().unwrap());
+        assert_eq!(a.to_bits(), b.to_bits(), "{name}: ensemble {a}, run {b}");
+        assert!(
+            lines[1][e].parse::<f64>().unwrap().is_nan(),
+            "{name} of the member that failed"
+        );
+    }
 }
 
 #[test]

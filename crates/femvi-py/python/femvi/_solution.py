@@ -329,7 +329,10 @@ class EnsembleResult(dict):
     """The stacked results of an ensemble, as a dict with attribute access: ``final_t`` (N,),
     ``final_q``, ``final_p`` (N, n), ``energy_error`` (N,), ``steps`` (N,) and ``errors``
     (a list of None or the member's error message); with ``saveat``, ``saved_t`` and
-    ``saved_q``, ``saved_p`` (N, len(saveat), n).
+    ``saved_q``, ``saved_p`` (N, len(saveat), n); for a problem with rotations, ``body``
+    (N, 6 per rotation): each rotation's body angular velocity w and momentum Π at the last
+    node (the ``X_w1`` … ``p_X3`` columns of ``femvi ensemble``; NaN for a member that did not
+    start).
 
     >>> import femvi
     >>> ens = femvi.ensemble(femvi.model_problem("harmonic"), count=3, t_span=(0.0, 1.0), dt=0.1,

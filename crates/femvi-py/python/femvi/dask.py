@@ -69,6 +69,8 @@ def ensemble(client: Any, problem: Any, initial_states: Any = None,
         for key in ("final_t", "final_q", "final_p", "energy_error", "steps")
     }
     out["errors"] = [e for part in parts for e in part["errors"]]
+    if "body" in parts[0]:
+        out["body"] = np.concatenate([part["body"] for part in parts])
     if saveat is not None:
         out["saved_t"] = parts[0]["saved_t"]
         out["saved_q"] = np.concatenate([part["saved_q"] for part in parts])
