@@ -60,6 +60,7 @@ mod guess;
 mod guess_correction;
 mod gyroscopic;
 pub mod integrator;
+mod integrator_views;
 mod newton_residual;
 mod newton_step;
 pub mod options;
