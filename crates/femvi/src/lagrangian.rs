@@ -115,9 +115,11 @@ pub trait Lagrangian {
     }
 
     /// The forces at several points at once: for point i, `out[i n..(i + 1) n]` is
-    /// [`Lagrangian::force`] at `(t[i], q[i n..(i + 1) n])`. The fixed-point solver asks for
-    /// all quadrature points of an element in one call, so that an implementation can
-    /// vectorise across points. Default: one `force` call per point.
+    /// [`Lagrangian::force`] at `(t[i], q[i n..(i + 1) n])`, with the same bits (the ensemble
+    /// lanes rely on it: a fixed-point member there takes [`Lagrangian::force_lanes`], its
+    /// single run this). The fixed-point solver asks for all quadrature points of an element
+    /// in one call, so that an implementation can vectorise across points. Default: one
+    /// `force` call per point.
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         let n = self.dim();
         if n == 0 {

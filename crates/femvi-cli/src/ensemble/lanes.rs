@@ -1,5 +1,6 @@
 //! Members of one problem in SIMD lanes: [`run_shared`] takes them eight at a time through
-//! `femvi::ensemble` where the problem's run is Störmer–Verlet, and one by one
+//! `femvi::ensemble` where the problem's run qualifies (Störmer–Verlet, or the fixed-point
+//! step of an element of up to three points, on a mechanical system), and one by one
 //! ([`super::run_member`]) otherwise; either way each member is its single run bit for bit.
 
 use super::{pool, run_all, run_member, Member};
@@ -9,8 +10,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Runs members `0..size` of the one problem `problem`, member i from `start(i)` (called once
 /// per member; Err: that member fails with the message), on `workers` threads, counting
-/// finished members in `done`. When the problem's run is Störmer–Verlet on a mechanical
-/// system ([`femvi::ensemble::in_lanes`]), the members go [`femvi::LANES`] at a time in SIMD
+/// finished members in `done`. When the problem's run qualifies
+/// ([`femvi::ensemble::in_lanes`]: Störmer–Verlet, or the fixed-point step of an element of
+/// up to three points and degree 3, on a mechanical system), the members go [`femvi::LANES`] at a time in SIMD
 /// lanes ([`femvi::ensemble::run_in_lanes`]); otherwise one by one ([`run_member`]). Either
 /// way each member's numbers are its single run's, bit for bit. Err: the pool cannot start.
 pub fn run_shared(

@@ -3,7 +3,7 @@
 //! member per lane of a vector register. A run of L = ½|v|² − V(q) (M = I, V autonomous)
 //! qualifies when its steps are Störmer–Verlet (degree 1 with the trapezoid rule, the
 //! paper's linear element §2.3; `verlet.rs`) or the fixed-point iteration of an element of
-//! up to three quadrature points and degree 3 (`fixed_point.rs`, the stage equations of
+//! up to three quadrature points and degree 3 (`fixed_point/`, the stage equations of
 //! DESIGN.md §2 with the single run's stopping rule in lanes, `judge.rs`): [`run_in_lanes`]
 //! then advances [`LANES`] members a step at a time through [`Lagrangian::force_lanes`] and
 //! [`Lagrangian::potential_lanes`], with

@@ -42,7 +42,7 @@ pub(crate) struct ExplicitStep {
     lazy_fprev: Vec<f64>,
     lazy_hprev: f64,
     /// The start of a call of the wide loop (`explicit_wide.rs`): compensation of q, p,
-    /// compensation of p, carried force; empty until that loop needs it.
+    /// compensation of p, carried force, q; empty until that loop needs it.
     start: Vec<f64>,
 }
 
@@ -154,6 +154,12 @@ impl ExplicitStep {
         }
         self.fsal_slot ^= 1;
         self.force0_valid = true;
+    }
+
+    /// The last step was rejected: the force it carried (at the failed point) is not the
+    /// force at the node the run stays at, so the next step evaluates it again.
+    pub(crate) fn rejected(&mut self) {
+        self.force0_valid = false;
     }
 
     /// Störmer–Verlet over `[f64; N]` locals for up to `max_steps` steps: the increments of

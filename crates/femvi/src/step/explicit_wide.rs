@@ -41,7 +41,7 @@ enum End {
 }
 
 /// Where a call started: what [`ExplicitStep::restore`] puts back (the rest is in
-/// `ExplicitStep::start` and the last element's base).
+/// `ExplicitStep::start`).
 #[derive(Clone, Copy)]
 struct Start {
     k: usize,
@@ -81,7 +81,10 @@ impl ExplicitStep {
         // One step, or the grid's last: out of place, nothing to keep.
         if max_steps == 1 || grid.next(state.k + 1, t_next).is_none() {
             return match self.run(lag, grid, state, last, 1, at_node)? {
-                (_, End::NonFinite) => Err(non_finite(state)),
+                (_, End::NonFinite) => {
+                    self.rejected();
+                    Err(non_finite(state))
+                }
                 (done, _) => Ok(done),
             };
         }
@@ -111,6 +114,7 @@ impl ExplicitStep {
                     self.run(lag, grid, state, last, blocked + done, &mut |_| true)?;
                 }
                 self.run(lag, grid, state, last, 1, &mut |_| true)?;
+                self.rejected();
                 Err(non_finite(state))
             }
         }

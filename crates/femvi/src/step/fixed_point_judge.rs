@@ -19,7 +19,7 @@ pub(crate) enum Verdict {
 }
 
 /// The stopping rule of the fixed-point iteration, one step's worth of its memory: shared by
-/// the single run and the ensemble lanes (`ensemble/fixed_point.rs`), whose members must stop
+/// the single run and the ensemble lanes (`ensemble/fixed_point/`), whose members must stop
 /// after the same sweeps.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Judge {

@@ -239,10 +239,17 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         if self.term.is_some() {
             return self.commit_term(h, t_next);
         }
+        let swap = self.solver.kind() != Kind::Explicit;
+        // The solver learns of the step only once the node is known to be finite: a step
+        // that fails leaves it as it was at the last good node (nothing carried from the
+        // failed solve but what `rejected` discards).
+        if let Err(e) = self.state.commit(&mut self.last, &mut self.inc, swap, h, t_next) {
+            self.solver.rejected();
+            return Err(e);
+        }
         let cx = context!(self);
         self.solver.accepted(&cx, self.state.n);
-        let swap = self.solver.kind() != Kind::Explicit;
-        self.state.commit(&mut self.last, &mut self.inc, swap, h, t_next)
+        Ok(())
     }
 
     /// Advances up to `max_steps` steps and returns how many were taken (0 at the end of the

@@ -120,7 +120,15 @@ impl Solver {
         }
     }
 
-    /// The solved step was accepted (called before the state moves).
+    /// The solved step was rejected (its node is not finite): what the solve carried over
+    /// to the next step is dropped (the explicit step's force at the failed point).
+    pub(crate) fn rejected(&mut self) {
+        if let Solver::Explicit(e) = self {
+            e.rejected();
+        }
+    }
+
+    /// The solved step was accepted (called once the state has moved).
     pub(crate) fn accepted<L: Lagrangian>(&mut self, cx: &StepContext<'_, L>, n: usize) {
         match self {
             Solver::FixedPoint(f) => {

@@ -206,9 +206,9 @@ impl StageStart {
     }
 
     /// The table of the start from the last step's stage forces alone (what [`Self::start`]
-    /// does without `rich`, for a rule without end points): y_l = h a_l u + Σ_j mat_jl w_j,
+    /// does without `rich`, whether or not the rule has end points): y_l = h a_l u + Σ_j mat_jl w_j,
     /// `mat` column-major r × r (entry (l, j) at j r + l), for the step h after a step
-    /// `last_h`. The ensemble lanes start their stages with it (`ensemble/fixed_point.rs`).
+    /// `last_h`. The ensemble lanes start their stages with it (`ensemble/fixed_point/`).
     pub(crate) fn plain_table(&mut self, element: &Element, tab: &FixedPointTables, h: f64, last_h: f64) -> &[f64] {
         let r = self.r;
         let (set, e) = self.tables(element, tab, h, last_h, r, false);

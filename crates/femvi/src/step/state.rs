@@ -116,7 +116,7 @@ impl RunState {
     /// Moves the state to the node solved with step h (increments in `inc`) and makes the
     /// element the last one. Buffers are swapped, not copied (copies of a few numbers cost
     /// more than the Verlet step itself); `swap_incr` is false for explicit steps, whose
-    /// solver writes the last element's increments itself.
+    /// element is the end increment dq alone (copied here into the last element).
     ///
     /// Errors: [`StepFailure::NonFinite`] if the new node is not finite; nothing is moved then.
     #[inline]
