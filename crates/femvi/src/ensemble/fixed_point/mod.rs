@@ -134,8 +134,15 @@ pub(super) fn run<L: Lagrangian, const N: usize>(
                 g1.sweep_judged(lag, &tables, stage_t, &mut i1, (k, t));
             }
         }
+        // The inner nodes' increments are read only by a start from the last element's
+        // polynomial, which the next step takes if its length is not within 2× of this one.
+        let after = match &uniform {
+            Some(u) => u.next(k1 + 1.0, t_next),
+            None => grid.next(k + 1, t_next),
+        };
+        let inner = after.is_some_and(|(h2, _)| !(0.5..=2.0).contains(&(h2 / h)));
         for g in [&mut g0, &mut g1] {
-            let (dq, dp) = g.update(&tables, deg, r, exact);
+            let (dq, dp) = g.update(&tables, (deg, r), exact, inner);
             g.commit(lag, (&dq, &dp), (k, t), t_next);
             g.data = g.f;
         }

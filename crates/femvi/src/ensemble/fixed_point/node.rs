@@ -74,11 +74,18 @@ impl<const N: usize> Group<N> {
         }
     }
 
-    /// The node increments ΔQ^m = h α_m u + h² Σ_i β_mi f_i (into `incr`) and the momentum
-    /// increment h Σ_i b_i f_i, each with its coefficients' rounding errors as a second sum
-    /// when `exact` (`FixedPointStep::update`). Returns (ΔQ^s, Δp).
+    /// The node increments ΔQ^m = h α_m u + h² Σ_i β_mi f_i (into `incr`; the inner nodes
+    /// m < s only with `inner`) and the momentum increment h Σ_i b_i f_i, each with its
+    /// coefficients' rounding errors as a second sum when `exact` (`FixedPointStep::update`).
+    /// Returns (ΔQ^s, Δp).
     #[inline(always)]
-    pub(super) fn update(&mut self, st: &StepTables, s: usize, r: usize, exact: bool) -> ([Lanes; N], [Lanes; N]) {
+    pub(super) fn update(
+        &mut self,
+        st: &StepTables,
+        (s, r): (usize, usize),
+        exact: bool,
+        inner: bool,
+    ) -> ([Lanes; N], [Lanes; N]) {
         // Each sum lanes innermost (a vector operation per term), in the single run's order.
         let affine = |a: f64, m: &[f64], f: &Stages<N>, u: &Lanes, row: usize, c: usize| {
             let mut z = [0.0; LANES];
@@ -102,7 +109,7 @@ impl<const N: usize> Group<N> {
             }
             z
         };
-        for row in 0..s {
+        for row in (if inner { 0 } else { s - 1 })..s {
             for c in 0..N {
                 let mut z = affine(st.h_alpha[row], &st.h2_beta, &self.f, &self.node.p[c], row, c);
                 if exact {
