@@ -257,17 +257,23 @@ impl Potential for Driven {
     }
 }
 
-/// An expression Lagrangian (mechanical, M = I, no `potential_value`): its compiled force and
-/// L itself lane by lane, equal to single runs; 2-D with a parameterless potential.
-#[test]
-fn expression_members_equal_their_single_runs() {
+/// A 2-D expression Lagrangian (mechanical, M = I, no `potential_value`) with a
+/// parameterless potential.
+fn quartic() -> crate::expr::ExprLagrangian {
     let coords = vec!["x".to_string(), "y".to_string()];
-    let lag = crate::expr::ExprLagrangian::new(
+    crate::expr::ExprLagrangian::new(
         "0.5*(x_dot^2 + y_dot^2) - 0.25*(x^2 + y^2)^2 - 0.3*sin(x)*y",
         &coords,
         &[],
     )
-    .expect("expression");
+    .expect("expression")
+}
+
+/// An expression Lagrangian: its compiled force and L itself lane by lane, equal to single
+/// runs.
+#[test]
+fn expression_members_equal_their_single_runs() {
+    let lag = quartic();
     let grid = TimeGrid::uniform(0.0, 0.01, 5.0).expect("grid");
     let starts: Vec<Start> = (0..13).map(|i| momentum([1.0, 0.1 * i as f64], [0.0, 0.5])).collect();
     let el = verlet();
@@ -360,13 +366,7 @@ fn fixed_point_members_equal_single_runs_on_a_grid_of_jumps() {
 /// in the single run, lane by lane here).
 #[test]
 fn fixed_point_expression_members_equal_their_single_runs() {
-    let coords = vec!["x".to_string(), "y".to_string()];
-    let lag = crate::expr::ExprLagrangian::new(
-        "0.5*(x_dot^2 + y_dot^2) - 0.25*(x^2 + y^2)^2 - 0.3*sin(x)*y",
-        &coords,
-        &[],
-    )
-    .expect("expression");
+    let lag = quartic();
     let grid = TimeGrid::uniform(0.0, 0.02, 5.0).expect("grid");
     let starts: Vec<Start> = (0..13).map(|i| momentum([1.0, 0.1 * i as f64], [0.0, 0.5])).collect();
     let el = Element::with_order(4).expect("degree 2");
