@@ -168,18 +168,24 @@ fn kepler_members_equal_their_single_runs_on_every_width() {
     assert_eq!(failed, 1, "the member that starts at r ≈ 0 fails at its first step");
 }
 
+/// 19 Hénon–Heiles starts at (0, 0.1) with energies 0.02 … 0.38, below and above the
+/// escape energy 1/6.
+fn escapers() -> Vec<Start> {
+    (0..19)
+        .map(|i| {
+            let e = 0.02 + 0.02 * i as f64;
+            momentum([0.0, 0.1], [(2.0 * e).sqrt(), 0.0])
+        })
+        .collect()
+}
+
 #[test]
 fn henon_heiles_members_that_escape_fail_alone() {
     let lag = models::henon_heiles();
     let grid = TimeGrid::uniform(0.0, 0.05, 200.0).expect("grid");
     // Energies below and above the escape energy 1/6: above it some members leave the well
     // and overflow, mid-run.
-    let starts: Vec<Start> = (0..19)
-        .map(|i| {
-            let e = 0.02 + 0.02 * i as f64;
-            momentum([0.0, 0.1], [(2.0 * e).sqrt(), 0.0])
-        })
-        .collect();
+    let starts = escapers();
     // They fail mid-run: their energy overflows (x²y, y³) before their node does.
     let failed = agree::<_, 2>(&lag, &grid, &starts);
     assert!(failed >= 2, "{failed} members fail");
@@ -330,12 +336,7 @@ fn fixed_point_kepler_members_equal_their_single_runs_on_every_width() {
 fn fixed_point_henon_heiles_members_that_escape_fail_alone() {
     let lag = models::henon_heiles();
     let grid = TimeGrid::uniform(0.0, 0.1, 150.0).expect("grid");
-    let starts: Vec<Start> = (0..19)
-        .map(|i| {
-            let e = 0.02 + 0.02 * i as f64;
-            momentum([0.0, 0.1], [(2.0 * e).sqrt(), 0.0])
-        })
-        .collect();
+    let starts = escapers();
     let el = Element::with_order(4).expect("degree 2");
     let failed = agree_on::<_, 2>(&lag, &fixed_point_run(&grid, &el, true), &starts);
     assert!(failed >= 2, "{failed} members fail");
