@@ -27,7 +27,7 @@ use std::io::BufRead;
 #[derive(Debug, Clone)]
 struct Watched {
     inner: GravityPotential,
-    min_distance: Cell<f64>,
+    min_distance_squared: Cell<f64>,
 }
 
 impl Potential for Watched {
@@ -42,18 +42,29 @@ impl Potential for Watched {
     }
     fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
         let d = self.inner.dim;
-        let mut closest = self.min_distance.get();
+        // The smallest squared distance (the square root of the smallest is the smallest
+        // root: sqrt is monotone and correctly rounded), its root taken once per run.
+        let mut closest = self.min_distance_squared.get();
         for (i, a) in q.chunks_exact(d.max(1)).enumerate() {
             for b in q.chunks_exact(d.max(1)).skip(i + 1) {
                 let r2 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
-                closest = closest.min(r2.sqrt());
+                closest = closest.min(r2);
             }
         }
-        self.min_distance.set(closest);
+        self.min_distance_squared.set(closest);
         self.inner.force(t, q, out);
     }
     fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) {
         self.inner.force_jacobian(t, q, out);
+    }
+    fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        self.inner.force_derivative(t, q, dq, out);
+    }
+    fn prepare_force_derivative(&self, t: f64, q: &[f64], cache: &mut Vec<f64>) -> bool {
+        self.inner.prepare_force_derivative(t, q, cache)
+    }
+    fn prepared_force_derivative(&self, cache: &[f64], dq: &[f64], out: &mut [f64]) {
+        self.inner.prepared_force_derivative(cache, dq, out);
     }
 }
 
@@ -77,7 +88,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let lag = Mechanical::new(
         Watched {
             inner: model.potential.clone(),
-            min_distance: Cell::new(f64::INFINITY),
+            min_distance_squared: Cell::new(f64::INFINITY),
         },
         model
             .mass_matrix()
@@ -116,7 +127,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let problem = Problem::new(lag.clone(), start, 0.0, t_end);
         let r = indicators(&problem, &element, &SolveOptions::step(h), &chaos)?;
-        let closest = problem.lagrangian.potential.min_distance.replace(f64::INFINITY);
+        let closest = problem
+            .lagrangian
+            .potential
+            .min_distance_squared
+            .replace(f64::INFINITY)
+            .sqrt();
         let close = encounter.first().is_some_and(|&d| closest < d);
         println!(
             "{},{},{},{},{}",

@@ -12,15 +12,17 @@ mod mass;
 mod mechanical;
 mod one_pass;
 mod point;
+mod potential;
 
 pub use lanes::{Lanes, LANES};
 pub use legendre::DEGENERATE_CONDITION;
 pub use mass::MassMatrix;
 pub use mechanical::Mechanical;
 pub use point::{PointDerivatives, ONE_PASS_MAX_DIM};
+pub use potential::Potential;
 
 use crate::error::{check_len, invalid, Error, Result};
-use num_dual::{Dual64, DualNum, HyperDual64};
+use num_dual::DualNum;
 
 /// The number types a Lagrangian is evaluated with: f64 and num-dual's forward-mode numbers.
 pub trait Scalar: DualNum<Primitive = f64> + Copy {}
@@ -204,6 +206,41 @@ pub trait Lagrangian {
         false
     }
 
+    /// Prepares repeated products [`Lagrangian::force_derivative`] at one point (t, q): if
+    /// the Lagrangian can, writes what every product there shares (for the n-body model,
+    /// each pair's separation and r⁻³ factor: the square roots and most divisions) into
+    /// `cache` and returns true; then [`Lagrangian::prepared_force_derivative`] with that
+    /// cache gives the bits of `force_derivative(t, q, dq, out)` for any dq. Default: false,
+    /// nothing written. The tangent maps of mechanical steps take one product per vector and
+    /// sweep at each quadrature point, and prefer this to forming ∂f/∂q
+    /// ([`Lagrangian::force_jacobian`]) when the Lagrangian offers it.
+    ///
+    /// ```
+    /// use femvi::{models, Lagrangian};
+    /// let bodies = models::n_body(1.0, vec![1.0, 1e-3, 3e-4], 2)?;
+    /// let (q, dq) = ([0.0, 0.0, 1.0, 0.0, 0.0, 1.5], [0.1, -0.2, 0.3, 0.4, -0.5, 0.6]);
+    /// let mut cache = Vec::new();
+    /// assert!(bodies.prepare_force_derivative(0.0, &q, &mut cache));
+    /// let (mut once, mut prepared) = ([0.0; 6], [0.0; 6]);
+    /// bodies.force_derivative(0.0, &q, &dq, &mut once);
+    /// bodies.prepared_force_derivative(&cache, &dq, &mut prepared);
+    /// assert_eq!(once, prepared);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    fn prepare_force_derivative(&self, t: f64, q: &[f64], cache: &mut Vec<f64>) -> bool {
+        let _ = (t, q, cache);
+        false
+    }
+
+    /// The product (∂f/∂q)·dq at the point a `cache` was prepared for
+    /// ([`Lagrangian::prepare_force_derivative`], which returned true), into `out`, with the
+    /// bits of [`Lagrangian::force_derivative`] there. Default (for Lagrangians that do not
+    /// prepare): NaN.
+    fn prepared_force_derivative(&self, cache: &[f64], dq: &[f64], out: &mut [f64]) {
+        let _ = (cache, dq);
+        out.iter_mut().for_each(|x| *x = f64::NAN);
+    }
+
     /// If L = ½vᵀMv + A(t, q)·v − V(t, q) with a constant positive definite mass matrix M
     /// (gyroscopic: magnetic fields, rotating frames), that matrix; then `Method::Auto` solves
     /// the steps by fixed-point iteration on [`Lagrangian::gyroscopic_terms`]
@@ -295,122 +332,6 @@ pub trait Lagrangian {
 /// passes over [`Lagrangian::value`] (for implementations that fall back to it).
 pub(crate) fn force_derivative_by_ad<L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
     directional::lagrangian_default(lag, t, q, dq, out);
-}
-
-/// A potential V(t, q) for a mechanical Lagrangian. As for [`Lagrangian`], the library calls
-/// its methods with slices of length [`Potential::dim`] only.
-pub trait Potential {
-    /// Dimension n.
-    fn dim(&self) -> usize;
-
-    /// V(t, q), for any scalar type.
-    fn value<D: Scalar>(&self, t: D, q: &[D]) -> D;
-
-    /// Whether V does not depend on t. Default: false.
-    fn is_autonomous(&self) -> bool {
-        false
-    }
-
-    /// The force −∇V(t, q) into `out`. The default differentiates [`Potential::value`]
-    /// (n forward passes); override it with a hand-coded force for speed.
-    fn force(&self, t: f64, q: &[f64], out: &mut [f64]) {
-        let n = q.len();
-        let mut stack = [Dual64::from(0.0); 16];
-        let mut heap = Vec::new();
-        let buf: &mut [Dual64] = if n <= 16 {
-            &mut stack[..n]
-        } else {
-            heap.resize(n, Dual64::from(0.0));
-            &mut heap
-        };
-        for (b, &x) in buf.iter_mut().zip(q) {
-            *b = Dual64::from(x);
-        }
-        for (i, o) in out.iter_mut().enumerate().take(n) {
-            buf[i].eps = 1.0;
-            *o = -self.value(Dual64::from(t), buf).eps;
-            buf[i].eps = 0.0;
-        }
-    }
-
-    /// As [`Lagrangian::force_radius`]: the radius of a local force, or None (the default).
-    fn force_radius(&self) -> Option<usize> {
-        None
-    }
-
-    /// As [`Lagrangian::force_range`]: components `range` of [`Potential::force`], the same
-    /// bits, or false (the default, nothing written).
-    fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) -> bool {
-        let _ = (t, q, range, out);
-        false
-    }
-
-    /// The forces at several points at once (see [`Lagrangian::forces`]). Default: one
-    /// [`Potential::force`] call per point.
-    fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
-        let n = self.dim();
-        if n == 0 {
-            return;
-        }
-        for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
-            self.force(ti, qi, oi);
-        }
-    }
-
-    /// As [`Lagrangian::force_lanes`]: −∇V at [`LANES`] points at once, the bits of
-    /// [`Potential::force`]. Default: one `force` call per lane.
-    fn force_lanes(&self, t: f64, q: &[Lanes], out: &mut [Lanes]) {
-        lanes::potential_force_per_lane(self, t, q, out);
-    }
-
-    /// V at [`LANES`] points at once (as [`Lagrangian::potential_lanes`]), the bits of
-    /// [`Potential::value`]. Default: lane by lane.
-    fn value_lanes(&self, t: f64, q: &[Lanes]) -> Lanes {
-        lanes::value_per_lane(q, |x| Some(self.value(t, x))).unwrap_or([f64::NAN; LANES])
-    }
-
-    /// The derivative of [`Potential::force`] along dq, −∇²V(t, q)·dq, into `out` (see
-    /// [`Lagrangian::force_derivative`]). Default: n hyper-dual passes over
-    /// [`Potential::value`]; override it with a hand-coded product for speed.
-    ///
-    /// ```
-    /// use femvi::{models, Potential};
-    /// // The FPU chain's hand-coded product against its Jacobian (hyper-dual AD).
-    /// let chain = models::fpu(3, 0.25, 0.0)?.potential;
-    /// let (q, dq) = ([0.1, -0.2, 0.3], [1.0, 0.5, -0.5]);
-    /// let (mut out, mut jac) = ([0.0; 3], [0.0; 9]);
-    /// chain.force_derivative(0.0, &q, &dq, &mut out);
-    /// chain.force_jacobian(0.0, &q, &mut jac);
-    /// for i in 0..3 {
-    ///     let want: f64 = (0..3).map(|j| jac[i * 3 + j] * dq[j]).sum();
-    ///     assert!((out[i] - want).abs() < 1e-14);
-    /// }
-    /// # Ok::<(), femvi::Error>(())
-    /// ```
-    fn force_derivative(&self, t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
-        directional::potential_default(self, t, q, dq, out);
-    }
-
-    /// The Jacobian of the force, −∇²V, row-major n×n into `out`. Default: hyper-dual AD.
-    fn force_jacobian(&self, t: f64, q: &[f64], out: &mut [f64]) {
-        let n = q.len();
-        if out.len() != n * n {
-            out.iter_mut().for_each(|x| *x = f64::NAN);
-            return;
-        }
-        let mut buf: Vec<HyperDual64> = q.iter().map(|&x| HyperDual64::from(x)).collect();
-        for i in 0..n {
-            for j in i..n {
-                buf[i].eps1 = 1.0;
-                buf[j].eps2 = 1.0;
-                let h = -self.value(HyperDual64::from(t), &buf).eps1eps2;
-                buf[i].eps1 = 0.0;
-                buf[j].eps2 = 0.0;
-                out[i * n + j] = h;
-                out[j * n + i] = h;
-            }
-        }
-    }
 }
 
 /// The gyroscopic terms of `lag` by point from its first derivatives: A = ∂L/∂v − Mv/d (M

@@ -99,6 +99,14 @@ impl<P: Potential> Lagrangian for Mechanical<P> {
         self.potential.force_derivative(t, q, dq, out);
     }
 
+    fn prepare_force_derivative(&self, t: f64, q: &[f64], cache: &mut Vec<f64>) -> bool {
+        self.potential.prepare_force_derivative(t, q, cache)
+    }
+
+    fn prepared_force_derivative(&self, cache: &[f64], dq: &[f64], out: &mut [f64]) {
+        self.potential.prepared_force_derivative(cache, dq, out);
+    }
+
     fn force_radius(&self) -> Option<usize> {
         self.potential.force_radius()
     }

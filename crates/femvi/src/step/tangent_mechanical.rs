@@ -13,20 +13,26 @@
 //!
 //! the variational equations solved by the step's own iteration, on products J_i·x
 //! ([`crate::Lagrangian::force_derivative`]: the model's or the compiled expression's code)
-//! instead of the dense element Hessian and its LU; for n ≤ [`JACOBIAN_MAX_DIM`], when the
-//! Lagrangian computes ∂f/∂q itself ([`crate::Lagrangian::force_jacobian`]) and a step takes
-//! at least n/2 products per stage (vectors × sweeps, the sweeps counted on the step before),
-//! J_i is formed once per stage and step and the products are matrix–vector products. When B is strictly lower triangular (the
-//! trapezoid rule: Störmer–Verlet, whose map this is the variational Störmer–Verlet of) one
-//! sweep in order solves it exactly, r products per vector; otherwise the sweeps repeat
-//! until the stages stop changing (the step's tolerance), and a vector whose sweeps do not
-//! converge within the step's iteration cap sends the whole step back to the dense map
-//! (`tangent.rs`). The h-scaled tables are the step's own (`StepTables`, with the rounding
-//! errors of h α_s, h² β_si and h b_i applied as a second sum, as the polished step does), and
-//! the sweep is its affine kernel (`fixed_point::affine`). Equal to the dense map up to the
-//! tolerance and rounding.
+//! instead of the dense element Hessian and its LU. Three ways to take the products, chosen
+//! per step: a Lagrangian that prepares them at a point
+//! ([`crate::Lagrangian::prepare_force_derivative`]: the n-body model's pair separations and
+//! r⁻³ factors, once per stage and step) gives the same bits at a fraction of the cost; else,
+//! for n ≤ [`JACOBIAN_MAX_DIM`], when the Lagrangian computes ∂f/∂q itself
+//! ([`crate::Lagrangian::force_jacobian`]) and a step takes at least n/2 products per stage
+//! (vectors × sweeps, the sweeps counted on the step before), J_i is formed once per stage and
+//! step and the products are matrix–vector products; else the model at every product. When
+//! B is strictly lower triangular (the trapezoid rule: Störmer–Verlet, whose map this is the
+//! variational Störmer–Verlet of) one sweep in order solves it exactly, r products per
+//! vector; otherwise the sweeps repeat until the step's own stopping rule
+//! (`fixed_point_judge.rs`: tolerance, polish, rounding floor) says converged, and a vector
+//! whose sweeps it fails (not finite, stalled, over the iteration cap) sends the whole step
+//! back to the dense map (`tangent.rs`). The h-scaled tables are the step's own
+//! (`StepTables`, with the rounding errors of h α_s, h² β_si and h b_i applied as a second
+//! sum, as the polished step does), and the sweep is its affine kernel
+//! (`fixed_point::affine`). Equal to the dense map up to the tolerance and rounding.
 
 use super::fixed_point::{affine, FixedPointTables, StepTables};
+use super::fixed_point_judge::{Judge, Verdict};
 use super::options::SolverOptions;
 use crate::discrete::Element;
 use crate::lagrangian::{Lagrangian, MassMatrix};
@@ -52,9 +58,14 @@ pub(crate) struct MechanicalTangent {
     identity: bool,
     /// The vectors as they came, to restore when the sweeps fail.
     saved: Vec<f64>,
-    /// The stage Jacobians J_i (r × n×n, row-major), when `formed`.
+    /// The stage Jacobians J_i (r × n×n, column-major), when `route` says formed, and one as the
+    /// Lagrangian gives it (row-major).
     jac: Vec<f64>,
-    formed: bool,
+    row_major: Vec<f64>,
+    /// The stages' prepared products ([`Lagrangian::prepare_force_derivative`]), when
+    /// `route` says so.
+    prepared: Vec<Vec<f64>>,
+    route: Products,
     /// Sweeps per vector on the last step (to choose between the two kinds of product), and
     /// the count on the current one.
     sweeps_per_vector: f64,
@@ -87,7 +98,9 @@ impl MechanicalTangent {
             identity: false,
             saved: Vec::new(),
             jac: Vec::new(),
-            formed: false,
+            row_major: Vec::new(),
+            prepared: Vec::new(),
+            route: Products::Model,
             sweeps_per_vector: if lower { 1.0 } else { 4.0 },
             sweeps_total: 0,
             du: vec![0.0; n],
@@ -117,21 +130,42 @@ impl MechanicalTangent {
         }
     }
 
-    /// Forms the stage Jacobians if n is small, `vectors` are expected to take at least n/2
-    /// products per stage, and `lag` computes them.
-    fn form_jacobians<L: Lagrangian>(&mut self, lag: &L, n: usize, vectors: usize) {
-        self.formed = false;
+    /// How this step's products are taken: prepared by the Lagrangian at each stage if it
+    /// can ([`Lagrangian::prepare_force_derivative`]: its products, same bits, without the
+    /// work they share); else by formed stage Jacobians if n is small, `vectors` are expected
+    /// to take at least n/2 products per stage and `lag` computes them; else by the model.
+    fn choose_products<L: Lagrangian>(&mut self, lag: &L, n: usize, vectors: usize) {
+        let r = self.t.len();
+        self.prepared.resize_with(r, Vec::new);
+        let (t, q) = (&self.t, &self.q);
+        let prepared = self.prepared.iter_mut().enumerate();
+        if n > 0
+            && prepared.fold(true, |ok, (i, c)| {
+                ok && lag.prepare_force_derivative(t[i], &q[i * n..(i + 1) * n], c)
+            })
+        {
+            self.route = Products::Prepared;
+            return;
+        }
+        self.route = Products::Model;
         if n > JACOBIAN_MAX_DIM || 2.0 * vectors as f64 * self.sweeps_per_vector < n as f64 {
             return;
         }
         let r = self.t.len();
         self.jac.resize(r * n * n, 0.0);
+        self.row_major.resize(n * n, 0.0);
         for (i, ji) in self.jac.chunks_exact_mut(n * n).enumerate() {
-            if !lag.force_jacobian(self.t[i], &self.q[i * n..(i + 1) * n], ji) {
+            if !lag.force_jacobian(self.t[i], &self.q[i * n..(i + 1) * n], &mut self.row_major) {
                 return;
             }
+            // Column-major, so that a product runs down the columns in vector registers.
+            for (a, row) in self.row_major.chunks_exact(n).enumerate() {
+                for (b, x) in row.iter().enumerate() {
+                    ji[b * n + a] = *x;
+                }
+            }
         }
-        self.formed = true;
+        self.route = Products::Formed;
     }
 
     /// g_i = J_i (δq + δY_i) and z_i = M⁻¹ g_i at stage i.
@@ -141,13 +175,18 @@ impl MechanicalTangent {
         for ((x, a), b) in self.x.iter_mut().zip(dq).zip(&self.dy[span.clone()]) {
             *x = a + b;
         }
-        if self.formed {
-            let ji = &self.jac[i * n * n..(i + 1) * n * n];
-            for (g, row) in self.g[span.clone()].iter_mut().zip(ji.chunks_exact(n)) {
-                *g = row.iter().zip(&self.x).map(|(a, b)| a * b).sum();
+        match self.route {
+            // g_a = Σ_b J_ab x_b summed over b in order from −0 (the bits of a row's
+            // `Iterator::sum`), all rows at once down the stored columns.
+            Products::Formed => column_product(
+                &self.jac[i * n * n..(i + 1) * n * n],
+                &self.x,
+                &mut self.g[span.clone()],
+            ),
+            Products::Prepared => lag.prepared_force_derivative(&self.prepared[i], &self.x, &mut self.g[span.clone()]),
+            Products::Model => {
+                lag.force_derivative(self.t[i], &self.q[span.clone()], &self.x, &mut self.g[span.clone()])
             }
-        } else {
-            lag.force_derivative(self.t[i], &self.q[span.clone()], &self.x, &mut self.g[span.clone()]);
         }
         if !self.identity {
             mass.solve(&self.g[span.clone()], &mut self.z[span]);
@@ -156,7 +195,7 @@ impl MechanicalTangent {
 
     /// One vector (δq, δp) through the step, in place; false if the sweeps did not converge
     /// within `max_iterations` (the vector is then left as it was).
-    fn carry<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, limits: Limits, v: &mut [f64]) -> bool {
+    fn carry<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, opts: &SolverOptions, v: &mut [f64]) -> bool {
         let n = v.len() / 2;
         let (r, s) = (self.t.len(), self.st.h_alpha.len());
         let (dq, dp) = v.split_at_mut(n);
@@ -178,7 +217,7 @@ impl MechanicalTangent {
             for (l, row) in self.dy.chunks_exact_mut(n).enumerate() {
                 row.iter_mut().zip(&self.du).for_each(|(y, u)| *y = self.st.ha[l] * u);
             }
-            match self.sweeps(lag, mass, dq, limits) {
+            match self.sweeps(lag, mass, dq, opts) {
                 Some(count) => self.sweeps_total += count,
                 None => return false,
             }
@@ -212,19 +251,19 @@ impl MechanicalTangent {
         true
     }
 
-    /// Jacobi sweeps on the stage displacements until they stop changing: the increments at
-    /// most `tolerance` times the vector's scale, or, below 10³ times that, no longer
-    /// decreasing (the rounding floor); with `polish`, as the step's polish
-    /// ([`crate::SolverOptions::polish`]), on while they still decrease (at most three more
-    /// sweeps), since a truncated iteration's error accumulates over a run (the whole-run map
-    /// of `tests/all/chaos.rs` kept its symplecticity to 2.1e-10 without the polish, 7.5e-12
-    /// with it). Returns the sweeps, None if they did not converge. g and z are left at the
-    /// displacements the last sweep started from, which it moved by at most that much.
-    fn sweeps<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, dq: &[f64], limits: Limits) -> Option<usize> {
+    /// Jacobi sweeps on the stage displacements until the step's own stopping rule
+    /// ([`Judge`]: the increments at most `tolerance` times the vector's scale, with the
+    /// polish of [`crate::SolverOptions::polish`] on while they still decrease, at most three
+    /// more sweeps, down to the rounding floor) says converged, since a truncated iteration's
+    /// error accumulates over a run (the whole-run map of `tests/all/chaos.rs` kept its
+    /// symplecticity to 2.1e-10 without the polish, 7.5e-12 with it). Returns the sweeps,
+    /// None if the rule says failed (not finite, stalled, over the cap). g and z are left at
+    /// the displacements the last sweep started from, which it moved by at most that much.
+    fn sweeps<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, dq: &[f64], opts: &SolverOptions) -> Option<usize> {
         let (n, r) = (dq.len(), self.t.len());
         let dq_size = dq.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let (mut prev, mut extra) = (f64::INFINITY, None);
-        for sweep in 1..=limits.max_iterations {
+        let mut judge = Judge::new(opts);
+        for sweep in 1.. {
             for i in 0..r {
                 self.stage(lag, mass, i, dq);
             }
@@ -233,34 +272,60 @@ impl MechanicalTangent {
             if sum.is_nan() {
                 return None;
             }
-            let floor = limits.tolerance * size.max(dq_size).max(f64::MIN_POSITIVE);
-            let stalled = change >= prev;
-            match extra {
-                Some(left) if stalled || left == 0 => return Some(sweep),
-                Some(left) => extra = Some(left - 1),
-                None if change <= floor || (change <= 1e3 * floor && stalled) => {
-                    if !limits.polish || stalled || change == 0.0 {
-                        return Some(sweep);
-                    }
-                    extra = Some(POLISH_SWEEPS - 1);
-                }
-                None => {}
+            match judge.sweep(change, size, dq_size, sweep) {
+                Verdict::Continue => {}
+                Verdict::Converged => return Some(sweep),
+                Verdict::Failed(_) => return None,
             }
-            prev = change;
         }
-        extra.map(|_| limits.max_iterations)
+        None
     }
 }
 
-/// The most sweeps a polish adds after the tolerance is met (as the step's).
-const POLISH_SWEEPS: usize = 3;
+/// g = J x for J column-major (n × n, n = x.len()): g_a = Σ_b J_ab x_b summed over b in
+/// order from −0, the bits of each row's `Iterator::sum`. With n a compile-time constant (up
+/// to [`JACOBIAN_MAX_DIM`]) g stays in registers while the columns stream past.
+fn column_product(jt: &[f64], x: &[f64], g: &mut [f64]) {
+    macro_rules! fixed {
+        ($($n:literal)*) => {
+            match x.len() {
+                $($n => column_product_n::<$n>(jt, x, g),)*
+                _ => {
+                    let n = x.len();
+                    g.iter_mut().for_each(|v| *v = -0.0);
+                    for (col, xb) in jt.chunks_exact(n.max(1)).zip(x) {
+                        g.iter_mut().zip(col).for_each(|(ga, j)| *ga += j * xb);
+                    }
+                }
+            }
+        };
+    }
+    const _: () = assert!(JACOBIAN_MAX_DIM == 16);
+    fixed!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+}
 
-/// The step solver's limits the sweeps honour.
-#[derive(Debug, Clone, Copy)]
-struct Limits {
-    tolerance: f64,
-    max_iterations: usize,
-    polish: bool,
+/// [`column_product`] with n = `N`.
+#[inline(always)]
+fn column_product_n<const N: usize>(jt: &[f64], x: &[f64], g: &mut [f64]) {
+    let mut acc = [-0.0f64; N];
+    for (col, xb) in jt.chunks_exact(N).zip(x) {
+        let col: &[f64; N] = col.try_into().expect("chunks of N");
+        for a in 0..N {
+            acc[a] += col[a] * xb;
+        }
+    }
+    g.copy_from_slice(&acc);
+}
+
+/// How a step's products J_i·x are taken ([`MechanicalTangent::choose_products`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Products {
+    /// [`Lagrangian::force_derivative`] at every product.
+    Model,
+    /// [`Lagrangian::prepared_force_derivative`] from each stage's cache.
+    Prepared,
+    /// The formed stage Jacobians times the vector.
+    Formed,
 }
 
 /// The last step as the mechanical tangent needs it: its element [t0, t0 + h] with nodes
@@ -286,20 +351,15 @@ impl MechanicalTangent {
         let n = el.base.len();
         self.set_stages(element, el.t0, el.h, el.base, el.incr);
         let count = vectors.len() / (2 * n).max(1);
-        self.form_jacobians(lag, n, count);
+        self.choose_products(lag, n, count);
         self.sweeps_total = 0;
         self.identity = mass.is_identity();
         if !self.lower {
             self.saved.clear();
             self.saved.extend_from_slice(vectors);
         }
-        let limits = Limits {
-            tolerance: opts.tolerance,
-            max_iterations: opts.max_iterations,
-            polish: opts.polish,
-        };
         for v in vectors.chunks_exact_mut(2 * n) {
-            if !self.carry(lag, mass, limits, v) {
+            if !self.carry(lag, mass, opts, v) {
                 vectors.copy_from_slice(&self.saved);
                 return false;
             }
