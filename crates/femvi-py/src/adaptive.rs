@@ -20,6 +20,17 @@ pub fn run(
     extras: &Extras,
     settings: &AdaptiveTime,
 ) -> Result<(Run, Vec<f64>), String> {
+    femvi_cli::with_system!(&problem.system, l => run_lagrangian(l.clone(), problem, path, extras, settings))
+}
+
+/// [`run`] with the Lagrangian `lag` in place of the file's system (a Python potential).
+pub fn run_lagrangian<L: femvi::Lagrangian + Sync>(
+    lag: L,
+    problem: &Problem,
+    path: &Path,
+    extras: &Extras,
+    settings: &AdaptiveTime,
+) -> Result<(Run, Vec<f64>), String> {
     let bad = |e: &str| format!("{}: {e}", path.display());
     if extras.dense || extras.max_steps.is_some() {
         return Err(bad(
@@ -33,11 +44,9 @@ pub fn run(
     events.extend(extras.events.iter().cloned());
     let event_names = events.iter().map(|e| e.name.clone()).collect();
     let (t0, end) = (problem.grid.t0(), problem.grid.end());
-    let sol = femvi_cli::with_system!(&problem.system, l => {
-        let p = femvi::Problem::new(l.clone(), problem.start.clone(), t0, end);
-        femvi_cli::adaptive::solve_problem(&p, problem, settings, every, extras.saveat.clone(), events.clone())
-    })
-    .map_err(|e| bad(&e))?;
+    let p = femvi::Problem::new(lag, problem.start.clone(), t0, end);
+    let sol = femvi_cli::adaptive::solve_problem(&p, problem, settings, every, extras.saveat.clone(), events)
+        .map_err(|e| bad(&e))?;
     let max_rel = femvi_cli::adaptive::max_rel_energy_error(&sol);
     let s = sol.s.clone();
     Ok((

@@ -132,9 +132,15 @@ impl Potential for PyPotential {
 /// What the Python side passes: V(q), F(q) and the diagonal masses (None: all 1).
 pub type PySystem = (Py<PyAny>, Py<PyAny>, Option<Vec<f64>>);
 
-/// Runs a loaded problem (its `[system]` a placeholder) with the Python potential instead.
-/// Err: the message as the command would print it.
-pub fn run(problem: &Problem, path: &Path, extras: &Extras, system: PySystem, raised: &Raised) -> Result<Run, String> {
+/// The mechanical Lagrangian of the Python potential `system` for a loaded problem (its
+/// `[system]` a placeholder that names the coordinates). Err: the message as the command would
+/// print it (energy mode refused: it needs exact second derivatives).
+pub fn lagrangian(
+    problem: &Problem,
+    path: &Path,
+    system: PySystem,
+    raised: &Raised,
+) -> Result<Mechanical<PyPotential>, String> {
     let bad = |e: String| format!("{}: {e}", path.display());
     if problem.energy.is_some() {
         return Err(bad(
@@ -153,7 +159,11 @@ pub fn run(problem: &Problem, path: &Path, extras: &Extras, system: PySystem, ra
         )));
     }
     let mass = MassMatrix::diagonal(masses).map_err(|e| bad(e.to_string()))?;
-    let lag =
-        Mechanical::new(PyPotential::new(n, potential, force, raised.clone()), mass).map_err(|e| bad(e.to_string()))?;
+    Mechanical::new(PyPotential::new(n, potential, force, raised.clone()), mass).map_err(|e| bad(e.to_string()))
+}
+
+/// Runs a loaded problem without terms with the Python potential's Lagrangian `lag`.
+/// Err: the message as the command would print it.
+pub fn run(problem: &Problem, path: &Path, extras: &Extras, lag: Mechanical<PyPotential>) -> Result<Run, String> {
     run_on(problem, path, extras, |options| run_with(lag, problem, options))
 }

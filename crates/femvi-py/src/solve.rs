@@ -79,6 +79,11 @@ pub fn solve_file(
         if potential.is_some() {
             problem.refuse(Use::PythonPotential, "femvi.solve").map_err(named)?;
         }
+        // A Python potential takes the place of the file's system, with the file's terms.
+        let python = match potential {
+            Some(system) => Some(crate::callable::lagrangian(&problem, &path, system, &raised)?),
+            None => None,
+        };
         if problem.terms.rotations.is_some() {
             // The Lie-group element (with its torques), through the library's recorder.
             let (r, added) = crate::rotations::run(&problem, &path, &extras)?;
@@ -91,7 +96,10 @@ pub fn solve_file(
             return Ok((r, None, added, labels.0, labels.1, labels.2, names));
         }
         if let Some(tables) = Tables::of(&problem) {
-            let (r, added) = tables.run(&problem, &path, &extras)?;
+            let (r, added) = match python {
+                Some(lag) => tables.run_lagrangian(lag, &problem, &path, &extras)?,
+                None => tables.run(&problem, &path, &extras)?,
+            };
             let labels = (
                 problem.coordinates.clone(),
                 problem.name.clone(),
@@ -99,19 +107,17 @@ pub fn solve_file(
             );
             return Ok((r, None, added, labels.0, labels.1, labels.2, vec![]));
         }
-        let (r, s) = match (potential, adaptive) {
+        let (r, s) = match (python, adaptive) {
             (None, None) => (run(&problem, &path, &extras)?, None),
             (None, Some(a)) => {
                 let (r, s) = crate::adaptive::run(&problem, &path, &extras, &a)?;
                 (r, Some(s))
             }
-            (Some(_), Some(_)) => {
-                return Err(format!(
-                    "{}: a Python potential in [time] mode = \"adaptive\" is not available",
-                    path.display()
-                ))
+            (Some(lag), Some(a)) => {
+                let (r, s) = crate::adaptive::run_lagrangian(lag, &problem, &path, &extras, &a)?;
+                (r, Some(s))
             }
-            (Some(system), None) => (crate::callable::run(&problem, &path, &extras, system, &raised)?, None),
+            (Some(lag), None) => (crate::callable::run(&problem, &path, &extras, lag)?, None),
         };
         Ok((
             r,

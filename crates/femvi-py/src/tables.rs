@@ -5,9 +5,10 @@
 //! balance max |H − H0 − W| for forces; the multipliers (constraint force −Gᵀλ) and the
 //! residual max |g(q)| at the kept nodes for constraints. A forced or constrained run at fixed
 //! steps with `saveat`, dense output or events goes through the recorder of every run
-//! (`recorded.rs`). What these runs do not do yet (events, `saveat` and dense output with forces
-//! in energy mode, a Python potential) is refused with a message rather than dropped, by the
-//! table of `femvi_cli::problem::capabilities`.
+//! (`recorded.rs`). A Python potential takes the place of the file's system with the same
+//! terms ([`Tables::run_lagrangian`]). What these runs do not do yet (events, `saveat` and
+//! dense output with forces in energy mode) is refused with a message rather than dropped, by
+//! the table of `femvi_cli::problem::capabilities`.
 
 use crate::recorded::Added;
 use crate::run::{Extras, Run};
@@ -40,6 +41,21 @@ impl Tables {
     // One arm of `with_system!` is a Copy type.
     #[allow(clippy::clone_on_copy)]
     pub fn run(&self, problem: &Problem, path: &Path, extras: &Extras) -> Result<(Run, Added), String> {
+        femvi_cli::with_system!(&problem.system, l => self.run_lagrangian(l.clone(), problem, path, extras))
+    }
+
+    /// [`Tables::run`] with the Lagrangian `lag` in place of the file's system (a Python
+    /// potential: the terms are the file's all the same).
+    ///
+    /// # Errors
+    /// As [`Tables::run`].
+    pub fn run_lagrangian<L: Lagrangian + Sync>(
+        &self,
+        lag: L,
+        problem: &Problem,
+        path: &Path,
+        extras: &Extras,
+    ) -> Result<(Run, Added), String> {
         let named = |e: String| format!("{}: {e}", path.display());
         let samples = !extras.saveat.is_empty() || extras.dense;
         let events = !problem.events.is_empty() || !extras.events.is_empty();
@@ -51,12 +67,11 @@ impl Tables {
             problem.refuse(Use::SaveatOrDense, "femvi.solve").map_err(named)?;
             // Fixed steps: the run of the integrator with the terms, through the recorder.
             let terms = (self.force.as_ref(), self.constraints.as_ref());
-            let (r, added) = femvi_cli::with_system!(&problem.system, l => crate::recorded::run(l.clone(), terms, problem, path, extras))?;
-            return Ok((r, added));
+            return crate::recorded::run(lag, terms, problem, path, extras);
         }
         let mut options = problem.solve_options(extras.every.unwrap_or(problem.every));
         options.max_steps = extras.max_steps;
-        femvi_cli::with_system!(&problem.system, l => self.run_with(l.clone(), problem, &options))
+        self.run_with(lag, problem, &options)
             .map_err(|e| format!("{}: {e}", path.display()))
     }
 

@@ -57,6 +57,48 @@ def test_masses_and_newton_with_a_finite_difference_jacobian():
         assert np.max(np.abs(s.q - ref.q)) < 1e-11 and np.max(np.abs(s.p - ref.p)) < 1e-11
 
 
+def test_a_python_potential_takes_the_files_forces_and_constraints():
+    # The damped, driven spherical pendulum (|q| = l, friction, a drive) with gravity written in
+    # Python against the file's own Lagrangian: the same terms act on both.
+    f = EXAMPLES / "constrained" / "damped-spherical-pendulum.toml"
+    short = {"time.end": 2.0}
+    ref = femvi.solve(f, **short)
+    # The file's parameters stay: its [constraints] and [forces] use them.
+    mine = {"system": {"coordinates": ["x", "y", "z"],
+                       "parameters": {"m": 1.0, "g": 9.81, "l": 1.0, "c": 0.3, "f0": 0.5, "w": 2.5}}}
+    sol = femvi.solve(f, mine, potential=lambda q: 9.81 * q[2], force=lambda q: np.array([0.0, 0.0, -9.81]),
+                      **short)
+    assert sol.q.shape == ref.q.shape and sol.steps == ref.steps
+    assert np.max(np.abs(sol.q - ref.q)) < 1e-10 and np.max(np.abs(sol.p - ref.p)) < 1e-10
+    # The terms' additions: the work of the forces and the multipliers, as the file's run.
+    assert np.max(np.abs(sol.work - ref.work)) < 1e-10
+    assert np.max(np.abs(sol.multipliers - ref.multipliers)) < 1e-8
+    assert sol.max_constraint_residual < 1e-12
+    # Forces alone, with dense output (the recorder's path): the damped oscillator.
+    osc = EXAMPLES / "forces" / "damped-oscillator.toml"
+    ref = femvi.solve(osc, dense=True)
+    sol = femvi.solve(osc, {"system": {"coordinates": ["x"], "parameters": {"k": 1.0, "c": 0.3}}},
+                      potential=lambda q: 0.5 * q[0] ** 2,
+                      force=lambda q: -q, dense=True)
+    assert np.max(np.abs(sol.q - ref.q)) < 1e-12
+    t = np.linspace(0.0, 20.0, 7)
+    assert np.max(np.abs(sol.q_at(t) - ref.q_at(t))) < 1e-12
+
+
+def test_a_python_potential_with_adaptive_steps():
+    # Kepler at e = 0.9 with the Poincare transformation, against the built-in model.
+    e = 0.9
+    problem = {"system": {"model": "kepler", "parameters": {"mu": 1.0}},
+               "initial": {"q": [1.0 - e, 0.0], "p": [0.0, ((1.0 + e) / (1.0 - e)) ** 0.5]},
+               "scheme": {"degree": 2, "quadrature": "gauss-legendre"},
+               "time": {"mode": "adaptive", "monitor": "kepler", "ds": 0.02, "end": 2 * np.pi}}
+    ref = femvi.solve(problem)
+    sol = femvi.solve({**problem, "system": {"coordinates": ["x", "y"]}}, potential=V, force=F)
+    assert sol.steps == ref.steps and sol.q.shape == ref.q.shape
+    assert np.max(np.abs(sol.t - ref.t)) < 1e-10
+    assert np.max(np.abs(sol.q - ref.q)) < 1e-9 and np.max(np.abs(sol.p - ref.p)) < 1e-8
+
+
 def test_python_potential_errors():
     class Boom(Exception):
         pass

@@ -156,21 +156,6 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
         "the tangent map of the forced energy equation is not derived; use mode = \"fixed\"",
     ),
     (
-        Term::Forces,
-        Use::PythonPotential,
-        "a Python potential replaces the problem file's system, and its runs take no terms",
-    ),
-    (
-        Term::Constraints,
-        Use::PythonPotential,
-        "a Python potential replaces the problem file's system, and its runs take no terms",
-    ),
-    (
-        Term::Adaptive,
-        Use::PythonPotential,
-        "a Python potential replaces the problem file's system, and its runs take no terms",
-    ),
-    (
         Term::ForcedRotations,
         Use::Chaos,
         "the tangent map of a forced Lie-group step (the torques' derivatives in the step's \

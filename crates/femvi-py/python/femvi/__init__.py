@@ -97,9 +97,11 @@ def solve(problem: Any, overrides: Optional[Mapping[str, Any]] = None, *, every:
     L = ½ Σ m_i v_i² − V(q) with V = ``potential(q)`` and the force −∇V = ``force(q)`` (both
     take a 1-D NumPy array; ``masses`` default 1); the problem's ``[system]`` then gives only
     ``coordinates``. Each call costs 3–4 µs with NumPy inside (``examples/callable_cost.py``
-    measures it); an exception raised by either stops the run and is re-raised. Time steps as
-    variables are refused (they need second derivatives), and with ``method = "newton"`` the
-    force Jacobian is taken by central differences.
+    measures it); an exception raised by either stops the run and is re-raised. The problem's
+    ``[forces]``, ``[constraints]`` and adaptive steps (``[time] mode = "adaptive"``) act on it
+    as on a system written in the file. Time steps as variables are refused (they need second
+    derivatives), and Newton's iteration matrix takes the force Jacobian by central
+    differences (``method = "newton"``, constraints, forces that need it).
 
     Raises :class:`InputError` for a bad problem (the command's message) and
     :class:`NumericalError` when a step fails or a node's energy is not finite (unless
