@@ -132,14 +132,18 @@ impl MechanicalTangent {
 
     /// How this step's products are taken: prepared by the Lagrangian at each stage if it
     /// can ([`Lagrangian::prepare_force_derivative`]: its products, same bits, without the
-    /// work they share); else by formed stage Jacobians if n is small, `vectors` are expected
+    /// work they share) and `vectors` are expected to take at least two products per stage;
+    /// else by formed stage Jacobians if n is small, `vectors` are expected
     /// to take at least n/2 products per stage and `lag` computes them; else by the model.
     fn choose_products<L: Lagrangian>(&mut self, lag: &L, n: usize, vectors: usize) {
         let r = self.t.len();
         self.prepared.resize_with(r, Vec::new);
         let (t, q) = (&self.t, &self.q);
         let prepared = self.prepared.iter_mut().enumerate();
+        // Preparing pays from two products per stage on (one costs about a product).
+        let products = vectors as f64 * self.sweeps_per_vector;
         if n > 0
+            && products >= 2.0
             && prepared.fold(true, |ok, (i, c)| {
                 ok && lag.prepare_force_derivative(t[i], &q[i * n..(i + 1) * n], c)
             })
