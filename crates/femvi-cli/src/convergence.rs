@@ -214,12 +214,13 @@ fn lockstep<'a, L: Lagrangian + Sync>(
 ) -> Result<Vec<FinalState>, (String, u8)> {
     let (n, el) = (lag.dim(), &problem.element);
     let points = el.degree() + 3;
+    let rotations = rotation_offsets(problem);
     let mut runs = steps
         .iter()
         .map(|&h| {
             Ok(Coarse {
                 it: integrator(lag, el, problem, h)?,
-                l2: L2Sum::new(points, n),
+                l2: L2Sum::new(points, n).with_rotations(&rotations),
                 done: false,
             })
         })
@@ -249,6 +250,16 @@ fn lockstep<'a, L: Lagrangian + Sync>(
         }
     }
     Ok(runs.iter().map(|r| (state(&r.it), r.l2.value())).collect())
+}
+
+/// The offsets of the problem's rotation blocks (none without rotations): the L² sums follow
+/// their Lie-group paths between nodes.
+fn rotation_offsets(problem: &Problem) -> Vec<usize> {
+    problem
+        .terms
+        .rotations
+        .as_ref()
+        .map_or_else(Vec::new, |r| r.offsets().to_vec())
 }
 
 /// The closed-form state (q, p) as a function of t, if the model has one and the start gives
@@ -323,7 +334,8 @@ fn study_with<L: Lagrangian + Clone + Sync>(
             };
             let label = format!("galerkin degree {s} with {s}-point Gauss-Legendre, step {h}");
             let it = Box::new(integrator(lag, &reference_element, problem, h)?);
-            let window = PiecewiseTrajectory::new(&reference_element.basis, lag.dim());
+            let window =
+                PiecewiseTrajectory::new(&reference_element.basis, lag.dim()).with_rotations(&rotation_offsets(problem));
             (Path::Run { it, window, done: false }, label)
         }
     };

@@ -182,14 +182,8 @@ pub const REFUSED: &[(Term, Use, &str)] = &[
 const ON_COORDINATES: &str = "this use still steps the nine entries of a rotation as free coordinates, off SO(3); \
      the Lie-group element runs through `femvi run`, `check`, `chaos`, `convergence`, `ensemble` and Python (issue 37)";
 
-/// Why the L² study is refused: it sums each element as the polynomial in the nine entries.
-const BETWEEN_NODES: &str = "the L2 sum evaluates each element as polynomials in the nine entries of a rotation, \
-     off SO(3), where the element's path is R_k exp(xi(tau)) (the dense output, saveat and events follow that path); \
-     the nodal study works: leave out --l2";
-
 /// The uses that a problem with rotations does not go through yet, with their reasons.
 pub const ROTATIONS_REFUSED: &[(Use, &str)] = &[
-    (Use::ConvergenceL2, BETWEEN_NODES),
     (Use::ChaosInEnergyMode, ON_COORDINATES),
     (Use::EnergyMode, ON_COORDINATES),
     (Use::PythonPotential, ON_COORDINATES),

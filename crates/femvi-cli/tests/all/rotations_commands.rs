@@ -52,6 +52,34 @@ fn convergence_fits_the_nodal_order_on_so3() {
 }
 
 #[test]
+fn the_l2_study_follows_the_rotations_on_so3() {
+    // The L² error of q_h between nodes is of the interpolation order s + 1 (the paper's
+    // (2.33)), with each rotation on its element's path on SO(3).
+    let dir = tempfile::tempdir().unwrap();
+    for (degree, want) in [(1, 2.0), (2, 3.0)] {
+        let out = femvi()
+            .arg("convergence")
+            .arg(example("rigid/free-body"))
+            .args([
+                "--steps",
+                "0.08,0.04,0.02,0.01",
+                "--l2",
+                "--set",
+                "time.end=2.0",
+                "--json",
+            ])
+            .args(["--set", &format!("scheme.degree={degree}"), "--out"])
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let fitted = study["l2_order"].as_f64().unwrap();
+        assert!((fitted - want).abs() < 0.15, "degree {degree}: L2 order {fitted}");
+    }
+}
+
+#[test]
 fn chaos_of_the_free_body_is_regular_and_of_a_tilted_asymmetric_top_chaotic() {
     let free = one_orbit(&example("rigid/free-body"), &["time.end=300.0"]);
     let megno = free["megno"].as_f64().unwrap();

@@ -5,7 +5,8 @@
 //! A trajectory can also be kept as a sliding window ([`PiecewiseTrajectory::push`],
 //! [`PiecewiseTrajectory::forget_before`]) and an L² distance summed element by element as a
 //! run goes ([`L2Sum`]), so that a convergence study needs memory independent of the length
-//! of its runs.
+//! of its runs. Rotation blocks ([`PiecewiseTrajectory::with_rotations`]) follow their
+//! Lie-group elements' paths on SO(3) between nodes, as the dense output does.
 
 use crate::error::{check_len, Result};
 use crate::fem::{LagrangeBasis, QuadratureKind, QuadratureRule, MAX_POINTS};
@@ -23,6 +24,9 @@ pub struct PiecewiseTrajectory {
     nodes: Vec<f64>,
     /// Elements before this one have been forgotten (and are removed in batches).
     first: usize,
+    /// The offsets of rotation blocks (nine entries each), which follow their elements'
+    /// Lie-group paths ([`PiecewiseTrajectory::with_rotations`]).
+    rotations: Vec<usize>,
 }
 
 impl PiecewiseTrajectory {
@@ -59,7 +63,37 @@ impl PiecewiseTrajectory {
             h: vec![],
             nodes: vec![],
             first: 0,
+            rotations: vec![],
         }
+    }
+
+    /// The blocks of nine coordinates at `offsets` are rotations (the entries of R,
+    /// row-major: [`crate::rotation::Rotations`]): between nodes they follow the element's
+    /// path R_0 exp(Σ_j ℓ_j(τ) log(R_0ᵀ R_j)) on SO(3), as the dense output does, instead of
+    /// the polynomial through their entries (which leaves SO(3) by O(h^{s+1})).
+    ///
+    /// ```
+    /// use femvi::diagnostics::PiecewiseTrajectory;
+    /// use femvi::rotation::{embedded_velocity, Rotations};
+    /// use femvi::{models::RigidBody, Element, Integrator, SolverOptions, Start, TimeGrid};
+    /// let body = RigidBody::free([1.0, 2.0, 3.0])?;
+    /// let r0 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// let start = Start::Velocity { q: r0.to_vec(), v: embedded_velocity(&r0, &[0.5, 1.0, 0.3]).to_vec() };
+    /// let element = Element::with_order(2)?;
+    /// let grid = TimeGrid::uniform(0.0, 0.25, 1.0)?;
+    /// let layout = Rotations::new(9, &[0])?;
+    /// let mut it = Integrator::with_rotations(&body, &element, grid, start, SolverOptions::default(), layout)?;
+    /// let path = PiecewiseTrajectory::record(&mut it, &element.basis, 9)?.with_rotations(&[0]);
+    /// // Between nodes R stays on SO(3): RᵀR = 1 to round-off.
+    /// let mut r = [0.0; 9];
+    /// path.eval(0.6, &mut r);
+    /// let rtr = |i: usize, j: usize| (0..3).map(|k| r[3 * k + i] * r[3 * k + j]).sum::<f64>();
+    /// assert!((rtr(0, 0) - 1.0).abs() < 1e-14 && rtr(0, 1).abs() < 1e-14);
+    /// # Ok::<(), femvi::Error>(())
+    /// ```
+    pub fn with_rotations(mut self, offsets: &[usize]) -> Self {
+        self.rotations = offsets.to_vec();
+        self
     }
 
     /// Runs `it` to its end, recording every element; `basis` is its element's basis and n
@@ -139,13 +173,13 @@ impl PiecewiseTrajectory {
         let k = self.first + self.t[self.first..].partition_point(|&tk| tk <= t).saturating_sub(1);
         let w = self.basis.len();
         let nodes = &self.nodes[k * w * self.n..(k + 1) * w * self.n];
-        element_value(&self.basis, self.t[k], self.h[k], nodes, t, out);
+        element_value(&self.basis, (self.t[k], self.h[k]), nodes, &self.rotations, t, out);
     }
 
     /// (∫ |q_h(t) − q_ref(t)|² dt)^½ over the span kept, by a Gauss rule of `points` points
     /// per element (clamped to 1 ..= [`MAX_POINTS`]); `reference(t, out)` writes q_ref(t).
     pub fn l2_distance(&self, points: usize, mut reference: impl FnMut(f64, &mut [f64])) -> f64 {
-        let mut sum = L2Sum::new(points, self.n);
+        let mut sum = L2Sum::new(points, self.n).with_rotations(&self.rotations);
         let w = self.basis.len() * self.n;
         for k in self.first..self.t.len() {
             let nodes = &self.nodes[k * w..(k + 1) * w];
@@ -155,8 +189,16 @@ impl PiecewiseTrajectory {
     }
 }
 
-/// q_h(t) on one element starting at `t0` with step h and nodal values `nodes` ((s+1)·n).
-fn element_value(basis: &LagrangeBasis, t0: f64, h: f64, nodes: &[f64], t: f64, out: &mut [f64]) {
+/// q_h(t) on one element starting at `t0` with step h and nodal values `nodes` ((s+1)·n),
+/// the rotation blocks at `rotations` on their Lie-group paths (`rotation/dense.rs`).
+fn element_value(
+    basis: &LagrangeBasis,
+    (t0, h): (f64, f64),
+    nodes: &[f64],
+    rotations: &[usize],
+    t: f64,
+    out: &mut [f64],
+) {
     let n = out.len();
     let tau = ((t - t0) / h).clamp(0.0, 1.0);
     let w = basis.len();
@@ -164,6 +206,9 @@ fn element_value(basis: &LagrangeBasis, t0: f64, h: f64, nodes: &[f64], t: f64, 
     basis.values_in_place(tau, &mut l);
     for (c, o) in out.iter_mut().enumerate() {
         *o = (0..w).map(|j| l[j] * nodes[j * n + c]).sum();
+    }
+    for &o in rotations {
+        crate::rotation::dense::path_block(&l, nodes, o, out);
     }
 }
 
@@ -189,6 +234,8 @@ pub struct L2Sum {
     qh: Vec<f64>,
     qr: Vec<f64>,
     sum: f64,
+    /// Rotation blocks of q_h ([`PiecewiseTrajectory::with_rotations`]).
+    rotations: Vec<usize>,
 }
 
 impl L2Sum {
@@ -202,7 +249,15 @@ impl L2Sum {
             qh: vec![0.0; n],
             qr: vec![0.0; n],
             sum: 0.0,
+            rotations: vec![],
         }
+    }
+
+    /// The blocks of nine coordinates at `offsets` are rotations: q_h follows their
+    /// Lie-group paths between nodes ([`PiecewiseTrajectory::with_rotations`]).
+    pub fn with_rotations(mut self, offsets: &[usize]) -> Self {
+        self.rotations = offsets.to_vec();
+        self
     }
 
     /// Adds the element starting at `t0` with step h and nodal values `nodes` ((basis
@@ -222,7 +277,7 @@ impl L2Sum {
         }
         for (c, b) in self.rule.nodes.iter().zip(&self.rule.weights) {
             let t = t0 + c * h;
-            element_value(basis, t0, h, nodes, t, &mut self.qh);
+            element_value(basis, (t0, h), nodes, &self.rotations, t, &mut self.qh);
             reference(t, &mut self.qr);
             self.sum += h * b * self.qh.iter().zip(&self.qr).map(|(a, r)| (a - r).powi(2)).sum::<f64>();
         }

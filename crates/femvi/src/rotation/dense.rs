@@ -43,3 +43,24 @@ pub(crate) fn eval_block(
         vo.copy_from_slice(&rdot);
     }
 }
+
+/// The rotation block at `o` of `q` on the element's path at the point whose basis values
+/// are `l`, from the element's nodal values `nodes` (row-major (s+1)×n, n = `q.len()`):
+/// R_0 exp(Σ_j ℓ_j log(R_0ᵀ R_j)), as [`eval_block`] (positions only, for the L² sums of
+/// `diagnostics/trajectory.rs`). Left as it is if a block does not fit.
+pub(crate) fn path_block(l: &[f64], nodes: &[f64], o: usize, q: &mut [f64]) {
+    let n = q.len();
+    let block = |row: usize| -> Option<Mat3<f64>> { nodes.get(row * n + o..row * n + o + 9)?.try_into().ok() };
+    let Some(r0) = block(0) else { return };
+    let mut zeta = [0.0; 3];
+    for (j, a) in l.iter().enumerate().skip(1) {
+        let Some(rj) = block(j) else { return };
+        let xi = log(&mul_tn(&r0, &rj));
+        for c in 0..3 {
+            zeta[c] += a * xi[c];
+        }
+    }
+    if let Some(qo) = q.get_mut(o..o + 9) {
+        qo.copy_from_slice(&mul(&r0, &exp(&zeta)));
+    }
+}
