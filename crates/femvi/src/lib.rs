@@ -33,6 +33,8 @@ pub mod rotation;
 pub mod solution;
 pub mod solve;
 pub mod step;
+#[cfg(test)]
+mod testing;
 
 pub use adaptive::{solve_adaptive, AdaptiveOptions, AdaptiveSolution};
 pub use discrete::{Element, ElementWork};

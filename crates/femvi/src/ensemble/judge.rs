@@ -106,13 +106,7 @@ mod tests {
     /// of the scalar rule, lane by lane, until each lane's first verdict other than continue.
     #[test]
     fn lanes_judge_as_the_single_run_does() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rand = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rand = crate::testing::uniform(0x9e37_79b9_7f4a_7c15);
         let mut seen = [0usize; 5];
         for case in 0..4000 {
             let opts = SolverOptions {

@@ -262,13 +262,8 @@ mod tests {
     #[test]
     fn prepared_products_have_the_bits_of_force_derivative() {
         // Pseudo-random states in 1, 2 and 3 dimensions, several products per prepared point.
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rand = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = crate::testing::uniform(0x2545_f491_4f6c_dd1d);
+        let mut rand = || uniform() - 0.5;
         for dim in 1..=3 {
             let bodies = n_body(1.3, vec![1.0, 1e-3, 3e-4, 2e-2], dim).unwrap();
             let n = 4 * dim;

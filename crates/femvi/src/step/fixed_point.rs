@@ -436,13 +436,8 @@ mod tests {
     /// components and more columns than rows; the tracked maxima and the NaN probe.
     #[test]
     fn affine_is_the_plain_sum_in_order() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rand = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = crate::testing::uniform(0x2545_f491_4f6c_dd1d);
+        let mut rand = || uniform() - 0.5;
         for rows in (1..=UNROLLED_ROWS + 3).chain([31]) {
             for n in [1, 2, 3, 9] {
                 let cols = rows + 3;
