@@ -6,7 +6,7 @@
 use super::{directional, lanes, Lanes, Scalar, LANES};
 use num_dual::{Dual64, HyperDual64};
 
-/// A potential V(t, q) for a mechanical Lagrangian. As for [`Lagrangian`], the library calls
+/// A potential V(t, q) for a mechanical Lagrangian. As for [`crate::Lagrangian`], the library calls
 /// its methods with slices of length [`Potential::dim`] only.
 pub trait Potential {
     /// Dimension n.
@@ -42,19 +42,19 @@ pub trait Potential {
         }
     }
 
-    /// As [`Lagrangian::force_radius`]: the radius of a local force, or None (the default).
+    /// As [`crate::Lagrangian::force_radius`]: the radius of a local force, or None (the default).
     fn force_radius(&self) -> Option<usize> {
         None
     }
 
-    /// As [`Lagrangian::force_range`]: components `range` of [`Potential::force`], the same
+    /// As [`crate::Lagrangian::force_range`]: components `range` of [`Potential::force`], the same
     /// bits, or false (the default, nothing written).
     fn force_range(&self, t: f64, q: &[f64], range: std::ops::Range<usize>, out: &mut [f64]) -> bool {
         let _ = (t, q, range, out);
         false
     }
 
-    /// The forces at several points at once (see [`Lagrangian::forces`]). Default: one
+    /// The forces at several points at once (see [`crate::Lagrangian::forces`]). Default: one
     /// [`Potential::force`] call per point.
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
         let n = self.dim();
@@ -66,20 +66,20 @@ pub trait Potential {
         }
     }
 
-    /// As [`Lagrangian::force_lanes`]: −∇V at [`LANES`] points at once, the bits of
+    /// As [`crate::Lagrangian::force_lanes`]: −∇V at [`LANES`] points at once, the bits of
     /// [`Potential::force`]. Default: one `force` call per lane.
     fn force_lanes(&self, t: f64, q: &[Lanes], out: &mut [Lanes]) {
         lanes::potential_force_per_lane(self, t, q, out);
     }
 
-    /// V at [`LANES`] points at once (as [`Lagrangian::potential_lanes`]), the bits of
+    /// V at [`LANES`] points at once (as [`crate::Lagrangian::potential_lanes`]), the bits of
     /// [`Potential::value`]. Default: lane by lane.
     fn value_lanes(&self, t: f64, q: &[Lanes]) -> Lanes {
         lanes::value_per_lane(q, |x| Some(self.value(t, x))).unwrap_or([f64::NAN; LANES])
     }
 
     /// The derivative of [`Potential::force`] along dq, −∇²V(t, q)·dq, into `out` (see
-    /// [`Lagrangian::force_derivative`]). Default: n hyper-dual passes over
+    /// [`crate::Lagrangian::force_derivative`]). Default: n hyper-dual passes over
     /// [`Potential::value`]; override it with a hand-coded product for speed.
     ///
     /// ```
