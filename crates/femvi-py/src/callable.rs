@@ -8,9 +8,10 @@
 //! Python function cannot give, femvi does not invent silently:
 //! - dual numbers: V is evaluated at the real part and extended to first order by the force
 //!   (V(q + dq) = V(q) − F(q)·dq, exact for first derivatives); second-order parts are zero;
-//! - the force Jacobian (Newton's iteration matrix only, when `method = "newton"` is asked
-//!   for) by central differences of the force: Newton's convergence is still decided by the
-//!   residual, so a rough matrix costs iterations, not accuracy;
+//! - the force Jacobian (iteration matrices only: Newton's when `method = "newton"` is asked
+//!   for, constrained and adaptive steps) and its products by central differences of the
+//!   force: convergence is still decided by the residual, so a rough matrix costs
+//!   iterations, not accuracy;
 //! - time steps as variables need exact second derivatives and are refused.
 //!
 //! The first exception a callable raises (or a result of the wrong length) is kept, the
@@ -106,8 +107,31 @@ impl Potential for PyPotential {
         self.call_force(q, out);
     }
 
-    /// Central differences of the force, step 1e-6·max(1, |q_j|) (for Newton's iteration
-    /// matrix only; see the module documentation).
+    /// Central differences of the force along dq, step 1e-6·max(1, |q|)/|dq| (see the module
+    /// documentation), so that no product silently takes the zero second derivatives of
+    /// [`PyPotential::value`]'s dual numbers.
+    fn force_derivative(&self, _t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        let n = self.n;
+        if q.len() != n || dq.len() != n || out.len() != n {
+            out.iter_mut().for_each(|x| *x = f64::NAN);
+            return;
+        }
+        let size = dq.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        if size == 0.0 {
+            out.iter_mut().for_each(|x| *x = 0.0);
+            return;
+        }
+        let h = 1e-6 * q.iter().fold(1.0f64, |m, x| m.max(x.abs())) / size;
+        let (mut x, mut fm) = (vec![0.0; n], vec![0.0; n]);
+        x.iter_mut().zip(q).zip(dq).for_each(|((x, q), d)| *x = q + h * d);
+        self.call_force(&x, out);
+        x.iter_mut().zip(q).zip(dq).for_each(|((x, q), d)| *x = q - h * d);
+        self.call_force(&x, &mut fm);
+        out.iter_mut().zip(&fm).for_each(|(o, m)| *o = (*o - m) / (2.0 * h));
+    }
+
+    /// Central differences of the force, step 1e-6·max(1, |q_j|) (for iteration matrices
+    /// only; see the module documentation).
     fn force_jacobian(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         let n = self.n;
         if out.len() != n * n || q.len() != n {

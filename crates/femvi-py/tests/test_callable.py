@@ -60,14 +60,16 @@ def test_masses_and_newton_with_a_finite_difference_jacobian():
 def test_a_python_potential_takes_the_files_forces_and_constraints():
     # The damped, driven spherical pendulum (|q| = l, friction, a drive) with gravity written in
     # Python against the file's own Lagrangian: the same terms act on both.
+    # A quartic term x^4/4 besides gravity, so that the potential's Hessian is not zero (the
+    # iteration matrices take it by differences of the Python force).
     f = EXAMPLES / "constrained" / "damped-spherical-pendulum.toml"
     short = {"time.end": 2.0}
-    ref = femvi.solve(f, **short)
+    ref = femvi.solve(f, {"system.lagrangian": "0.5*m*(x_dot^2 + y_dot^2 + z_dot^2) - m*g*z - 0.25*x^4"}, **short)
     # The file's parameters stay: its [constraints] and [forces] use them.
     mine = {"system": {"coordinates": ["x", "y", "z"],
                        "parameters": {"m": 1.0, "g": 9.81, "l": 1.0, "c": 0.3, "f0": 0.5, "w": 2.5}}}
-    sol = femvi.solve(f, mine, potential=lambda q: 9.81 * q[2], force=lambda q: np.array([0.0, 0.0, -9.81]),
-                      **short)
+    sol = femvi.solve(f, mine, potential=lambda q: 9.81 * q[2] + 0.25 * q[0] ** 4,
+                      force=lambda q: np.array([-q[0] ** 3, 0.0, -9.81]), **short)
     assert sol.q.shape == ref.q.shape and sol.steps == ref.steps
     assert np.max(np.abs(sol.q - ref.q)) < 1e-10 and np.max(np.abs(sol.p - ref.p)) < 1e-10
     # The terms' additions: the work of the forces and the multipliers, as the file's run.

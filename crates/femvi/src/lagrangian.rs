@@ -213,7 +213,8 @@ pub trait Lagrangian {
     /// cache gives the bits of `force_derivative(t, q, dq, out)` for any dq. Default: false,
     /// nothing written. The tangent maps of mechanical steps take one product per vector and
     /// sweep at each quadrature point, and prefer this to forming ∂f/∂q
-    /// ([`Lagrangian::force_jacobian`]) when the Lagrangian offers it.
+    /// ([`Lagrangian::force_jacobian`]) when the Lagrangian offers it and a step takes at
+    /// least two products per point.
     ///
     /// ```
     /// use femvi::{models, Lagrangian};

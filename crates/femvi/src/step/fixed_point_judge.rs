@@ -1,7 +1,8 @@
 //! The stopping rule of the fixed-point iteration (`fixed_point_step.rs`): after each sweep,
 //! go on, stop (converged, with the polish of up to three more sweeps while the change still
 //! decreases), or fail (not finite, stalled, over the cap). One copy, which the single run
-//! calls and the ensemble lanes mirror (`ensemble/judge.rs`, tested against it).
+//! and the mechanical tangent's sweeps (`tangent_mechanical.rs`) call and the ensemble lanes
+//! mirror (`ensemble/judge.rs`, tested against it).
 
 use super::fixed_point_step::ROUNDOFF_ULPS;
 use crate::error::StepFailure;

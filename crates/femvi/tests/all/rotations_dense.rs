@@ -112,3 +112,47 @@ fn events_are_located_on_the_element_path() {
     eprintln!("event time errors {errors:?}, order {order:.2}");
     assert!(order > 2.5, "event times converge at order {order}");
 }
+
+#[test]
+fn a_trajectory_with_rotations_is_the_dense_output_between_nodes() {
+    use femvi::diagnostics::PiecewiseTrajectory;
+    // The recorded elements of a run, its rotation on the element's path
+    // (`PiecewiseTrajectory::with_rotations`, from the nodal values), against the same run's
+    // dense output (from the left node and increments): the same path to round-off. Without
+    // the rotation, the polynomial through the nine entries is off it by O(h³).
+    let (degree, h) = (2, 0.2);
+    let options = SolveOptions {
+        dense: true,
+        ..SolveOptions::step(h)
+    };
+    let sol = solution(degree, h, options);
+    let dense = sol.dense.as_ref().unwrap();
+    let body = RigidBody::free([1.0, 2.0, 3.0]).unwrap();
+    let start = Start::Velocity {
+        q: IDENTITY.to_vec(),
+        v: embedded_velocity(&IDENTITY, &[0.5, 1.0, 0.3]).to_vec(),
+    };
+    let element = Element::with_order(2 * degree).unwrap();
+    let grid = TimeGrid::uniform(0.0, h, 3.0).unwrap();
+    let layout = Rotations::new(9, &[0]).unwrap();
+    let mut it = Integrator::with_rotations(&body, &element, grid, start, Default::default(), layout).unwrap();
+    let plain = PiecewiseTrajectory::record(&mut it, &element.basis, 9).unwrap();
+    let on_path = plain.clone().with_rotations(&[0]);
+    let (mut worst_path, mut least_plain) = (0.0f64, f64::INFINITY);
+    for k in 0..14 {
+        let t = (k as f64 + 0.37) * h;
+        let (mut want, mut a, mut b) = ([0.0; 9], [0.0; 9], [0.0; 9]);
+        dense.q_at(t, &mut want).unwrap();
+        on_path.eval(t, &mut a);
+        plain.eval(t, &mut b);
+        let diff = |x: &[f64; 9]| x.iter().zip(&want).fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
+        worst_path = worst_path.max(diff(&a));
+        least_plain = least_plain.min(diff(&b));
+        assert!(orthogonality_defect(&a) < 1e-14, "t = {t}: off SO(3)");
+    }
+    assert!(worst_path < 1e-14, "path against dense output: {worst_path:e}");
+    assert!(
+        least_plain > 1e-7,
+        "the entries' polynomial is that close: {least_plain:e}"
+    );
+}
