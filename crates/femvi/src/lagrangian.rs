@@ -123,13 +123,7 @@ pub trait Lagrangian {
     /// in one call, so that an implementation can vectorise across points. Default: one
     /// `force` call per point.
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
-        let n = self.dim();
-        if n == 0 {
-            return;
-        }
-        for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
-            self.force(ti, qi, oi);
-        }
+        per_point(self.dim(), t, q, out, |ti, qi, oi| self.force(ti, qi, oi));
     }
 
     /// The force at [`LANES`] points at once, all at time t, coordinate by coordinate:
@@ -326,6 +320,23 @@ pub trait Lagrangian {
     /// Value, gradient and Hessian of L with respect to (q, v) (and t if `with_t`), into `out`.
     fn second_derivatives(&self, t: f64, q: &[f64], v: &[f64], with_t: bool, out: &mut PointDerivatives) {
         out.second_by_ad(self, t, q, v, with_t);
+    }
+}
+
+/// The defaults of [`Lagrangian::forces`] and [`Potential::forces`]: `force(t[i], q_i, out_i)`
+/// point by point, for points of n coordinates (none for n = 0).
+pub(crate) fn per_point(
+    n: usize,
+    t: &[f64],
+    q: &[f64],
+    out: &mut [f64],
+    mut force: impl FnMut(f64, &[f64], &mut [f64]),
+) {
+    if n == 0 {
+        return;
+    }
+    for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
+        force(ti, qi, oi);
     }
 }
 

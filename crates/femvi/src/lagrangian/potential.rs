@@ -57,13 +57,7 @@ pub trait Potential {
     /// The forces at several points at once (see [`crate::Lagrangian::forces`]). Default: one
     /// [`Potential::force`] call per point.
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {
-        let n = self.dim();
-        if n == 0 {
-            return;
-        }
-        for ((&ti, qi), oi) in t.iter().zip(q.chunks_exact(n)).zip(out.chunks_exact_mut(n)) {
-            self.force(ti, qi, oi);
-        }
+        super::per_point(self.dim(), t, q, out, |ti, qi, oi| self.force(ti, qi, oi));
     }
 
     /// As [`crate::Lagrangian::force_lanes`]: −∇V at [`LANES`] points at once, the bits of
