@@ -17,6 +17,29 @@ pub(super) struct Energy {
     max_dev: Lanes,
 }
 
+/// H of every lane at one node ([`Energy::node`]), to find the lanes where it is not finite.
+#[derive(Clone, Copy)]
+pub(super) struct NodeEnergy(Lanes);
+
+impl NodeEnergy {
+    /// No node yet.
+    pub(super) fn blank() -> Self {
+        NodeEnergy([0.0; LANES])
+    }
+
+    /// Whether some lane's H is not finite: one reduction of the whole register (`update` in
+    /// `verlet.rs`), not a flag per lane.
+    #[inline(always)]
+    pub(super) fn any_bad(&self) -> bool {
+        self.0.iter().fold(false, |a, h| a | !h.is_finite())
+    }
+
+    /// The lanes whose H is not finite.
+    pub(super) fn bad(&self) -> [bool; LANES] {
+        self.0.map(|h| !h.is_finite())
+    }
+}
+
 impl Energy {
     /// Nothing recorded yet.
     pub(super) fn blank() -> Self {
@@ -27,8 +50,9 @@ impl Energy {
     }
 
     /// Records the nodes (q, p) of every lane: H = p·p − (p·p·½ − V(q)), its first value
-    /// that is not NaN as H0, and the largest |H − H0| over the finite ones. True for the
-    /// lanes whose H is not finite (where a run ends, before that node).
+    /// that is not NaN as H0, and the largest |H − H0| over the finite ones. Returns H, to
+    /// find the lanes where it is not finite (where a run ends, before that node). Not kept
+    /// in `self`, whose every field costs a register in the loops.
     #[inline(always)]
     pub(super) fn node<L: Lagrangian, const N: usize>(
         &mut self,
@@ -36,7 +60,7 @@ impl Energy {
         t: f64,
         q: &[Lanes; N],
         p: &[Lanes; N],
-    ) -> [bool; LANES] {
+    ) -> NodeEnergy {
         let mut pv = [0.0; LANES];
         for c in 0..N {
             for l in 0..LANES {
@@ -56,16 +80,16 @@ impl Energy {
             None => lagrangian_per_lane(lag, t, q, p),
         };
         // Selects, not branches, so that the loop is one of vector operations.
-        let mut bad = [false; LANES];
+        let mut hs = [0.0; LANES];
         for l in 0..LANES {
             let h = pv[l] - lagrangian[l];
             let e0 = if self.e0[l].is_nan() { h } else { self.e0[l] };
             let dev = if h.is_finite() { (h - e0).abs() } else { 0.0 };
             self.e0[l] = e0;
             self.max_dev[l] = self.max_dev[l].max(dev);
-            bad[l] = !h.is_finite();
+            hs[l] = h;
         }
-        bad
+        NodeEnergy(hs)
     }
 
     /// The largest relative error of lane l, as `EnergyTracker::report` gives it.
@@ -108,13 +132,17 @@ pub(super) fn end_at<const N: usize>(
 }
 
 /// The lanes of one group (`ends`, up to [`LANES`] members) whose energy at the start is not
-/// finite (`bad`) end there, with no node (NaN state), as a run does.
+/// finite (`at_start`) end there, with no node (NaN state), as a run does. The energy
+/// tracker comes as a copy, so that the loop's own is not kept in memory for a reference to
+/// it (no register promotion of a value whose address is taken).
+#[cold]
+#[inline(never)]
 pub(super) fn start_failed<const N: usize>(
     ends: &mut [Option<MemberEnd>],
-    bad: &[bool; LANES],
-    energy: &Energy,
+    (energy, at_start): (Energy, NodeEnergy),
     t0: f64,
 ) {
+    let bad = at_start.bad();
     for (l, end) in ends.iter_mut().enumerate() {
         if bad.get(l).copied().unwrap_or(false) {
             *end = Some(MemberEnd {

@@ -221,7 +221,9 @@ pub enum Width {
 
 /// Groups of [`LANES`] members a loop advances together: two, whose chains of dependent
 /// operations the processor overlaps (Kepler, AVX-512, criterion, before members checked
-/// their energy: 4.2 ns per member-step with one group, 3.9 with two).
+/// their energy: 4.2 ns per member-step with one group, 3.9 with two; with the energy, on
+/// the `lanes` binary: three and four groups were no faster than two, four slower, 0.8 s
+/// against 0.37 s, from spilled registers).
 pub(crate) const GROUPS: usize = 2;
 
 /// Members a loop advances together.
@@ -306,7 +308,7 @@ fn run_loop<L: Lagrangian, const N: usize>(
     s: &[Starts<N>; GROUPS],
 ) -> Vec<MemberEnd> {
     match plan {
-        None => verlet::run::<L, N>(lag, grid, s),
+        None => verlet::run::<L, N, GROUPS>(lag, grid, s),
         Some(plan) => fixed_point::run::<L, N>(lag, grid, plan, s),
     }
 }

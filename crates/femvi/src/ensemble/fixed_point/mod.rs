@@ -195,8 +195,9 @@ impl<const N: usize> Group<N> {
             alive: [true; LANES],
             ends: vec![None; LANES],
         };
-        let bad = g.energy.node(lag, t0, &g.node.q, &g.node.p);
-        start_failed::<N>(&mut g.ends, &bad, &g.energy, t0);
+        let at_start = g.energy.node(lag, t0, &g.node.q, &g.node.p);
+        let bad = at_start.bad();
+        start_failed::<N>(&mut g.ends, (g.energy, at_start), t0);
         g.alive = std::array::from_fn(|l| !bad[l]);
         g
     }

@@ -179,8 +179,9 @@ impl<const N: usize> Group<N> {
                 }
             }
         }
-        let bad = self.energy.node(lag, t_next, &self.node.q, &self.node.p);
-        if bad.iter().fold(false, |a, &b| a | b) {
+        let hs = self.energy.node(lag, t_next, &self.node.q, &self.node.p);
+        if hs.any_bad() {
+            let bad = hs.bad();
             for (l, &b) in bad.iter().enumerate() {
                 if b && self.alive[l] {
                     let error = Error::NonFiniteEnergy { step: k + 1, t: t_next };
