@@ -61,29 +61,6 @@ pub(crate) fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-/// Modified Gram–Schmidt on the d-vectors of `w` (column-major): orthonormalises them in
-/// order and returns ln R_ii, the logarithms of the lengths removed.
-pub(crate) fn orthonormalise(w: &mut [f64], d: usize, logs: &mut [f64]) {
-    let k = w.len() / d;
-    for i in 0..k {
-        for j in 0..i {
-            let (done, rest) = w.split_at_mut(i * d);
-            let qj = &done[j * d..(j + 1) * d];
-            let vi = &mut rest[..d];
-            let r: f64 = qj.iter().zip(vi.iter()).map(|(a, b)| a * b).sum();
-            for (x, q) in vi.iter_mut().zip(qj) {
-                *x -= r * q;
-            }
-        }
-        let v = &mut w[i * d..(i + 1) * d];
-        let len = norm(v);
-        logs[i] = len.ln();
-        for x in v.iter_mut() {
-            *x /= len;
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -117,15 +94,5 @@ mod tests {
             exp.mean_megno
         );
         assert!((exp.fli - lambda * t).abs() < 1e-9);
-    }
-
-    #[test]
-    fn gram_schmidt_gives_orthonormal_vectors_and_the_r_diagonal() {
-        // Columns (3, 4) and (1, 0): R = [[5, 3/5], [0, 4/5]].
-        let mut w = vec![3.0, 4.0, 1.0, 0.0];
-        let mut logs = [0.0; 2];
-        orthonormalise(&mut w, 2, &mut logs);
-        assert!((logs[0] - 5f64.ln()).abs() < 1e-15 && (logs[1] - 0.8f64.ln()).abs() < 1e-15);
-        assert!((w[0] * w[2] + w[1] * w[3]).abs() < 1e-15);
     }
 }

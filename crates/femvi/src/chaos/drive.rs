@@ -5,7 +5,8 @@
 //! [`TangentRun`]: it takes the steps and carries vectors of its tangent dimension d (2n, or
 //! 2(n − m) on a constraint manifold).
 
-use super::accumulate::{norm, orthonormalise, Growth};
+use super::accumulate::{norm, Growth};
+use super::orthonormal::orthonormalise;
 use super::{ChaosOptions, ChaosReport, ChaosSample, FinalNode};
 use crate::error::Result;
 

@@ -18,6 +18,7 @@ mod drive;
 mod forced;
 mod forced_constrained;
 mod map;
+mod orthonormal;
 mod parameter;
 mod step_map;
 
