@@ -22,6 +22,12 @@ pub struct FpuPotential {
 }
 
 impl FpuPotential {
+    /// V''(d) = 1 + 2αd + 3βd², the stiffness of a bond of elongation d.
+    #[inline]
+    fn ddv(&self, d: f64) -> f64 {
+        1.0 + 2.0 * self.alpha * d + 3.0 * self.beta * d * d
+    }
+
     /// The chain of n masses with coefficients α and β.
     ///
     /// # Errors
@@ -63,24 +69,46 @@ impl Potential for FpuPotential {
     }
     fn force_derivative(&self, _t: f64, q: &[f64], dq: &[f64], out: &mut [f64]) {
         // δf_i = V''(d_i) δd_i − V''(d_{i−1}) δd_{i−1}, V''(d) = 1 + 2αd + 3βd².
-        let n = self.n.min(q.len()).min(dq.len());
-        let ddv = |d: f64| 1.0 + 2.0 * self.alpha * d + 3.0 * self.beta * d * d;
-        let at = |v: &[f64], i: usize| if i < n { v[i] } else { 0.0 };
-        // Bond b joins q_{b−1} and q_b (q_{−1} = q_n = 0).
-        let bond = |b: usize| {
-            let (l, dl) = if b == 0 {
-                (0.0, 0.0)
-            } else {
-                (at(q, b - 1), at(dq, b - 1))
-            };
-            ddv(at(q, b) - l) * (at(dq, b) - dl)
-        };
-        let mut prev = bond(0);
-        for (i, o) in out.iter_mut().enumerate().take(n) {
-            let next = bond(i + 1);
+        let n = self.n.min(q.len()).min(dq.len()).min(out.len());
+        let Some(last) = n.checked_sub(1) else { return };
+        let mut prev = self.ddv(q[0] - 0.0) * (dq[0] - 0.0);
+        for (i, o) in out[..last].iter_mut().enumerate() {
+            let next = self.ddv(q[i + 1] - q[i]) * (dq[i + 1] - dq[i]);
             *o = next - prev;
             prev = next;
         }
+        out[last] = self.ddv(0.0 - q[last]) * (0.0 - dq[last]) - prev;
+    }
+
+    /// V''(d_b) of every bond b = 0 … n (n + 1 numbers), as
+    /// [`Potential::force_derivative`] computes them.
+    fn prepare_force_derivative(&self, _t: f64, q: &[f64], cache: &mut Vec<f64>) -> bool {
+        let n = self.n;
+        if q.len() != n || n == 0 {
+            return false;
+        }
+        cache.clear();
+        cache.push(self.ddv(q[0] - 0.0));
+        cache.extend(q.windows(2).map(|w| self.ddv(w[1] - w[0])));
+        cache.push(self.ddv(0.0 - q[n - 1]));
+        true
+    }
+
+    /// [`Potential::force_derivative`]'s operations on the prepared V''(d_b): a product per
+    /// bond.
+    fn prepared_force_derivative(&self, cache: &[f64], dq: &[f64], out: &mut [f64]) {
+        let n = self.n;
+        if dq.len() != n || out.len() != n || cache.len() != n + 1 || n == 0 {
+            out.iter_mut().for_each(|x| *x = f64::NAN);
+            return;
+        }
+        let mut prev = cache[0] * (dq[0] - 0.0);
+        for ((o, w), k) in out.iter_mut().zip(dq.windows(2)).zip(&cache[1..n]) {
+            let next = k * (w[1] - w[0]);
+            *o = next - prev;
+            prev = next;
+        }
+        out[n - 1] = cache[n] * (0.0 - dq[n - 1]) - prev;
     }
 
     fn force_radius(&self) -> Option<usize> {
@@ -138,4 +166,69 @@ impl Potential for FpuPotential {
 /// ```
 pub fn fpu(n: usize, alpha: f64, beta: f64) -> Result<Mechanical<FpuPotential>> {
     Ok(Mechanical::unit_mass(FpuPotential::new(n, alpha, beta)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FpuPotential;
+    use crate::lagrangian::Potential;
+
+    /// The product as it was written before (bond by bond through bounds-checked closures),
+    /// to pin the bits of the loop that replaced it.
+    fn by_bonds(chain: &FpuPotential, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        let n = chain.n.min(q.len()).min(dq.len());
+        let ddv = |d: f64| 1.0 + 2.0 * chain.alpha * d + 3.0 * chain.beta * d * d;
+        let at = |v: &[f64], i: usize| if i < n { v[i] } else { 0.0 };
+        let bond = |b: usize| {
+            let (l, dl) = if b == 0 {
+                (0.0, 0.0)
+            } else {
+                (at(q, b - 1), at(dq, b - 1))
+            };
+            ddv(at(q, b) - l) * (at(dq, b) - dl)
+        };
+        let mut prev = bond(0);
+        for (i, o) in out.iter_mut().enumerate().take(n) {
+            let next = bond(i + 1);
+            *o = next - prev;
+            prev = next;
+        }
+    }
+
+    /// The product, the prepared product and the bond-by-bond product have the same bits
+    /// (chains of 1 to 9 masses, α and β both on, signed zeros among the entries), and a
+    /// cache or vector of the wrong length gives NaN or false, no panic.
+    #[test]
+    fn products_prepared_or_not_have_the_bits_of_the_bond_by_bond_product() {
+        let mut uniform = crate::testing::uniform(0x7f4a_7c15_9e37_79b9);
+        let mut rand = || uniform() - 0.5;
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut cache = Vec::new();
+        for n in 1..=9 {
+            let chain = FpuPotential::new(n, 0.25, 1.5).unwrap();
+            for trial in 0..20 {
+                let q: Vec<f64> = (0..n)
+                    .map(|i| if (i + trial) % 4 == 0 { -0.0 } else { rand() })
+                    .collect();
+                assert!(chain.prepare_force_derivative(0.0, &q, &mut cache));
+                for _ in 0..3 {
+                    let dq: Vec<f64> = (0..n)
+                        .map(|i| if (i + trial) % 3 == 1 { -0.0 } else { rand() })
+                        .collect();
+                    let (mut want, mut once, mut prepared) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+                    by_bonds(&chain, &q, &dq, &mut want);
+                    chain.force_derivative(0.0, &q, &dq, &mut once);
+                    chain.prepared_force_derivative(&cache, &dq, &mut prepared);
+                    assert_eq!(bits(&once), bits(&want), "n = {n}");
+                    assert_eq!(bits(&prepared), bits(&want), "n = {n}");
+                }
+            }
+            let mut out = vec![0.0; n];
+            chain.prepared_force_derivative(&cache[1..], &vec![0.0; n], &mut out);
+            assert!(out.iter().all(|x| x.is_nan()));
+            chain.prepared_force_derivative(&cache, &vec![0.0; n + 1], &mut out);
+            assert!(out.iter().all(|x| x.is_nan()));
+            assert!(!chain.prepare_force_derivative(0.0, &vec![0.0; n + 1], &mut cache));
+        }
+    }
 }
