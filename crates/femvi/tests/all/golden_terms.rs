@@ -526,6 +526,27 @@ fn chaos_runs(out: &mut Runs) {
     };
     let r = indicators(&hh, &order(4), &SolveOptions::step(0.1), &spectrum).unwrap();
     out.push(("chaos: henon-heiles chaotic degree 2 spectrum", b.chaos(&r).done()));
+    // The same at degree 1 with the trapezoid rule (Störmer–Verlet: the mechanical tangent's
+    // one ordered pass), and the FPU chain (prepared products) at degrees 1 and 2.
+    let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
+    let r = indicators(&hh, &verlet, &SolveOptions::step(0.05), &spectrum).unwrap();
+    out.push(("chaos: henon-heiles chaotic degree 1 trapezoid spectrum", b.chaos(&r).done()));
+    let fpu = Problem::new(
+        models::fpu(8, 0.25, 1.0).unwrap(),
+        Start::Momentum {
+            q: (0..8).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect(),
+            p: vec![0.0; 8],
+        },
+        0.0,
+        50.0,
+    );
+    for (name, element) in [
+        ("chaos: fpu 8 degree 1 trapezoid spectrum", &verlet),
+        ("chaos: fpu 8 degree 2 spectrum", &order(4)),
+    ] {
+        let r = indicators(&fpu, element, &SolveOptions::step(0.05), &spectrum).unwrap();
+        out.push((name, b.chaos(&r).done()));
+    }
 
     let circular = Problem::new(
         models::kepler(1.0).unwrap(),
