@@ -72,7 +72,7 @@ pub(crate) struct MechanicalTangent {
     sweeps_per_vector: f64,
     sweeps_total: usize,
     /// Per vector: δu, the stage displacements δY, g_i and M⁻¹ g_i (r×n), a point's argument
-    /// δq + δY_i, and the node increments of the end update (s×n, twice).
+    /// δq + δY_i, and the sums of the end update (n, twice).
     du: Vec<f64>,
     dy: Vec<f64>,
     g: Vec<f64>,
@@ -109,8 +109,8 @@ impl MechanicalTangent {
             g: vec![0.0; r * n],
             z: vec![0.0; r * n],
             x: vec![0.0; n],
-            incr: vec![0.0; s * n],
-            incr_lo: vec![0.0; s * n],
+            incr: vec![0.0; n],
+            incr_lo: vec![0.0; n],
         })
     }
 
@@ -202,19 +202,19 @@ impl MechanicalTangent {
     /// left as it was).
     fn carry<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, opts: &SolverOptions, v: &mut [f64]) -> bool {
         let n = v.len() / 2;
-        let (r, s) = (self.t.len(), self.st.h_alpha.len());
+        let r = self.t.len();
         let (dq, dp) = v.split_at_mut(n);
         mass.solve(dp, &mut self.du);
         if self.lower {
             // δY_l from the stages before it: one pass in order.
             for l in 0..r {
-                for c in 0..n {
-                    let z = if self.identity { &self.g } else { &self.z };
-                    let mut y = self.st.ha[l] * self.du[c];
-                    for i in 0..l {
-                        y += self.st.h2b[i * r + l] * z[i * n + c];
-                    }
-                    self.dy[l * n + c] = y;
+                let z = if self.identity { &self.g } else { &self.z };
+                let dy = &mut self.dy[l * n..(l + 1) * n];
+                let ha = self.st.ha[l];
+                dy.iter_mut().zip(&self.du).for_each(|(y, u)| *y = ha * u);
+                for (i, zi) in z.chunks_exact(n.max(1)).enumerate().take(l) {
+                    let b = self.st.h2b[i * r + l];
+                    dy.iter_mut().zip(zi).for_each(|(y, z)| *y += b * z);
                 }
                 self.stage(lag, mass, l, dq);
             }
@@ -227,33 +227,45 @@ impl MechanicalTangent {
                 None => return false,
             }
         }
-        // δq' = δq + h α_s δu + h² Σ β_si z_i, δp' = δp + h Σ b_i g_i, the coefficients'
-        // rounding errors as a second sum (all s node increments: the kernel's shape).
+        self.end_update(dq, dp);
+        true
+    }
+
+    /// δq' = δq + h α_s δu + h² Σ β_si z_i and δp' = δp + h Σ b_i g_i, the coefficients'
+    /// rounding errors as a second sum: the last row of the kernel's node increments
+    /// (`fixed_point::affine`: the same operations in the same order, component by
+    /// component; the inner nodes are not needed here), as whole-vector loops.
+    fn end_update(&mut self, dq: &mut [f64], dp: &mut [f64]) {
+        let (n, r) = (dq.len(), self.t.len());
+        let Some(last) = self.st.h_alpha.len().checked_sub(1) else {
+            return;
+        };
+        let s = last + 1;
         let z = if self.identity { &self.g } else { &self.z };
         let st = &self.st;
-        affine(s, n, &st.h_alpha, &self.du, &st.h2_beta, r, z, &mut self.incr, false);
-        affine(
-            s,
-            n,
-            &st.h_alpha_lo,
-            &self.du,
-            &st.h2_beta_lo,
-            r,
-            z,
-            &mut self.incr_lo,
-            false,
-        );
-        let last = (s - 1) * n;
-        for c in 0..n {
-            dq[c] += self.incr[last + c] + self.incr_lo[last + c];
-            let (mut hi, mut lo) = (0.0, 0.0);
-            for i in 0..r {
-                hi += st.hw[i] * self.g[i * n + c];
-                lo += st.hw_lo[i] * self.g[i * n + c];
-            }
-            dp[c] += hi + lo;
+        let (hi, lo) = (&mut self.incr[..n], &mut self.incr_lo[..n]);
+        let (a, a_lo) = (st.h_alpha[last], st.h_alpha_lo[last]);
+        hi.iter_mut().zip(&self.du).for_each(|(x, u)| *x = a * u);
+        lo.iter_mut().zip(&self.du).for_each(|(x, u)| *x = a_lo * u);
+        // Column j of the s-row tables (column-major) holds row s − 1 at j s + s − 1.
+        for (j, zj) in z.chunks_exact(n.max(1)).enumerate().take(r) {
+            let (b, b_lo) = (st.h2_beta[j * s + last], st.h2_beta_lo[j * s + last]);
+            hi.iter_mut().zip(zj).for_each(|(x, z)| *x += b * z);
+            lo.iter_mut().zip(zj).for_each(|(x, z)| *x += b_lo * z);
         }
-        true
+        dq.iter_mut()
+            .zip(hi.iter().zip(lo.iter()))
+            .for_each(|(q, (h, l))| *q += h + l);
+        hi.iter_mut().for_each(|x| *x = 0.0);
+        lo.iter_mut().for_each(|x| *x = 0.0);
+        for (i, gi) in self.g.chunks_exact(n.max(1)).enumerate().take(r) {
+            let (w, w_lo) = (st.hw[i], st.hw_lo[i]);
+            hi.iter_mut().zip(gi).for_each(|(x, g)| *x += w * g);
+            lo.iter_mut().zip(gi).for_each(|(x, g)| *x += w_lo * g);
+        }
+        dp.iter_mut()
+            .zip(hi.iter().zip(lo.iter()))
+            .for_each(|(p, (h, l))| *p += h + l);
     }
 
     /// Jacobi sweeps on the stage displacements until the step's own stopping rule

@@ -530,7 +530,10 @@ fn chaos_runs(out: &mut Runs) {
     // one ordered pass), and the FPU chain (prepared products) at degrees 1 and 2.
     let verlet = Element::galerkin(1, NodeFamily::Equispaced, QuadratureKind::Trapezoid).unwrap();
     let r = indicators(&hh, &verlet, &SolveOptions::step(0.05), &spectrum).unwrap();
-    out.push(("chaos: henon-heiles chaotic degree 1 trapezoid spectrum", b.chaos(&r).done()));
+    out.push((
+        "chaos: henon-heiles chaotic degree 1 trapezoid spectrum",
+        b.chaos(&r).done(),
+    ));
     let fpu = Problem::new(
         models::fpu(8, 0.25, 1.0).unwrap(),
         Start::Momentum {
