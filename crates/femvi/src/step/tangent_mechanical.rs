@@ -67,6 +67,9 @@ pub(crate) struct MechanicalTangent {
     /// `route` says so.
     prepared: Vec<Vec<f64>>,
     route: Products,
+    /// The route of the last step carried, None if there is none to follow (no step yet, or
+    /// its sweeps failed).
+    last_route: Option<Products>,
     /// Sweeps per vector on the last step (to choose how the products are taken), and
     /// the count on the current one.
     sweeps_per_vector: f64,
@@ -103,6 +106,7 @@ impl MechanicalTangent {
             row_major: Vec::new(),
             prepared: Vec::new(),
             route: Products::Model,
+            last_route: None,
             sweeps_per_vector: if lower { 1.0 } else { 4.0 },
             sweeps_total: 0,
             du: vec![0.0; n],
@@ -116,13 +120,20 @@ impl MechanicalTangent {
     }
 
     /// The stages of the element [t0, t0 + h] with nodes `base` + `incr[j]`, and the tables
-    /// for h.
-    fn set_stages(&mut self, element: &Element, t0: f64, h: f64, base: &[f64], incr: &[f64]) {
-        let (n, w) = (base.len(), element.nodes());
+    /// for h; with `keep`, the first stage is the last step's last stage (its time and
+    /// position: [`MechanicalTangent::keeps_last_stage`]).
+    fn set_stages(&mut self, element: &Element, (t0, h): (f64, f64), (base, incr): (&[f64], &[f64]), keep: bool) {
+        let (n, w, r) = (base.len(), element.nodes(), self.t.len());
         if self.st.h_bits != h.to_bits() {
             self.st.build(&self.tab, &self.weights, h);
         }
-        for (l, (tl, ql)) in self.t.iter_mut().zip(self.q.chunks_exact_mut(n.max(1))).enumerate() {
+        if keep {
+            self.t[0] = self.t[r - 1];
+            self.q.copy_within((r - 1) * n..r * n, 0);
+        }
+        let from = usize::from(keep);
+        let stages = self.t.iter_mut().zip(self.q.chunks_exact_mut(n.max(1))).enumerate();
+        for (l, (tl, ql)) in stages.skip(from) {
             *tl = t0 + element.rule.nodes[l] * h;
             ql.copy_from_slice(base);
             for (j, dj) in incr.chunks_exact(n.max(1)).enumerate().take(w) {
@@ -132,34 +143,67 @@ impl MechanicalTangent {
         }
     }
 
+    /// Whether this step's first stage can be the last step's last stage, as the plain
+    /// step's first force is its last step's last (first same as last): the ordered pass
+    /// (trapezoid) with stages at both ends of the element, a last step carried
+    /// ([`MechanicalTangent::apply`] succeeded), whose last stage time has the bits of this
+    /// step's first and whose last stage position is this step's first node up to the
+    /// rounding of its compensated sum (a run that jumped elsewhere does not qualify).
+    fn keeps_last_stage(&self, element: &Element, (t0, h): (f64, f64), base: &[f64]) -> bool {
+        let (r, n) = (self.t.len(), base.len());
+        let nodes = &element.rule.nodes;
+        if !self.lower || r < 2 || self.last_route.is_none() || nodes[0] != 0.0 || nodes[r - 1] != 1.0 {
+            return false;
+        }
+        let last = &self.q[(r - 1) * n..r * n];
+        let scale = base.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        (t0 + nodes[0] * h).to_bits() == self.t[r - 1].to_bits()
+            && base
+                .iter()
+                .zip(last)
+                .all(|(a, b)| (a - b).abs() <= KEEP_TOLERANCE * scale)
+    }
+
     /// How this step's products are taken: prepared by the Lagrangian at each stage if it
     /// can ([`Lagrangian::prepare_force_derivative`]: its products, same bits, without the
-    /// work they share) and `vectors` are expected to take at least two products per stage;
-    /// else by formed stage Jacobians if n is small, `vectors` are expected
-    /// to take at least n/2 products per stage and `lag` computes them; else by the model.
-    fn choose_products<L: Lagrangian>(&mut self, lag: &L, n: usize, vectors: usize) {
+    /// work they share) and `vectors` are expected to take at least two products per stage
+    /// to prepare; else by formed stage Jacobians if n is small, `vectors` are expected to
+    /// take at least n/2 products per stage and `lag` computes them; else by the model.
+    /// With `keep` the first stage is the last step's last: its preparation or Jacobian is
+    /// moved over when the last step took the same route, and only the others are made.
+    fn choose_products<L: Lagrangian>(&mut self, lag: &L, n: usize, vectors: usize, keep: bool) {
         let r = self.t.len();
         self.prepared.resize_with(r, Vec::new);
-        let (t, q) = (&self.t, &self.q);
-        let prepared = self.prepared.iter_mut().enumerate();
-        // Preparing pays from two products per stage on (one costs about a product).
-        let products = vectors as f64 * self.sweeps_per_vector;
-        if n > 0
-            && products >= 2.0
-            && prepared.fold(true, |ok, (i, c)| {
+        // Stages whose preparation or Jacobian the last step left (the first, moved over).
+        let from = |route| usize::from(keep && self.last_route == Some(route));
+        // Preparing pays from two products per stage prepared on (one costs about a product).
+        let products = vectors as f64 * self.sweeps_per_vector * r as f64;
+        let fresh = (r - usize::from(keep)) as f64;
+        if n > 0 && products >= 2.0 * fresh {
+            let skip = from(Products::Prepared);
+            if skip == 1 {
+                self.prepared.swap(0, r - 1);
+            }
+            let (t, q) = (&self.t, &self.q);
+            let stages = self.prepared.iter_mut().enumerate().skip(skip);
+            if stages.fold(true, |ok, (i, c)| {
                 ok && lag.prepare_force_derivative(t[i], &q[i * n..(i + 1) * n], c)
-            })
-        {
-            self.route = Products::Prepared;
-            return;
+            }) {
+                self.route = Products::Prepared;
+                return;
+            }
         }
         self.route = Products::Model;
         if n > JACOBIAN_MAX_DIM || 2.0 * vectors as f64 * self.sweeps_per_vector < n as f64 {
             return;
         }
+        let skip = from(Products::Formed);
         self.jac.resize(r * n * n, 0.0);
         self.row_major.resize(n * n, 0.0);
-        for (i, ji) in self.jac.chunks_exact_mut(n * n).enumerate() {
+        if skip == 1 {
+            self.jac.copy_within((r - 1) * n * n..r * n * n, 0);
+        }
+        for (i, ji) in self.jac.chunks_exact_mut(n * n).enumerate().skip(skip) {
             if !lag.force_jacobian(self.t[i], &self.q[i * n..(i + 1) * n], &mut self.row_major) {
                 return;
             }
@@ -376,6 +420,11 @@ fn column_product_n<const N: usize>(jt: &[f64], x: &[f64], g: &mut [f64]) {
     g.copy_from_slice(&acc);
 }
 
+/// How far (relative to the largest |q|) the last step's last stage may be from this step's
+/// first node for the stage to be kept: the compensated sum of the node moves it by a few
+/// roundings; a run that jumped elsewhere is far beyond.
+const KEEP_TOLERANCE: f64 = 1e-12;
+
 /// The dimension from which the end update runs as whole-vector loops (below it, one loop
 /// over the components costs less: Hénon–Heiles, n = 2, 1.88× a plain step against 2.29×;
 /// the FPU chain, n = 64, 1.85× against 2.06×).
@@ -413,9 +462,12 @@ impl MechanicalTangent {
         vectors: &mut [f64],
     ) -> bool {
         let n = el.base.len();
-        self.set_stages(element, el.t0, el.h, el.base, el.incr);
+        let keep = self.keeps_last_stage(element, (el.t0, el.h), el.base);
+        self.set_stages(element, (el.t0, el.h), (el.base, el.incr), keep);
         let count = vectors.len() / (2 * n).max(1);
-        self.choose_products(lag, n, count);
+        self.choose_products(lag, n, count, keep);
+        // Unset until the vectors are through: a failure leaves nothing to keep.
+        self.last_route = None;
         self.sweeps_total = 0;
         self.identity = mass.is_identity();
         if !self.lower {
@@ -431,6 +483,7 @@ impl MechanicalTangent {
         if !self.lower && count > 0 {
             self.sweeps_per_vector = self.sweeps_total as f64 / count as f64;
         }
+        self.last_route = Some(self.route);
         true
     }
 }

@@ -116,6 +116,48 @@ fn the_mechanical_tangent_is_the_dense_map() {
     }
 }
 
+/// The trapezoid's first stage is its last step's last (first same as last) only when that
+/// step was carried: vectors carried on some steps and not others (the stage kept would then
+/// be two steps old, O(h) away) still follow the dense map of each step carried.
+#[test]
+fn a_step_after_one_not_carried_does_not_keep_its_first_stage() {
+    let lag = models::n_body(1.0, vec![1.0, 1e-3, 3e-4], 2).unwrap();
+    let start = Start::Momentum {
+        q: vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.6],
+        p: vec![0.0, 0.0, 0.0, 1e-3, -0.79 * 3e-4, 0.0],
+    };
+    let d = 2 * lag.dim();
+    let grid = TimeGrid::uniform(0.0, 0.03, 3.0).unwrap();
+    let element = trapezoid();
+    let mut it = Integrator::new(&lag, &element, grid, start, SolverOptions::default()).unwrap();
+    {
+        let mut k = 0;
+        while it.step().unwrap() {
+            k += 1;
+            if k % 3 == 0 {
+                continue;
+            }
+            // One vector (the force's products) and 2n + 1 (prepared products).
+            for count in [1, d + 1] {
+                let mut v: Vec<f64> = (0..count * d).map(|i| 0.3 - 0.07 * (i % 11) as f64).collect();
+                let want = v.clone();
+                it.tangent_apply(&mut v).unwrap();
+                let m = it.tangent_map().unwrap();
+                let scale = m.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+                for (col, w) in v.chunks_exact(d).zip(want.chunks_exact(d)) {
+                    for (i, x) in col.iter().enumerate() {
+                        let y: f64 = (0..d).map(|j| m[i * d + j] * w[j]).sum();
+                        assert!(
+                            (x - y).abs() <= 1e-12 * scale,
+                            "step {k}, {count} vectors: {x} against {y}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// A compiled expression's force derivative (symbolic) gives the same maps, with a
 /// configuration-dependent coupling and a mass matrix that is not diagonal.
 #[test]
