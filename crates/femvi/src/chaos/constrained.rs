@@ -148,15 +148,12 @@ impl<L: Lagrangian, C: Constraints> TangentRun for OnManifold<'_, L, C> {
     fn advance(&mut self) -> Result<bool> {
         self.run.step()
     }
-    fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()> {
+    fn carry(&mut self, vectors: &mut [f64]) -> Result<()> {
         let m = self.run.reduced_map()?;
         // Row-major, as `apply` expects.
         let m: Vec<f64> = m.transpose().iter().copied().collect();
         let d = self.tmp.len();
-        apply(&m, d, u, &mut self.tmp);
-        if !w.is_empty() {
-            apply(&m, d, w, &mut self.tmp);
-        }
+        apply(&m, d, vectors, &mut self.tmp);
         Ok(())
     }
     fn time(&self) -> f64 {

@@ -14,9 +14,10 @@ use crate::error::Result;
 pub(crate) trait TangentRun {
     /// Takes the next step: Ok(false) at the end of the grid.
     fn advance(&mut self) -> Result<bool>;
-    /// Carries `u` (one vector of length d) and `w` (k vectors, column-major, possibly none)
+    /// Carries `vectors` (one vector of length d, then k more, column-major, possibly none:
+    /// one buffer, so that a route with a per-step setup makes it once and nothing is copied)
     /// through the last step's tangent map.
-    fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()>;
+    fn carry(&mut self, vectors: &mut [f64]) -> Result<()>;
     /// Time at the current node.
     fn time(&self) -> f64;
     /// Length of the last step (0 before the first).
@@ -28,11 +29,12 @@ pub(crate) trait TangentRun {
 /// Runs `run` to its end from the unit vector `u` (length d), with the spectrum's d vectors
 /// if asked (starting as the identity), and accumulates the indicators (module docs of
 /// [`super`]); time is counted from the current node.
-pub(crate) fn drive<R: TangentRun>(run: &mut R, mut u: Vec<f64>, chaos: &ChaosOptions) -> ChaosReport {
+pub(crate) fn drive<R: TangentRun>(run: &mut R, u: Vec<f64>, chaos: &ChaosOptions) -> ChaosReport {
     let d = u.len();
     let k = if chaos.spectrum { d } else { 0 };
-    // The spectrum's vectors start as the identity (column-major).
-    let mut w: Vec<f64> = (0..k * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }).collect();
+    // u, then the spectrum's vectors, which start as the identity (column-major).
+    let mut vectors = u;
+    vectors.extend((0..k * d).map(|i| if i % d == i / d { 1.0 } else { 0.0 }));
     let (mut logs, mut sums) = (vec![0.0; k], vec![0.0; k]);
     let (t0, mut growth) = (run.time(), Growth::new());
     // The spectrum counts growth from here (after the transient).
@@ -54,17 +56,18 @@ pub(crate) fn drive<R: TangentRun>(run: &mut R, mut u: Vec<f64>, chaos: &ChaosOp
                 break;
             }
         }
-        if let Err(e) = run.carry(&mut u, &mut w) {
+        if let Err(e) = run.carry(&mut vectors) {
             error = Some(e);
             break;
         }
+        let (u, w) = vectors.split_at_mut(d);
         steps += 1;
         let (t, h) = (run.time(), run.last_step());
-        let len = norm(&u);
+        let len = norm(u);
         u.iter_mut().for_each(|x| *x /= len);
         growth.step(len.ln(), h, t - t0);
         if k > 0 && steps % chaos.renormalize_every.max(1) == 0 {
-            orthonormalise(&mut w, d, &mut logs);
+            orthonormalise(w, d, &mut logs);
             if t - t0 > chaos.spectrum_transient {
                 sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
             } else {
@@ -77,7 +80,7 @@ pub(crate) fn drive<R: TangentRun>(run: &mut R, mut u: Vec<f64>, chaos: &ChaosOp
     }
     let t = run.time();
     if k > 0 && steps % chaos.renormalize_every.max(1) != 0 {
-        orthonormalise(&mut w, d, &mut logs);
+        orthonormalise(&mut vectors[d..], d, &mut logs);
         sums.iter_mut().zip(&logs).for_each(|(s, l)| *s += l);
     }
     ChaosReport {

@@ -35,7 +35,7 @@ use crate::solution::{Problem, SolveOptions, Steps};
 use crate::step::Integrator;
 use accumulate::norm;
 use drive::{drive, TangentRun};
-use step_map::{carry, ExtendedProduct};
+use step_map::ExtendedProduct;
 
 /// What to compute besides MEGNO, FLI and the largest exponent.
 #[derive(Debug, Clone, PartialEq)]
@@ -154,17 +154,15 @@ fn indicators_limited<L: Lagrangian>(
     let u = initial_vector(chaos, d)?;
     let mut run = PlainRun {
         it,
-        all: Vec::new(),
         left: max_steps,
     };
     Ok(drive(&mut run, u, chaos))
 }
 
-/// An integrator's run (plain, or with forces), its vectors carried by [`carry`].
+/// An integrator's run (plain, or with forces), its vectors carried by
+/// [`Integrator::tangent_apply`].
 struct PlainRun<'r, 'a, L: Lagrangian> {
     it: &'r mut Integrator<'a, L>,
-    /// Workspace of a forced run's carry: u and w side by side (reused, no allocation per step).
-    all: Vec<f64>,
     /// Steps left before `SolveOptions::max_steps` stops the run (None: to the grid's end).
     left: Option<usize>,
 }
@@ -178,8 +176,8 @@ impl<L: Lagrangian> TangentRun for PlainRun<'_, '_, L> {
         }
         self.it.step()
     }
-    fn carry(&mut self, u: &mut [f64], w: &mut [f64]) -> Result<()> {
-        carry(self.it, (u, w), &mut self.all)
+    fn carry(&mut self, vectors: &mut [f64]) -> Result<()> {
+        self.it.tangent_apply(vectors)
     }
     fn time(&self) -> f64 {
         self.it.node().t

@@ -15,28 +15,6 @@ use crate::lagrangian::Lagrangian;
 use crate::step::tangent_apply::extended_index;
 use crate::step::Integrator;
 
-/// Carries `u` (one vector of length 2n) and `w` (2n-long vectors, column-major, possibly
-/// none) through the last step's tangent map ([`Integrator::tangent_apply`]: one call for
-/// both, so that a route with a per-step setup, such as the dense map or the forced step's
-/// Hessian, makes it once); `all` is workspace kept by the caller across steps.
-pub(crate) fn carry<L: Lagrangian>(
-    it: &mut Integrator<'_, L>,
-    (u, w): (&mut [f64], &mut [f64]),
-    all: &mut Vec<f64>,
-) -> Result<()> {
-    if w.is_empty() {
-        return it.tangent_apply(u);
-    }
-    all.clear();
-    all.extend_from_slice(u);
-    all.extend_from_slice(w);
-    it.tangent_apply(all)?;
-    let (a, b) = all.split_at(u.len());
-    u.copy_from_slice(a);
-    w.copy_from_slice(b);
-    Ok(())
-}
-
 /// The product of a run's step maps applied to the 2n start directions (dq, dp) — in energy
 /// mode on extended phase space, so that the carried energy's dependence on the start (fixed
 /// by the first element) is followed. Column-major, as `Integrator::tangent_apply` expects.
@@ -58,8 +36,8 @@ impl ExtendedProduct {
         Self { n, rows, w }
     }
 
-    /// Applies the last step's map (energy mode: by one linearised solve per column, see
-    /// [`carry`]).
+    /// Applies the last step's map (energy mode: by one linearised solve per column, see the
+    /// module docs).
     pub(crate) fn step<L: Lagrangian>(&mut self, it: &mut Integrator<'_, L>) -> Result<()> {
         if self.rows == 2 * self.n {
             it.tangent_apply(&mut self.w)
