@@ -218,6 +218,7 @@ impl MechanicalTangent {
     }
 
     /// g_i = J_i (δq + δY_i) and z_i = M⁻¹ g_i at stage i.
+    #[inline]
     fn stage<L: Lagrangian>(&mut self, lag: &L, mass: &MassMatrix, i: usize, dq: &[f64]) {
         let n = dq.len();
         let span = i * n..(i + 1) * n;
@@ -388,6 +389,7 @@ impl MechanicalTangent {
 /// g = J x for J column-major (n × n, n = x.len()): g_a = Σ_b J_ab x_b summed over b in
 /// order from −0, the bits of each row's `Iterator::sum`. With n a compile-time constant (up
 /// to [`JACOBIAN_MAX_DIM`]) g stays in registers while the columns stream past.
+#[inline]
 fn column_product(jt: &[f64], x: &[f64], g: &mut [f64]) {
     macro_rules! fixed {
         ($($n:literal)*) => {
