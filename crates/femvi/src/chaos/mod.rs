@@ -152,10 +152,7 @@ fn indicators_limited<L: Lagrangian>(
 ) -> Result<ChaosReport> {
     let d = it.tangent_dim();
     let u = initial_vector(chaos, d)?;
-    let mut run = PlainRun {
-        it,
-        left: max_steps,
-    };
+    let mut run = PlainRun { it, left: max_steps };
     Ok(drive(&mut run, u, chaos))
 }
 
