@@ -81,9 +81,6 @@ pub(crate) struct MechanicalTangent {
     g: Vec<f64>,
     z: Vec<f64>,
     x: Vec<f64>,
-    /// The end update's two sums per component ([`MechanicalTangent::end_update_wide`]).
-    hi: Vec<f64>,
-    lo: Vec<f64>,
 }
 
 impl MechanicalTangent {
@@ -114,8 +111,6 @@ impl MechanicalTangent {
             g: vec![0.0; r * n],
             z: vec![0.0; r * n],
             x: vec![0.0; n],
-            hi: Vec::new(),
-            lo: Vec::new(),
         })
     }
 
@@ -280,79 +275,32 @@ impl MechanicalTangent {
     /// δq' = δq + h α_s δu + h² Σ β_si z_i and δp' = δp + h Σ b_i g_i, the coefficients'
     /// rounding errors as a second sum: the last row of the kernel's node increments
     /// (`fixed_point::affine`: the same operations in the same order, component by
-    /// component; the inner nodes are not needed here). Component by component for small n,
-    /// as whole-vector loops from [`WIDE_FROM`] on (the same bits either way).
+    /// component; the inner nodes are not needed here). One pass over the components, with
+    /// the stage count a compile-time constant up to four (the loop then vectorises over the
+    /// components).
     fn end_update(&mut self, dq: &mut [f64], dp: &mut [f64]) {
         let (n, r) = (dq.len(), self.t.len());
-        if n >= WIDE_FROM {
-            return self.end_update_wide(dq, dp);
-        }
         let Some(last) = self.st.h_alpha.len().checked_sub(1) else {
             return;
         };
-        let s = last + 1;
-        let st = &self.st;
-        let z = if self.identity {
-            &self.g[..r * n]
-        } else {
-            &self.z[..r * n]
-        };
-        let (g, du) = (&self.g[..r * n], &self.du[..n]);
-        let (a, a_lo) = (st.h_alpha[last], st.h_alpha_lo[last]);
-        // Row s − 1 of the column-major s-row tables, and the weights.
-        let (beta, beta_lo) = (&st.h2_beta[..r * s], &st.h2_beta_lo[..r * s]);
-        let (hw, hw_lo) = (&st.hw[..r], &st.hw_lo[..r]);
-        for c in 0..n {
-            let (mut hi, mut lo) = (a * du[c], a_lo * du[c]);
-            for j in 0..r {
-                hi += beta[j * s + last] * z[j * n + c];
-                lo += beta_lo[j * s + last] * z[j * n + c];
-            }
-            dq[c] += hi + lo;
-            let (mut hi, mut lo) = (0.0, 0.0);
-            for i in 0..r {
-                hi += hw[i] * g[i * n + c];
-                lo += hw_lo[i] * g[i * n + c];
-            }
-            dp[c] += hi + lo;
-        }
-    }
-
-    /// [`MechanicalTangent::end_update`] as whole-vector loops (the sums of each component in
-    /// the same order, in the workspace `hi` and `lo`).
-    fn end_update_wide(&mut self, dq: &mut [f64], dp: &mut [f64]) {
-        let (n, r) = (dq.len(), self.t.len());
-        let Some(last) = self.st.h_alpha.len().checked_sub(1) else {
-            return;
-        };
-        let s = last + 1;
+        let (s, st) = (last + 1, &self.st);
         let z = if self.identity { &self.g } else { &self.z };
-        let st = &self.st;
-        self.hi.resize(n, 0.0);
-        self.lo.resize(n, 0.0);
-        let (hi, lo) = (&mut self.hi[..n], &mut self.lo[..n]);
-        let (a, a_lo) = (st.h_alpha[last], st.h_alpha_lo[last]);
-        hi.iter_mut().zip(&self.du).for_each(|(x, u)| *x = a * u);
-        lo.iter_mut().zip(&self.du).for_each(|(x, u)| *x = a_lo * u);
-        // Column j of the s-row tables (column-major) holds row s − 1 at j s + s − 1.
-        for (j, zj) in z.chunks_exact(n).enumerate().take(r) {
-            let (b, b_lo) = (st.h2_beta[j * s + last], st.h2_beta_lo[j * s + last]);
-            hi.iter_mut().zip(zj).for_each(|(x, z)| *x += b * z);
-            lo.iter_mut().zip(zj).for_each(|(x, z)| *x += b_lo * z);
+        let rows = EndRows {
+            a: [st.h_alpha[last], st.h_alpha_lo[last]],
+            beta: [&st.h2_beta, &st.h2_beta_lo],
+            weights: [&st.hw, &st.hw_lo],
+            s,
+        };
+        let (z, g, du) = (&z[..r * n], &self.g[..r * n], &self.du[..n]);
+        macro_rules! fixed {
+            ($($r:literal)*) => {
+                match r {
+                    $($r => end_rows::<$r>(rows, (du, z, g), dq, dp),)*
+                    _ => end_rows_any(rows, (du, z, g), dq, dp),
+                }
+            };
         }
-        dq.iter_mut()
-            .zip(hi.iter().zip(lo.iter()))
-            .for_each(|(q, (h, l))| *q += h + l);
-        hi.iter_mut().for_each(|x| *x = 0.0);
-        lo.iter_mut().for_each(|x| *x = 0.0);
-        for (i, gi) in self.g.chunks_exact(n).enumerate().take(r) {
-            let (w, w_lo) = (st.hw[i], st.hw_lo[i]);
-            hi.iter_mut().zip(gi).for_each(|(x, g)| *x += w * g);
-            lo.iter_mut().zip(gi).for_each(|(x, g)| *x += w_lo * g);
-        }
-        dp.iter_mut()
-            .zip(hi.iter().zip(lo.iter()))
-            .for_each(|(p, (h, l))| *p += h + l);
+        fixed!(1 2 3 4)
     }
 
     /// Jacobi sweeps on the stage displacements until the step's own stopping rule
@@ -427,10 +375,79 @@ fn column_product_n<const N: usize>(jt: &[f64], x: &[f64], g: &mut [f64]) {
 /// roundings; a run that jumped elsewhere is far beyond.
 const KEEP_TOLERANCE: f64 = 1e-12;
 
-/// The dimension from which the end update runs as whole-vector loops (below it, one loop
-/// over the components costs less: Hénon–Heiles, n = 2, 1.88× a plain step against 2.29×;
-/// the FPU chain, n = 64, 1.85× against 2.06×).
-const WIDE_FROM: usize = 8;
+/// The end update's coefficients ([`MechanicalTangent::end_update`]): h α_s, the s-row
+/// tables h² β (column-major: stage j's row s − 1 at j s + s − 1) and the weights h b, each
+/// with its rounding errors.
+struct EndRows<'t> {
+    a: [f64; 2],
+    beta: [&'t [f64]; 2],
+    weights: [&'t [f64]; 2],
+    s: usize,
+}
+
+impl EndRows<'_> {
+    /// h² β_sj and its rounding error.
+    #[inline(always)]
+    fn beta(&self, j: usize) -> [f64; 2] {
+        let k = j * self.s + self.s - 1;
+        [self.beta[0][k], self.beta[1][k]]
+    }
+
+    /// h b_i and its rounding error.
+    #[inline(always)]
+    fn weight(&self, i: usize) -> [f64; 2] {
+        [self.weights[0][i], self.weights[1][i]]
+    }
+}
+
+/// The end update with `R` stages: δq_c += (h α_s δu_c + Σ_j h² β_sj z_jc) + (the same with
+/// the rounding errors), δp_c += (Σ_i h b_i g_ic) + (the same), each sum in stage order.
+#[inline(always)]
+fn end_rows<const R: usize>(rows: EndRows<'_>, (du, z, g): (&[f64], &[f64], &[f64]), dq: &mut [f64], dp: &mut [f64]) {
+    let n = du.len();
+    let beta: [[f64; 2]; R] = std::array::from_fn(|j| rows.beta(j));
+    let w: [[f64; 2]; R] = std::array::from_fn(|i| rows.weight(i));
+    let zs: [&[f64]; R] = std::array::from_fn(|j| &z[j * n..(j + 1) * n]);
+    let gs: [&[f64]; R] = std::array::from_fn(|i| &g[i * n..(i + 1) * n]);
+    let [a, a_lo] = rows.a;
+    for (c, ((q, p), u)) in dq.iter_mut().zip(dp.iter_mut()).zip(du).enumerate() {
+        let (mut hi, mut lo) = (a * u, a_lo * u);
+        for j in 0..R {
+            hi += beta[j][0] * zs[j][c];
+            lo += beta[j][1] * zs[j][c];
+        }
+        *q += hi + lo;
+        let (mut hi, mut lo) = (0.0, 0.0);
+        for i in 0..R {
+            hi += w[i][0] * gs[i][c];
+            lo += w[i][1] * gs[i][c];
+        }
+        *p += hi + lo;
+    }
+}
+
+/// [`end_rows`] for any number of stages (`z` and `g` hold r rows of n).
+fn end_rows_any(rows: EndRows<'_>, (du, z, g): (&[f64], &[f64], &[f64]), dq: &mut [f64], dp: &mut [f64]) {
+    let n = du.len();
+    let r = z.len() / n.max(1);
+    let [a, a_lo] = rows.a;
+    for (c, ((q, p), u)) in dq.iter_mut().zip(dp.iter_mut()).zip(du).enumerate() {
+        let (mut hi, mut lo) = (a * u, a_lo * u);
+        for j in 0..r {
+            let [b, b_lo] = rows.beta(j);
+            hi += b * z[j * n + c];
+            lo += b_lo * z[j * n + c];
+        }
+        *q += hi + lo;
+        let (mut hi, mut lo) = (0.0, 0.0);
+        for i in 0..r {
+            let [b, b_lo] = rows.weight(i);
+            hi += b * g[i * n + c];
+            lo += b_lo * g[i * n + c];
+        }
+        *p += hi + lo;
+    }
+}
 
 /// How a step's products J_i·x are taken ([`MechanicalTangent::choose_products`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
