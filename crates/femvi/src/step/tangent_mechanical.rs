@@ -24,7 +24,9 @@
 //! step and the products are matrix–vector products; else the model at every product. When
 //! B is strictly lower triangular (the trapezoid rule: Störmer–Verlet, whose map this is the
 //! variational Störmer–Verlet of) one sweep in order solves it exactly, r products per
-//! vector; otherwise the sweeps repeat until the step's own stopping rule
+//! vector, and the first stage is the last step's last (first same as last, as the plain
+//! step's first force is), so that one point per step is prepared or has its Jacobian
+//! formed; otherwise the sweeps repeat until the step's own stopping rule
 //! (`fixed_point_judge.rs`: tolerance, polish, rounding floor) says converged, and a vector
 //! whose sweeps it fails (not finite, stalled, over the iteration cap) sends the whole step
 //! back to the dense map (`tangent.rs`). The h-scaled tables are the step's own
