@@ -74,23 +74,32 @@ fn system<L: Lagrangian>(name: &str, problem: &Problem<L>, h: f64, rounds: usize
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let rounds = args.get(1).and_then(|r| r.parse().ok()).unwrap_or(11);
+    let usage = "usage: tangent_ratios [ROUNDS >= 1] [all|kepler|henon-heiles|planets|fpu]";
+    let rounds = match args.get(1).map(|r| r.parse::<usize>()) {
+        None => 11,
+        Some(Ok(r)) if r >= 1 => r,
+        Some(_) => {
+            eprintln!("{usage}");
+            std::process::exit(2);
+        }
+    };
     let only = args.get(2).map_or("all", String::as_str);
-    let want = |s: &str| only == "all" || only == s;
-    if want("kepler") {
-        let (p, h) = femvi_bench::tangent_kepler();
-        system("Kepler", &p, h, rounds);
+    if !["all", "kepler", "henon-heiles", "planets", "fpu"].contains(&only) {
+        eprintln!("{usage}");
+        std::process::exit(2);
     }
-    if want("henon-heiles") {
-        let (p, h) = femvi_bench::tangent_henon_heiles();
-        system("Hénon–Heiles", &p, h, rounds);
+    macro_rules! measure {
+        ($($key:literal, $label:literal, $problem:path;)*) => {
+            $(if only == "all" || only == $key {
+                let (p, h) = $problem();
+                system($label, &p, h, rounds);
+            })*
+        };
     }
-    if want("planets") {
-        let (p, h) = femvi_bench::tangent_planets();
-        system("star + two planets", &p, h, rounds);
-    }
-    if want("fpu") {
-        let (p, h) = femvi_bench::tangent_fpu();
-        system("FPU n = 64", &p, h, rounds);
+    measure! {
+        "kepler", "Kepler", femvi_bench::tangent_kepler;
+        "henon-heiles", "Hénon–Heiles", femvi_bench::tangent_henon_heiles;
+        "planets", "star + two planets", femvi_bench::tangent_planets;
+        "fpu", "FPU n = 64", femvi_bench::tangent_fpu;
     }
 }
