@@ -14,6 +14,7 @@ mod one_pass;
 mod point;
 mod potential;
 
+pub(crate) use lanes::{force_per_lane, lagrangian_per_lane};
 pub use lanes::{Lanes, LANES};
 pub use legendre::DEGENERATE_CONDITION;
 pub use mass::MassMatrix;
@@ -161,6 +162,27 @@ pub trait Lagrangian {
     /// ```
     fn potential_lanes(&self, t: f64, q: &[Lanes]) -> Option<Lanes> {
         lanes::value_per_lane(q, |x| self.potential_value(t, x))
+    }
+
+    /// [`Lagrangian::value`] in f64 at [`LANES`] points (q, v) at once, all at time t, stored
+    /// as for [`Lagrangian::force_lanes`] (`q[c][l]`, `v[c][l]`), with the same bits: the
+    /// energy of ensemble members without [`Lagrangian::potential_lanes`]. Default: lane by
+    /// lane; expression Lagrangians evaluate their compiled value across lanes.
+    ///
+    /// ```
+    /// use femvi::expr::ExprLagrangian;
+    /// use femvi::{Lagrangian, LANES};
+    /// let xy = ["x".to_string(), "y".to_string()];
+    /// let lag = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[])?;
+    /// let q = [[1.0, 2.0, 0.5, 3.0, -1.0, 0.25, 4.0, -2.0], [0.5; LANES]];
+    /// let v = [[0.1; LANES], [-0.3, 0.0, 1.0, 2.0, 0.5, -1.0, 0.25, 3.0]];
+    /// let all = lag.value_lanes(0.0, &q, &v);
+    /// let one: f64 = lag.value(0.0, &[q[0][6], q[1][6]], &[v[0][6], v[1][6]]);
+    /// assert_eq!(all[6].to_bits(), one.to_bits());
+    /// # Ok::<(), femvi::expr::ExprError>(())
+    /// ```
+    fn value_lanes(&self, t: f64, q: &[Lanes], v: &[Lanes]) -> Lanes {
+        lanes::lagrangian_per_lane(self, t, q, v)
     }
 
     /// The derivative of [`Lagrangian::force`] along dq, (∂f/∂q)(t, q)·dq (for a mechanical

@@ -68,7 +68,8 @@ impl Energy {
             }
         }
         // L at v = p (M = I): p·p·½ − V as `Mechanical::value` forms it where V is known,
-        // else L itself lane by lane (`EnergyTracker::node`'s mechanical case, pv − L).
+        // else L itself at v = p ([`Lagrangian::value_lanes`]; `EnergyTracker::node`'s
+        // mechanical case, pv − L).
         let lagrangian = match lag.potential_lanes(t, q) {
             Some(v) => {
                 let mut l = [0.0; LANES];
@@ -77,7 +78,7 @@ impl Energy {
                 }
                 l
             }
-            None => lagrangian_per_lane(lag, t, q, p),
+            None => lag.value_lanes(t, q, p),
         };
         // Selects, not branches, so that the loop is one of vector operations.
         let mut hs = [0.0; LANES];
@@ -98,17 +99,6 @@ impl Energy {
         let rel = if e0 != 0.0 { dev / e0.abs() } else { dev };
         0.0f64.max(rel)
     }
-}
-
-/// L(t, q, p) lane by lane (a Lagrangian without [`Lagrangian::potential_lanes`]).
-#[inline(never)]
-fn lagrangian_per_lane<L: Lagrangian, const N: usize>(lag: &L, t: f64, q: &[Lanes; N], p: &[Lanes; N]) -> Lanes {
-    let mut out = [0.0; LANES];
-    for (l, o) in out.iter_mut().enumerate() {
-        let (ql, pl): ([f64; N], [f64; N]) = (q.map(|c| c[l]), p.map(|c| c[l]));
-        *o = lag.value(t, &ql, &pl);
-    }
-    out
 }
 
 /// Lane l's end at node (k, t) of a group whose positions and momenta there are `q` and `p`

@@ -286,6 +286,45 @@ fn expression_members_equal_their_single_runs() {
     let template = Integrator::new(&lag, &el, grid.clone(), starts[0].clone(), SolverOptions::default()).expect("run");
     assert!(in_lanes(&template));
     assert_eq!(agree::<_, 2>(&lag, &grid, &starts), 0);
+    #[cfg(feature = "jit")]
+    assert_eq!(lag.ran_in_lanes(), (true, true), "the force and L as code across lanes");
+}
+
+/// Kepler and Hénon–Heiles written as expressions (force and L as code across lanes,
+/// `expr/native/lanes.rs`): members equal their single runs on every width, those that fail
+/// at their start, at their first step or mid-run included.
+#[test]
+fn expression_kepler_and_henon_heiles_members_equal_their_single_runs() {
+    let xy = vec!["x".to_string(), "y".to_string()];
+    let kepler =
+        crate::expr::ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[]).expect("kepler");
+    let grid = TimeGrid::uniform(0.0, 0.01, 20.0).expect("grid");
+    let mut starts: Vec<Start> = (0..21)
+        .map(|i| momentum([1.0, 0.0], [0.0, 0.5 + 0.04 * i as f64]))
+        .collect();
+    starts.insert(3, momentum([1e-170, 0.0], [-0.0, 1.0]));
+    starts.insert(9, momentum([f64::NAN, 0.0], [0.0, 1.0]));
+    assert_eq!(
+        agree::<_, 2>(&kepler, &grid, &starts),
+        1,
+        "the start at r ≈ 0 fails at its first step"
+    );
+    let hh = crate::expr::ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) - 0.5*(x^2 + y^2) - x^2*y + y^3/3", &xy, &[])
+        .expect("Hénon–Heiles");
+    let grid = TimeGrid::uniform(0.0, 0.05, 200.0).expect("grid");
+    let failed = agree::<_, 2>(&hh, &grid, &escapers());
+    assert!((2..escapers().len() - 4).contains(&failed), "{failed} members fail");
+    let el = Element::with_order(4).expect("degree 2");
+    let grid = TimeGrid::uniform(0.0, 0.1, 150.0).expect("grid");
+    let failed = agree_on::<_, 2>(&hh, &fixed_point_run(&grid, &el, true), &escapers());
+    assert!(
+        (2..escapers().len() - 4).contains(&failed),
+        "{failed} members fail (degree 2)"
+    );
+    #[cfg(feature = "jit")]
+    for lag in [&kepler, &hh] {
+        assert_eq!(lag.ran_in_lanes(), (true, true), "the force and L as code across lanes");
+    }
 }
 
 /// The fixed-point run of `element` (with polish or without).

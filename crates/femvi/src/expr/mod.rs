@@ -25,6 +25,7 @@ mod dag;
 mod diff;
 mod fast;
 mod jacobian;
+mod lanes;
 #[cfg(feature = "jit")]
 mod native;
 mod parse;
@@ -36,7 +37,7 @@ pub(crate) use jacobian::JacobianTape;
 pub use parse::{ExprError, MAX_NESTING};
 pub use program::Program;
 
-use crate::lagrangian::{Lagrangian, MassMatrix, PointDerivatives, Scalar};
+use crate::lagrangian::{Lagrangian, Lanes, MassMatrix, PointDerivatives, Scalar};
 use fast::Fast;
 
 /// A Lagrangian given by a math expression in t, the coordinates and their `_dot` velocities.
@@ -49,6 +50,9 @@ pub struct ExprLagrangian {
     /// The tape of the force's directional derivative, compiled at its first use (tangent
     /// maps of systems above `JACOBIAN_MAX_DIM`; most runs never ask for it).
     force_derivative: std::sync::OnceLock<Option<tape::Tape>>,
+    /// The force and value across SIMD lanes, compiled at their first use (ensembles).
+    #[cfg_attr(not(feature = "jit"), allow(dead_code))]
+    lanes: lanes::LanesCode,
 }
 
 impl ExprLagrangian {
@@ -95,6 +99,7 @@ impl ExprLagrangian {
             program,
             fast,
             force_derivative: std::sync::OnceLock::new(),
+            lanes: lanes::LanesCode::default(),
         })
     }
 
@@ -175,6 +180,14 @@ impl Lagrangian for ExprLagrangian {
         let mut d = PointDerivatives::new(n);
         self.first_derivatives(t, q, &vec![0.0; n], false, &mut d);
         out.iter_mut().zip(d.l_q()).for_each(|(o, f)| *o = *f);
+    }
+
+    fn force_lanes(&self, t: f64, q: &[Lanes], out: &mut [Lanes]) {
+        self.force_in_lanes(t, q, out);
+    }
+
+    fn value_lanes(&self, t: f64, q: &[Lanes], v: &[Lanes]) -> Lanes {
+        self.value_in_lanes(t, q, v)
     }
 
     fn forces(&self, t: &[f64], q: &[f64], out: &mut [f64]) {

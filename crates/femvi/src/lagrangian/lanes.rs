@@ -73,3 +73,27 @@ pub(crate) fn value_per_lane(q: &[Lanes], mut value: impl FnMut(&[f64]) -> Optio
     }
     Some(v)
 }
+
+/// [`Lagrangian::value_lanes`] lane by lane through [`Lagrangian::value`] in f64: the scalar
+/// bits.
+pub(crate) fn lagrangian_per_lane<L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[Lanes], v: &[Lanes]) -> Lanes {
+    let n = q.len().min(v.len());
+    let (mut xs, mut vs) = ([0.0; STACK], [0.0; STACK]);
+    let (mut xh, mut vh) = (Vec::new(), Vec::new());
+    let (x, w): (&mut [f64], &mut [f64]) = if n <= STACK {
+        (&mut xs[..n], &mut vs[..n])
+    } else {
+        xh.resize(n, 0.0);
+        vh.resize(n, 0.0);
+        (&mut xh, &mut vh)
+    };
+    let mut out = [0.0; LANES];
+    for (l, o) in out.iter_mut().enumerate() {
+        for ((xc, wc), (qc, vc)) in x.iter_mut().zip(w.iter_mut()).zip(q.iter().zip(v)) {
+            *xc = qc[l];
+            *wc = vc[l];
+        }
+        *o = lag.value(t, x, w);
+    }
+    out
+}

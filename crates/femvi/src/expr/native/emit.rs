@@ -36,10 +36,19 @@ impl Calls {
     }
 }
 
-/// The code of one instruction over the values of the registers so far.
 /// x^e as the unrolled loop of `dag::powi` (that of `f64::powi`): the same multiplications in
 /// the same order, so the same bits as the interpreter, inline instead of a call.
 pub(super) fn powi_inline(b: &mut FunctionBuilder, x: Value, e: i32) -> Value {
+    powi_with(b, x, e, |b| b.ins().f64const(1.0))
+}
+
+/// [`powi_inline`] for any float type, `one` making its 1 (a scalar or a vector of ones).
+pub(super) fn powi_with(
+    b: &mut FunctionBuilder,
+    x: Value,
+    e: i32,
+    one: impl Fn(&mut FunctionBuilder) -> Value,
+) -> Value {
     let (mut a, mut pow) = (x, e.unsigned_abs());
     // None stands for r = 1 (1·a = a exactly, so the first product is a itself).
     let mut r: Option<Value> = None;
@@ -56,15 +65,16 @@ pub(super) fn powi_inline(b: &mut FunctionBuilder, x: Value, e: i32) -> Value {
         }
         a = b.ins().fmul(a, a);
     }
-    let r = r.unwrap_or_else(|| b.ins().f64const(1.0));
+    let r = r.unwrap_or_else(|| one(b));
     if e < 0 {
-        let one = b.ins().f64const(1.0);
+        let one = one(b);
         b.ins().fdiv(one, r)
     } else {
         r
     }
 }
 
+/// The code of one instruction over the values of the registers so far.
 pub(super) fn emit(b: &mut FunctionBuilder, calls: &Calls, regs: &[Value], ins: Instr) -> Option<Value> {
     let r = |a: u32| regs.get(a as usize).copied();
     Some(match ins {
@@ -115,20 +125,26 @@ fn emit_un(b: &mut FunctionBuilder, calls: &Calls, op: Un, x: Value) -> Option<V
             let y = b.ins().f64const(f64::from_bits(bits));
             return calls.call(b, &calls.bin, powf as *const () as usize, &[x, y]);
         }
-        Un::F(f) => match f {
-            F1::Sin => sin,
-            F1::Cos => cos,
-            F1::Tan => tan,
-            F1::Exp => exp,
-            F1::Ln => ln,
-            F1::Sinh => sinh,
-            F1::Cosh => cosh,
-            F1::Tanh => tanh,
-            F1::Asin => asin,
-            F1::Acos => acos,
-            F1::Atan => atan,
-            F1::Sqrt | F1::Abs => return None,
-        },
+        Un::F(f) => un_function(f)?,
     };
     calls.call(b, &calls.un, f as usize, &[x])
+}
+
+/// The Rust function that the code calls for the one-operand function f; None for the square
+/// root and the absolute value, which are inline.
+pub(super) fn un_function(f: F1) -> Option<extern "C" fn(f64) -> f64> {
+    Some(match f {
+        F1::Sin => sin,
+        F1::Cos => cos,
+        F1::Tan => tan,
+        F1::Exp => exp,
+        F1::Ln => ln,
+        F1::Sinh => sinh,
+        F1::Cosh => cosh,
+        F1::Tanh => tanh,
+        F1::Asin => asin,
+        F1::Acos => acos,
+        F1::Atan => atan,
+        F1::Sqrt | F1::Abs => return None,
+    })
 }

@@ -15,16 +15,20 @@
 
 mod emit;
 mod functions;
+mod lanes;
 #[cfg(test)]
 mod tests;
 
 use super::program::Op;
 use super::tape::Tape;
+use crate::lagrangian::{Lanes, LANES};
 use cranelift_codegen::ir::{types, AbiParam, BlockArg, InstBuilder, MemFlagsData, UserFuncName, Value};
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, Linkage, Module};
+
+pub(super) use lanes::{compile_lanes, compile_program_lanes};
 
 /// Tapes longer than this stay interpreted (compile time grows with the length, and such
 /// tapes, large Hessians, are dominated by their arithmetic, not by decoding).
@@ -107,32 +111,61 @@ impl Native {
     }
 }
 
+impl Native {
+    /// Evaluates code compiled by [`compile_lanes`] or [`compile_program_lanes`] at
+    /// [`LANES`] points at time t, stored coordinate by coordinate (`q[c][l]`, `v[c][l]`),
+    /// into `out[j][l]`; `false` (nothing written) when a slice is shorter than the code
+    /// reads or writes.
+    #[inline]
+    pub(super) fn call_lanes(&self, t: f64, q: &[Lanes], v: &[Lanes], out: &mut [Lanes]) -> bool {
+        if q.len() < self.q_len || v.len() < self.v_len || out.len() < self.outputs {
+            return false;
+        }
+        // SAFETY: the code runs LANES / 2 iterations; iteration i reads the pair of lanes
+        // 2i, 2i + 1 of t (one number), q[..q_len], v[..v_len] and writes that pair of
+        // out[..outputs] (`lanes.rs`): in bounds by the check above.
+        unsafe {
+            (self.f)(
+                LANES / 2,
+                &t,
+                q.as_ptr().cast(),
+                v.as_ptr().cast(),
+                out.as_mut_ptr().cast(),
+            )
+        };
+        true
+    }
+}
+
 /// Compiles `tape` (the interpreter's registers become SSA values) into a loop over points;
 /// `None` when the host is not supported or the tape is too long.
 pub(super) fn compile(tape: &Tape) -> Option<Native> {
     if tape.code.len() > MAX_INSTRUCTIONS {
         return None;
     }
-    compile_with(tape.n, tape.outputs.len(), |b, calls, [t, q, v, out]| {
-        let mem = MemFlagsData::trusted();
-        let mut regs: Vec<Value> = Vec::with_capacity(tape.registers);
-        for &c in &tape.consts {
-            regs.push(b.ins().f64const(c));
-        }
-        let mut used = Used::default();
-        for &(_, i) in &tape.loads {
-            regs.push(used.load(b, tape.n, i as usize, [t, q, v])?);
-        }
-        for ins in &tape.code {
-            let x = emit::emit(b, calls, &regs, *ins)?;
-            regs.push(x);
-        }
-        for (j, &r) in tape.outputs.iter().enumerate() {
-            let x = *regs.get(r as usize)?;
-            b.ins().store(mem, x, out, offset(j)?);
-        }
-        Some(used)
-    })
+    compile_with(
+        Strides::points(tape.n, tape.outputs.len())?,
+        |b, calls, [t, q, v, out]| {
+            let mem = MemFlagsData::trusted();
+            let mut regs: Vec<Value> = Vec::with_capacity(tape.registers);
+            for &c in &tape.consts {
+                regs.push(b.ins().f64const(c));
+            }
+            let mut used = Used::default();
+            for &(_, i) in &tape.loads {
+                regs.push(used.load(b, tape.n, i as usize, [t, q, v])?);
+            }
+            for ins in &tape.code {
+                let x = emit::emit(b, calls, &regs, *ins)?;
+                regs.push(x);
+            }
+            for (j, &r) in tape.outputs.iter().enumerate() {
+                let x = *regs.get(r as usize)?;
+                b.ins().store(mem, x, out, offset(j)?);
+            }
+            Some(used)
+        },
+    )
 }
 
 /// Compiles the postfix program `ops` over t, q and v of dimension n (one output, its value),
@@ -143,7 +176,7 @@ pub(super) fn compile_program(ops: &[Op], n: usize) -> Option<Native> {
     if ops.len() > MAX_INSTRUCTIONS {
         return None;
     }
-    compile_with(n, 1, |b, calls, [t, q, v, out]| {
+    compile_with(Strides::points(n, 1)?, |b, calls, [t, q, v, out]| {
         let mut stack: Vec<Value> = Vec::new();
         let mut used = Used::default();
         for &op in ops {
@@ -213,17 +246,42 @@ impl Used {
     }
 }
 
-/// A function `f(count, t, q, v, out)` (see [`PointsFn`]) whose loop body, for one point, is
-/// built by `point` from the point's four pointers; `None` when the host is not supported or
-/// the body cannot be built.
-fn compile_with(
-    n: usize,
+/// How far the pointers (t, q, v, out) of the compiled loop move from one iteration to the
+/// next, in bytes, and the outputs of an iteration.
+#[derive(Clone, Copy)]
+struct Strides {
+    t: i64,
+    q: i64,
+    v: i64,
+    out: i64,
     outputs: usize,
+}
+
+impl Strides {
+    /// One point per iteration: t by one number, q and v by n, out by `outputs`; None for
+    /// n = 0 (nothing to compile).
+    fn points(n: usize, outputs: usize) -> Option<Self> {
+        if n == 0 {
+            return None;
+        }
+        let (point, out) = (i64::from(offset(n)?), i64::from(offset(outputs)?));
+        Some(Self {
+            t: 8,
+            q: point,
+            v: point,
+            out,
+            outputs,
+        })
+    }
+}
+
+/// A function `f(count, t, q, v, out)` (see [`PointsFn`]) whose loop body, for one iteration,
+/// is built by `point` from the iteration's four pointers, which then move by `strides`;
+/// `None` when the host is not supported or the body cannot be built.
+fn compile_with(
+    strides: Strides,
     point: impl FnOnce(&mut FunctionBuilder, &emit::Calls, [Value; 4]) -> Option<Used> + Send,
 ) -> Option<Native> {
-    if n == 0 {
-        return None;
-    }
     // The code generator runs on a thread of its own with GENERATOR_STACK, so that compiling
     // does not depend on the caller's stack. A thread that cannot start, or a failure inside
     // the code generator (it should have none on this input), costs the speed, not the run:
@@ -233,7 +291,7 @@ fn compile_with(
             .name("femvi-jit".into())
             .stack_size(GENERATOR_STACK)
             .spawn_scoped(scope, || {
-                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| generate(n, outputs, point)))
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| generate(strides, point)))
                     .ok()
                     .flatten()
             });
@@ -249,8 +307,7 @@ const GENERATOR_STACK: usize = 16 << 20;
 
 /// [`compile_with`]'s work.
 fn generate(
-    n: usize,
-    outputs: usize,
+    strides: Strides,
     point: impl FnOnce(&mut FunctionBuilder, &emit::Calls, [Value; 4]) -> Option<Used>,
 ) -> Option<Native> {
     let mut flags = settings::builder();
@@ -291,10 +348,10 @@ fn generate(
     let used = point(&mut b, &calls, [t, q, v, out])?;
     let next = [
         b.ins().iadd_imm_s(count, -1),
-        b.ins().iadd_imm_s(t, 8),
-        b.ins().iadd_imm_s(q, i64::from(offset(n)?)),
-        b.ins().iadd_imm_s(v, i64::from(offset(n)?)),
-        b.ins().iadd_imm_s(out, i64::from(offset(outputs)?)),
+        b.ins().iadd_imm_s(t, strides.t),
+        b.ins().iadd_imm_s(q, strides.q),
+        b.ins().iadd_imm_s(v, strides.v),
+        b.ins().iadd_imm_s(out, strides.out),
     ]
     .map(BlockArg::Value);
     b.ins().jump(head, &next);
@@ -314,7 +371,7 @@ fn generate(
         f,
         q_len: used.q,
         v_len: used.v,
-        outputs,
+        outputs: strides.outputs,
     })
 }
 

@@ -104,6 +104,88 @@ fn machine_code_equals_the_interpreter_for_every_operation() {
     for (src, names) in cases {
         same_bits(src, names);
         same_value(src, names);
+        same_lanes(src, names);
+    }
+}
+
+/// The code across lanes (`lanes.rs`) of every tape and of the value gives, on every lane,
+/// the interpreter's and the program's bits: LANES points at one time t, many times over.
+fn same_lanes(src: &str, names: &[&str]) {
+    use super::{compile_lanes, compile_program_lanes};
+    use crate::lagrangian::{Lanes, LANES};
+    let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
+    let lag = ExprLagrangian::new(src, &names, &[("k".into(), 1.7)]).unwrap();
+    let n = names.len();
+    let tapes: Vec<&Tape> = [&lag.fast.force, &lag.fast.gyro, &lag.fast.first, &lag.fast.second]
+        .into_iter()
+        .flatten()
+        .collect();
+    let value = compile_program_lanes(lag.program.ops(), n).expect("value across lanes");
+    let codes: Vec<_> = tapes
+        .iter()
+        .map(|tape| compile_lanes(tape).expect("tape across lanes"))
+        .collect();
+    let width = 1 + 2 * n * LANES;
+    for (p, z) in points(0x5851_f42d_4c95_7f2d ^ src.len() as u64, 60 * width)
+        .chunks_exact(width)
+        .enumerate()
+    {
+        // Some groups on ties and zeros, where min, max, sign and abs branch; some lanes NaN.
+        let z: Vec<f64> = z
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| match (p % 5, i % 11) {
+                (3, _) => x.round(),
+                (4, 7) => f64::NAN,
+                _ => x,
+            })
+            .collect();
+        let t = z[0];
+        let lanes = |c: usize| -> Lanes { std::array::from_fn(|l| z[1 + c * LANES + l]) };
+        let q: Vec<Lanes> = (0..n).map(lanes).collect();
+        let v: Vec<Lanes> = (n..2 * n).map(lanes).collect();
+        let point =
+            |l: usize| -> (Vec<f64>, Vec<f64>) { (q.iter().map(|c| c[l]).collect(), v.iter().map(|c| c[l]).collect()) };
+        let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+        for (tape, code) in tapes.iter().zip(&codes) {
+            let k = tape.outputs.len();
+            let mut out = vec![[0.0; LANES]; k];
+            assert!(code.call_lanes(t, &q, &v, &mut out), "{src}: call");
+            let plain = tape.interpreted();
+            for l in 0..LANES {
+                let (ql, vl) = point(l);
+                let mut want = vec![0.0; k];
+                plain.eval(t, &ql, &vl, |j, x| want[j] = x);
+                for (j, w) in want.iter().enumerate() {
+                    assert!(
+                        same(out[j][l], *w),
+                        "{src} output {j} lane {l} at t = {t}, q {ql:?}, v {vl:?}: {} vs {w}",
+                        out[j][l]
+                    );
+                }
+            }
+        }
+        let mut out = [[0.0; LANES]];
+        assert!(value.call_lanes(t, &q, &v, &mut out), "{src}: value call");
+        for l in 0..LANES {
+            let (ql, vl) = point(l);
+            let want: f64 = lag.program.eval(|i| {
+                if i == 0 {
+                    t
+                } else if i <= n {
+                    ql[i - 1]
+                } else {
+                    vl[i - 1 - n]
+                }
+            });
+            assert!(same(out[0][l], want), "{src} value lane {l}: {} vs {want}", out[0][l]);
+        }
+    }
+    // Slices shorter than the code reads or writes: refused, nothing written.
+    if let Some(code) = codes.first() {
+        let mut out = vec![[7.0; LANES]; 1];
+        assert!(!code.call_lanes(0.0, &[], &[], &mut out) || tapes[0].outputs.is_empty());
+        assert_eq!(out[0], [7.0; LANES]);
     }
 }
 
