@@ -10,7 +10,9 @@
 //! (`structure.rs`) reports M and a compiled force −∂V/∂q, so the fixed-point and explicit
 //! solvers apply to it as to the built-in models. Expressions too large for the budgets keep
 //! automatic differentiation. With the `jit` feature (default) every tape, and the f64 value,
-//! also runs as machine code (`native/`, Cranelift), bit for bit the interpreter's results.
+//! also runs as machine code (`native/`, Cranelift), bit for bit the interpreter's results;
+//! the force and the value are compiled once more, at their first use, for SIMD lanes of
+//! ensemble members (`lanes.rs`, `native/lanes.rs`).
 //!
 //! Hostile input is safe: sums and products of any length compile and evaluate without
 //! recursion (`parse.rs` emits postfix items, `compile.rs` folds them in one loop), and
