@@ -2,8 +2,9 @@
 //! element and time grid) that differ only in their start, taken [`LANES`] at a time, one
 //! member per lane of a vector register. A run of L = ½|v|² − V(q) (M = I, V autonomous)
 //! qualifies when its steps are Störmer–Verlet (degree 1 with the trapezoid rule, the
-//! paper's linear element §2.3; `verlet.rs`) or the fixed-point iteration of an element of
-//! up to three quadrature points and degree 3 (`fixed_point/`, the stage equations of
+//! paper's linear element §2.3; `verlet.rs`; the sizes of [`VERLET_LANE_DIMENSIONS`]) or the
+//! fixed-point iteration of an element of up to three quadrature points and degree 3 (the
+//! sizes of [`LANE_DIMENSIONS`]; `fixed_point/`, the stage equations of
 //! DESIGN.md §2 with the single run's stopping rule in lanes, `judge.rs`): [`run_in_lanes`]
 //! then advances [`LANES`] members a step at a time through [`Lagrangian::force_lanes`] and
 //! [`Lagrangian::potential_lanes`], with
@@ -81,17 +82,27 @@ pub struct MemberEnd {
     pub error: Option<Error>,
 }
 
+/// The numbers of coordinates whose members take the fixed-point step in lanes (each size is
+/// a loop compiled for it): up to 6 the carried values stay in registers; 8, 9 and 12 (two or
+/// three bodies in the plane or in space, four in the plane) spill some of them.
+pub const LANE_DIMENSIONS: [usize; 9] = [1, 2, 3, 4, 5, 6, 8, 9, 12];
+
+/// The numbers of coordinates whose members take Störmer–Verlet steps in lanes: those for
+/// which a single run takes the fixed-size loop of `step/explicit.rs` (`fast_explicit` in
+/// `step/integrator.rs`), whose operations the lanes repeat; a single run of another size
+/// sums the drift in another order, so its lanes would not have its bits.
+pub const VERLET_LANE_DIMENSIONS: [usize; 5] = [1, 2, 3, 4, 6];
+
 /// Whether members of the run `template` (an integrator at its start) step in lanes: M = I,
-/// L autonomous, n is 1, 2, 3, 4 or 6 (the sizes whose carried values stay in registers),
-/// and its steps are either Störmer–Verlet ([`Integrator::step`] takes the explicit solver)
-/// or the fixed-point iteration of an element of degree and points at most 3 (Gauss–Legendre
-/// of degree 2 or 3, the implicit midpoint rule, …), with no force, constraint or energy
-/// mode. See the [module](self) for an example.
+/// L autonomous, and its steps are either Störmer–Verlet ([`Integrator::step`] takes the
+/// explicit solver) with n one of [`VERLET_LANE_DIMENSIONS`], or the fixed-point iteration of
+/// an element of degree and points at most 3 (Gauss–Legendre of degree 2 or 3, the implicit
+/// midpoint rule, …) with n one of [`LANE_DIMENSIONS`]; no force, constraint or energy mode.
+/// See the [module](self) for an example.
 pub fn in_lanes<L: Lagrangian>(template: &Integrator<'_, L>) -> bool {
     let lag = template.lagrangian();
-    let mechanical = lag.mass_matrix().is_some_and(|m| m.is_identity())
-        && lag.is_autonomous()
-        && matches!(lag.dim(), 1 | 2 | 3 | 4 | 6);
+    let mechanical = lag.mass_matrix().is_some_and(|m| m.is_identity()) && lag.is_autonomous();
+    let n = lag.dim();
     let el = template.element();
     // Rules of fewer than `RICH_START_POINTS` points start every step from the last one's
     // stage forces alone, which is what the fixed-point lanes do.
@@ -100,7 +111,9 @@ pub fn in_lanes<L: Lagrangian>(template: &Integrator<'_, L>) -> bool {
     let fixed_point = template.plain_fixed_point()
         && el.points() <= fixed_point::MAX_POINTS
         && el.degree() <= fixed_point::MAX_POINTS;
-    mechanical && (template.plain_explicit() || fixed_point)
+    mechanical
+        && ((template.plain_explicit() && VERLET_LANE_DIMENSIONS.contains(&n))
+            || (fixed_point && LANE_DIMENSIONS.contains(&n)))
 }
 
 /// Runs the members `starts` of the run `template` (its Lagrangian and grid) to the end of
@@ -200,8 +213,12 @@ impl<'a, L: Lagrangian + Sync> EnsembleLanes<'a, L> {
             2 => sized!(2),
             3 => sized!(3),
             4 => sized!(4),
+            5 => sized!(5),
+            6 => sized!(6),
+            8 => sized!(8),
+            9 => sized!(9),
             // `of` admits no other size.
-            _ => sized!(6),
+            _ => sized!(12),
         }
     }
 }

@@ -412,3 +412,78 @@ fn fixed_point_expression_members_equal_their_single_runs() {
     let el = Element::with_order(4).expect("degree 2");
     assert_eq!(agree_on::<_, 2>(&lag, &fixed_point_run(&grid, &el, true), &starts), 0);
 }
+
+/// Three unit masses in space (n = 9, a size whose carried values spill from registers) and
+/// a chain of five (n = 5), written as expressions: with the fixed-point step, members equal
+/// their single runs on every width, one whose start collides (r = 0: its first step fails)
+/// included. Störmer–Verlet at these sizes stays member by member (a single run sums the
+/// drift in another order there).
+#[test]
+fn larger_systems_in_lanes_equal_their_single_runs() {
+    let names = |prefix: &[&str], bodies: usize| -> Vec<String> {
+        (1..=bodies)
+            .flat_map(|b| prefix.iter().map(move |c| format!("{c}{b}")))
+            .collect()
+    };
+    let xyz = names(&["x", "y", "z"], 3);
+    let kinetic = |coords: &[String]| {
+        coords
+            .iter()
+            .map(|c| format!("{c}_dot^2"))
+            .collect::<Vec<_>>()
+            .join(" + ")
+    };
+    let r = |a: usize, b: usize| format!("sqrt((x{a} - x{b})^2 + (y{a} - y{b})^2 + (z{a} - z{b})^2)");
+    let three = crate::expr::ExprLagrangian::new(
+        &format!(
+            "0.5*({}) + 1/{} + 1/{} + 1/{}",
+            kinetic(&xyz),
+            r(1, 2),
+            r(1, 3),
+            r(2, 3)
+        ),
+        &xyz,
+        &[],
+    )
+    .expect("three bodies");
+    let start = |i: usize| {
+        let s = 0.02 * i as f64;
+        Start::Momentum {
+            q: vec![1.0, 0.0, 0.0, -0.5, 0.87, 0.1, -0.5, -0.87, -0.1],
+            p: vec![0.0, 0.6 + s, 0.0, -0.52, -0.3, 0.05, 0.52, -0.3 - s, -0.05],
+        }
+    };
+    let mut starts: Vec<Start> = (0..17).map(start).collect();
+    starts.insert(
+        5,
+        Start::Momentum {
+            q: vec![1.0, 0.0, 0.0, 1.0, 0.0, 0.0, -0.5, -0.87, -0.1],
+            p: vec![0.0; 9],
+        },
+    );
+    let el = Element::with_order(4).expect("degree 2");
+    let grid = TimeGrid::uniform(0.0, 0.02, 3.0).expect("grid");
+    assert_eq!(agree_on::<_, 9>(&three, &fixed_point_run(&grid, &el, true), &starts), 1);
+    let trapezoid = verlet();
+    let template = Integrator::new(
+        &three,
+        &trapezoid,
+        grid.clone(),
+        starts[0].clone(),
+        SolverOptions::default(),
+    )
+    .expect("run");
+    assert!(!in_lanes(&template), "Störmer–Verlet at n = 9 goes member by member");
+    let chain: Vec<String> = (1..=5).map(|i| format!("x{i}")).collect();
+    let springs = "(x2 - x1)^4/4 + (x3 - x2)^4/4 + (x4 - x3)^4/4 + (x5 - x4)^4/4 + x1^2/2 + x5^2/2";
+    let fpu = crate::expr::ExprLagrangian::new(&format!("0.5*({}) - ({springs})", kinetic(&chain)), &chain, &[])
+        .expect("chain");
+    let starts: Vec<Start> = (0..11)
+        .map(|i| Start::Momentum {
+            q: vec![0.1 * i as f64, 0.0, -0.2, 0.3, 0.0],
+            p: vec![0.0, 0.5, 0.0, -0.1, 0.2],
+        })
+        .collect();
+    let el = Element::with_order(6).expect("degree 3");
+    assert_eq!(agree_on::<_, 5>(&fpu, &fixed_point_run(&grid, &el, true), &starts), 0);
+}
