@@ -5,7 +5,8 @@
 //! `femvi ensemble` does. Members in SIMD lanes (`femvi::ensemble`, each compiled width)
 //! against the same members one at a time (`Integrator::step` with an `EnergyTracker`, the
 //! path of other schemes) and against a hand-written Verlet loop of one trajectory with the
-//! energy at every node, in the same run.
+//! energy at every node, in the same run; and Kepler written as an expression (degree 1), in
+//! lanes against one at a time.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use femvi::ensemble::{EnsembleLanes, Width};
@@ -124,6 +125,23 @@ fn bench(c: &mut Criterion) {
         }
         g.finish();
     }
+    // Kepler written as an expression (the force and L as code across lanes,
+    // `expr/native/lanes.rs`) against the same members one at a time.
+    let xy = ["x".to_string(), "y".to_string()];
+    let expr = femvi::expr::ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[]).unwrap();
+    let mut g = c.benchmark_group("ensemble_kepler_expression_4096x1000");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements((MEMBERS * STEPS) as u64));
+    let s = starts(true);
+    let template = Integrator::new(&expr, &verlet, grid.clone(), s[0].clone(), SolverOptions::default()).unwrap();
+    let lanes = EnsembleLanes::of(&template).unwrap();
+    g.bench_function("lanes_best", |b| {
+        b.iter(|| one.install(|| lanes.run(black_box(&s), &|_| {})).len())
+    });
+    g.bench_function("one_by_one", |b| {
+        b.iter(|| one_by_one(&expr, &verlet, &grid, black_box(&s)))
+    });
+    g.finish();
 }
 
 criterion_group!(benches, bench);
