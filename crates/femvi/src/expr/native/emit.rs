@@ -1,10 +1,11 @@
-//! The code of one tape instruction: inline where the machine instruction is exact (the four
-//! operations, square root, absolute value, negation, sign, min/max), a call of the
-//! interpreter's own Rust function otherwise.
+//! The code of one tape instruction in any [`Flavour`] (one number, or a pair of lanes):
+//! inline where the machine instruction is exact (the four operations, square root, absolute
+//! value, negation, sign, min/max), a call of the interpreter's own Rust function otherwise.
 
 use super::super::dag::{Bin, Un};
 use super::super::program::F1;
 use super::super::tape::Instr;
+use super::flavour::Flavour;
 use super::functions::{acos, asin, atan, atan2, cos, cosh, exp, ln, powf, sin, sinh, tan, tanh};
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{types, AbiParam, InstBuilder, Signature, Value};
@@ -37,12 +38,8 @@ impl Calls {
 }
 
 /// x^e as the unrolled loop of `dag::powi` (that of `f64::powi`): the same multiplications in
-/// the same order, so the same bits as the interpreter, inline instead of a call.
-pub(super) fn powi_inline(b: &mut FunctionBuilder, x: Value, e: i32) -> Value {
-    powi_with(b, x, e, |b| b.ins().f64const(1.0))
-}
-
-/// [`powi_inline`] for any float type, `one` making its 1 (a scalar or a vector of ones).
+/// the same order, so the same bits as the interpreter, inline instead of a call; `one` makes
+/// the flavour's 1.
 pub(super) fn powi_with(
     b: &mut FunctionBuilder,
     x: Value,
@@ -74,60 +71,58 @@ pub(super) fn powi_with(
     }
 }
 
-/// The code of one instruction over the values of the registers so far.
-pub(super) fn emit(b: &mut FunctionBuilder, calls: &Calls, regs: &[Value], ins: Instr) -> Option<Value> {
+/// The code of one instruction over the values of the registers so far, in `flavour`.
+pub(super) fn emit<F: Flavour>(
+    flavour: &F,
+    b: &mut FunctionBuilder,
+    calls: &Calls,
+    regs: &[Value],
+    ins: Instr,
+) -> Option<Value> {
     let r = |a: u32| regs.get(a as usize).copied();
     Some(match ins {
-        Instr::Add(x, y) => b.ins().fadd(r(x)?, r(y)?),
-        Instr::Sub(x, y) => b.ins().fsub(r(x)?, r(y)?),
-        Instr::Mul(x, y) => b.ins().fmul(r(x)?, r(y)?),
-        Instr::Div(x, y) => b.ins().fdiv(r(x)?, r(y)?),
+        Instr::Add(x, y) | Instr::Bin(Bin::Add, x, y) => b.ins().fadd(r(x)?, r(y)?),
+        Instr::Sub(x, y) | Instr::Bin(Bin::Sub, x, y) => b.ins().fsub(r(x)?, r(y)?),
+        Instr::Mul(x, y) | Instr::Bin(Bin::Mul, x, y) => b.ins().fmul(r(x)?, r(y)?),
+        Instr::Div(x, y) | Instr::Bin(Bin::Div, x, y) => b.ins().fdiv(r(x)?, r(y)?),
         Instr::Neg(x) => b.ins().fneg(r(x)?),
         Instr::Square(x) => {
             let x = r(x)?;
             b.ins().fmul(x, x)
         }
         Instr::Sqrt(x) => b.ins().sqrt(r(x)?),
-        Instr::Un(op, x) => emit_un(b, calls, op, r(x)?)?,
-        Instr::Bin(op, x, y) => {
-            let f: extern "C" fn(f64, f64) -> f64 = match op {
-                Bin::Add => return Some(b.ins().fadd(r(x)?, r(y)?)),
-                Bin::Sub => return Some(b.ins().fsub(r(x)?, r(y)?)),
-                Bin::Mul => return Some(b.ins().fmul(r(x)?, r(y)?)),
-                Bin::Div => return Some(b.ins().fdiv(r(x)?, r(y)?)),
-                Bin::Atan2 => atan2,
-                Bin::Pow => powf,
-            };
-            calls.call(b, &calls.bin, f as usize, &[r(x)?, r(y)?])?
+        Instr::Un(op, x) => emit_un(flavour, b, calls, op, r(x)?)?,
+        Instr::Bin(op @ (Bin::Atan2 | Bin::Pow), x, y) => {
+            let f: extern "C" fn(f64, f64) -> f64 = if op == Bin::Atan2 { atan2 } else { powf };
+            flavour.call(b, calls, &calls.bin, f as usize, &[r(x)?, r(y)?])?
         }
         Instr::Pick(max, p, q, x, y) => {
             let cc = if max { FloatCC::GreaterThan } else { FloatCC::LessThan };
             let second = b.ins().fcmp(cc, r(q)?, r(p)?);
-            b.ins().select(second, r(y)?, r(x)?)
+            flavour.select(b, second, r(y)?, r(x)?)
         }
     })
 }
 
 /// The code of a one-operand operation: inline where the instruction is exact, else a call.
-fn emit_un(b: &mut FunctionBuilder, calls: &Calls, op: Un, x: Value) -> Option<Value> {
-    let f: extern "C" fn(f64) -> f64 = match op {
-        Un::Neg => return Some(b.ins().fneg(x)),
-        Un::F(F1::Sqrt) => return Some(b.ins().sqrt(x)),
-        Un::F(F1::Abs) => return Some(b.ins().fabs(x)),
+fn emit_un<F: Flavour>(flavour: &F, b: &mut FunctionBuilder, calls: &Calls, op: Un, x: Value) -> Option<Value> {
+    Some(match op {
+        Un::Neg => b.ins().fneg(x),
+        Un::F(F1::Sqrt) => b.ins().sqrt(x),
+        Un::F(F1::Abs) => b.ins().fabs(x),
         Un::Sign => {
-            let zero = b.ins().f64const(0.0);
+            let zero = flavour.constant(b, 0.0);
             let positive = b.ins().fcmp(FloatCC::GreaterThan, x, zero);
-            let (one, minus) = (b.ins().f64const(1.0), b.ins().f64const(-1.0));
-            return Some(b.ins().select(positive, one, minus));
+            let (one, minus) = (flavour.constant(b, 1.0), flavour.constant(b, -1.0));
+            flavour.select(b, positive, one, minus)
         }
-        Un::PowI(e) => return Some(powi_inline(b, x, e)),
+        Un::PowI(e) => powi_with(b, x, e, |b| flavour.constant(b, 1.0)),
         Un::PowF(bits) => {
-            let y = b.ins().f64const(f64::from_bits(bits));
-            return calls.call(b, &calls.bin, powf as *const () as usize, &[x, y]);
+            let y = flavour.constant(b, f64::from_bits(bits));
+            flavour.call(b, calls, &calls.bin, powf as *const () as usize, &[x, y])?
         }
-        Un::F(f) => un_function(f)?,
-    };
-    calls.call(b, &calls.un, f as usize, &[x])
+        Un::F(f) => flavour.call(b, calls, &calls.un, un_function(f)? as usize, &[x])?,
+    })
 }
 
 /// The Rust function that the code calls for the one-operand function f; None for the square

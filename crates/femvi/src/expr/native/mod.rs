@@ -14,19 +14,22 @@
 //! code generator of Wasmtime) does the code generation, register allocation and linking.
 
 mod emit;
+mod flavour;
 mod functions;
 mod lanes;
 #[cfg(test)]
 mod tests;
+mod translate;
 
 use super::program::Op;
 use super::tape::Tape;
 use crate::lagrangian::{Lanes, LANES};
-use cranelift_codegen::ir::{types, AbiParam, BlockArg, InstBuilder, MemFlagsData, UserFuncName, Value};
+use cranelift_codegen::ir::{AbiParam, BlockArg, InstBuilder, UserFuncName, Value};
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, Linkage, Module};
+use flavour::Scalar;
 
 pub(super) use lanes::{compile_lanes, compile_program_lanes};
 
@@ -140,32 +143,7 @@ impl Native {
 /// Compiles `tape` (the interpreter's registers become SSA values) into a loop over points;
 /// `None` when the host is not supported or the tape is too long.
 pub(super) fn compile(tape: &Tape) -> Option<Native> {
-    if tape.code.len() > MAX_INSTRUCTIONS {
-        return None;
-    }
-    compile_with(
-        Strides::points(tape.n, tape.outputs.len())?,
-        |b, calls, [t, q, v, out]| {
-            let mem = MemFlagsData::trusted();
-            let mut regs: Vec<Value> = Vec::with_capacity(tape.registers);
-            for &c in &tape.consts {
-                regs.push(b.ins().f64const(c));
-            }
-            let mut used = Used::default();
-            for &(_, i) in &tape.loads {
-                regs.push(used.load(b, tape.n, i as usize, [t, q, v])?);
-            }
-            for ins in &tape.code {
-                let x = emit::emit(b, calls, &regs, *ins)?;
-                regs.push(x);
-            }
-            for (j, &r) in tape.outputs.iter().enumerate() {
-                let x = *regs.get(r as usize)?;
-                b.ins().store(mem, x, out, offset(j)?);
-            }
-            Some(used)
-        },
-    )
+    translate::tape(&Scalar, tape)
 }
 
 /// Compiles the postfix program `ops` over t, q and v of dimension n (one output, its value),
@@ -173,54 +151,7 @@ pub(super) fn compile(tape: &Tape) -> Option<Native> {
 /// two agree bit for bit: the value of an expression Lagrangian, which the energy diagnostics
 /// evaluate at every node of a run.
 pub(super) fn compile_program(ops: &[Op], n: usize) -> Option<Native> {
-    if ops.len() > MAX_INSTRUCTIONS {
-        return None;
-    }
-    compile_with(Strides::points(n, 1)?, |b, calls, [t, q, v, out]| {
-        let mut stack: Vec<Value> = Vec::new();
-        let mut used = Used::default();
-        for &op in ops {
-            let x = match op {
-                Op::Const(c) => b.ins().f64const(c),
-                Op::Var(i) => used.load(b, n, i, [t, q, v])?,
-                Op::Neg => {
-                    let x = stack.pop()?;
-                    b.ins().fneg(x)
-                }
-                Op::PowI(e) => {
-                    let x = stack.pop()?;
-                    emit::powi_inline(b, x, e)
-                }
-                Op::PowF(e) => {
-                    let (x, e) = (stack.pop()?, b.ins().f64const(e));
-                    calls.call(b, &calls.bin, functions::program_powf as *const () as usize, &[x, e])?
-                }
-                Op::Call1(f) => {
-                    let x = stack.pop()?;
-                    calls.call(b, &calls.un, functions::program_fn1(f) as *const () as usize, &[x])?
-                }
-                Op::Add | Op::Sub | Op::Mul | Op::Div | Op::Call2(_) => {
-                    let (y, x) = (stack.pop()?, stack.pop()?);
-                    match op {
-                        Op::Add => b.ins().fadd(x, y),
-                        Op::Sub => b.ins().fsub(x, y),
-                        Op::Mul => b.ins().fmul(x, y),
-                        Op::Div => b.ins().fdiv(x, y),
-                        Op::Call2(f) => {
-                            calls.call(b, &calls.bin, functions::program_fn2(f) as *const () as usize, &[x, y])?
-                        }
-                        _ => return None,
-                    }
-                }
-            };
-            stack.push(x);
-        }
-        let [x] = stack[..] else {
-            return None;
-        };
-        b.ins().store(MemFlagsData::trusted(), x, out, 0);
-        Some(used)
-    })
+    translate::program(&Scalar, ops, n)
 }
 
 /// How many entries of q and v a point reads (one past the highest index loaded).
@@ -228,22 +159,6 @@ pub(super) fn compile_program(ops: &[Op], n: usize) -> Option<Native> {
 struct Used {
     q: usize,
     v: usize,
-}
-
-impl Used {
-    /// Loads variable i (0 is t, 1..=n are q, n + 1..=2n are v) from the point's pointers.
-    fn load(&mut self, b: &mut FunctionBuilder, n: usize, i: usize, [t, q, v]: [Value; 3]) -> Option<Value> {
-        let mem = MemFlagsData::trusted();
-        Some(if i == 0 {
-            b.ins().load(types::F64, mem, t, 0)
-        } else if i <= n {
-            self.q = self.q.max(i);
-            b.ins().load(types::F64, mem, q, offset(i - 1)?)
-        } else {
-            self.v = self.v.max(i - n);
-            b.ins().load(types::F64, mem, v, offset(i - 1 - n)?)
-        })
-    }
 }
 
 /// How far the pointers (t, q, v, out) of the compiled loop move from one iteration to the
