@@ -145,17 +145,23 @@ fn momentum(q: [f64; 2], p: [f64; 2]) -> Start {
     }
 }
 
+/// 21 Kepler starts at (1, 0) with speeds 0.5 … 1.3, one where r² underflows (the force is not
+/// finite at the start: the first step fails, k = 0) and one that is not finite (its start
+/// fails).
+fn kepler_starts() -> Vec<Start> {
+    let mut starts: Vec<Start> = (0..21)
+        .map(|i| momentum([1.0, 0.0], [0.0, 0.5 + 0.04 * i as f64]))
+        .collect();
+    starts.insert(3, momentum([1e-170, 0.0], [-0.0, 1.0]));
+    starts.insert(9, momentum([f64::NAN, 0.0], [0.0, 1.0]));
+    starts
+}
+
 #[test]
 fn kepler_members_equal_their_single_runs_on_every_width() {
     let lag = models::kepler(1.0).expect("kepler");
     let grid = TimeGrid::uniform(0.0, 0.01, 20.0).expect("grid");
-    let mut starts: Vec<Start> = (0..21)
-        .map(|i| momentum([1.0, 0.0], [0.0, 0.5 + 0.04 * i as f64]))
-        .collect();
-    // r² underflows: the force is not finite at the start, the first step fails (k = 0).
-    starts.insert(3, momentum([1e-170, 0.0], [-0.0, 1.0]));
-    // A start that fails: not finite.
-    starts.insert(9, momentum([f64::NAN, 0.0], [0.0, 1.0]));
+    let mut starts = kepler_starts();
     // A start of the wrong length.
     starts.insert(
         12,
@@ -299,11 +305,7 @@ fn expression_kepler_and_henon_heiles_members_equal_their_single_runs() {
     let kepler =
         crate::expr::ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2) + 1/sqrt(x^2 + y^2)", &xy, &[]).expect("kepler");
     let grid = TimeGrid::uniform(0.0, 0.01, 20.0).expect("grid");
-    let mut starts: Vec<Start> = (0..21)
-        .map(|i| momentum([1.0, 0.0], [0.0, 0.5 + 0.04 * i as f64]))
-        .collect();
-    starts.insert(3, momentum([1e-170, 0.0], [-0.0, 1.0]));
-    starts.insert(9, momentum([f64::NAN, 0.0], [0.0, 1.0]));
+    let starts = kepler_starts();
     assert_eq!(
         agree::<_, 2>(&kepler, &grid, &starts),
         1,

@@ -16,9 +16,30 @@ pub(super) trait Flavour {
     fn strides(&self, n: usize, outputs: usize) -> Option<Strides>;
     /// The constant c.
     fn constant(&self, b: &mut FunctionBuilder, c: f64) -> Value;
+    /// The time at pointer t.
+    fn load_time(&self, b: &mut FunctionBuilder, t: Value) -> Value;
+    /// Entry c of q or v at pointer `base`.
+    fn load_entry(&self, b: &mut FunctionBuilder, base: Value, c: usize) -> Option<Value>;
     /// Variable i (0 is t, 1..=n are q, n + 1..=2n are v) from the iteration's pointers,
     /// counted in `used`.
-    fn load(&self, b: &mut FunctionBuilder, used: &mut Used, n: usize, i: usize, ptrs: [Value; 3]) -> Option<Value>;
+    fn load(
+        &self,
+        b: &mut FunctionBuilder,
+        used: &mut Used,
+        n: usize,
+        i: usize,
+        [t, q, v]: [Value; 3],
+    ) -> Option<Value> {
+        if i == 0 {
+            Some(self.load_time(b, t))
+        } else if i <= n {
+            used.q = used.q.max(i);
+            self.load_entry(b, q, i - 1)
+        } else {
+            used.v = used.v.max(i - n);
+            self.load_entry(b, v, i - 1 - n)
+        }
+    }
     /// Stores output j.
     fn store(&self, b: &mut FunctionBuilder, x: Value, out: Value, j: usize) -> Option<()>;
     /// x where `mask` (a comparison of two values) holds, else y.
@@ -46,24 +67,12 @@ impl Flavour for Scalar {
         b.ins().f64const(c)
     }
 
-    fn load(
-        &self,
-        b: &mut FunctionBuilder,
-        used: &mut Used,
-        n: usize,
-        i: usize,
-        [t, q, v]: [Value; 3],
-    ) -> Option<Value> {
-        let mem = MemFlagsData::trusted();
-        Some(if i == 0 {
-            b.ins().load(types::F64, mem, t, 0)
-        } else if i <= n {
-            used.q = used.q.max(i);
-            b.ins().load(types::F64, mem, q, offset(i - 1)?)
-        } else {
-            used.v = used.v.max(i - n);
-            b.ins().load(types::F64, mem, v, offset(i - 1 - n)?)
-        })
+    fn load_time(&self, b: &mut FunctionBuilder, t: Value) -> Value {
+        b.ins().load(types::F64, MemFlagsData::trusted(), t, 0)
+    }
+
+    fn load_entry(&self, b: &mut FunctionBuilder, base: Value, c: usize) -> Option<Value> {
+        Some(b.ins().load(types::F64, MemFlagsData::trusted(), base, offset(c)?))
     }
 
     fn store(&self, b: &mut FunctionBuilder, x: Value, out: Value, j: usize) -> Option<()> {

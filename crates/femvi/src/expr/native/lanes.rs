@@ -18,7 +18,7 @@ use super::super::program::Op;
 use super::super::tape::Tape;
 use super::emit::Calls;
 use super::flavour::Flavour;
-use super::{offset, translate, Native, Strides, Used};
+use super::{offset, translate, Native, Strides};
 use crate::lagrangian::LANES;
 use cranelift_codegen::ir::{types, Endianness, InstBuilder, MemFlagsData, Signature, Value};
 use cranelift_frontend::FunctionBuilder;
@@ -62,24 +62,13 @@ impl Flavour for Pair {
         b.ins().splat(PAIR, x)
     }
 
-    fn load(
-        &self,
-        b: &mut FunctionBuilder,
-        used: &mut Used,
-        n: usize,
-        i: usize,
-        [t, q, v]: [Value; 3],
-    ) -> Option<Value> {
-        Some(if i == 0 {
-            let x = b.ins().load(types::F64, MemFlagsData::trusted(), t, 0);
-            b.ins().splat(PAIR, x)
-        } else if i <= n {
-            used.q = used.q.max(i);
-            b.ins().load(PAIR, unaligned(), q, coordinate(i - 1)?)
-        } else {
-            used.v = used.v.max(i - n);
-            b.ins().load(PAIR, unaligned(), v, coordinate(i - 1 - n)?)
-        })
+    fn load_time(&self, b: &mut FunctionBuilder, t: Value) -> Value {
+        let x = b.ins().load(types::F64, MemFlagsData::trusted(), t, 0);
+        b.ins().splat(PAIR, x)
+    }
+
+    fn load_entry(&self, b: &mut FunctionBuilder, base: Value, c: usize) -> Option<Value> {
+        Some(b.ins().load(PAIR, unaligned(), base, coordinate(c)?))
     }
 
     fn store(&self, b: &mut FunctionBuilder, x: Value, out: Value, j: usize) -> Option<()> {
