@@ -30,27 +30,29 @@ pub(crate) fn potential_force_per_lane<P: Potential + ?Sized>(pot: &P, t: f64, q
     per_lane(q, out, |x, f| pot.force(t, x, f));
 }
 
+/// Two scratch slices of n numbers: on the stack up to [`STACK`], else allocated.
+fn with_scratch<R>(n: usize, body: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
+    if n <= STACK {
+        let (mut a, mut b) = ([0.0; STACK], [0.0; STACK]);
+        body(&mut a[..n], &mut b[..n])
+    } else {
+        body(&mut vec![0.0; n], &mut vec![0.0; n])
+    }
+}
+
 /// Gathers each lane's point, calls `eval(point, out)` and scatters its output.
 fn per_lane(q: &[Lanes], out: &mut [Lanes], mut eval: impl FnMut(&[f64], &mut [f64])) {
-    let n = q.len().min(out.len());
-    let (mut xs, mut fs) = ([0.0; STACK], [0.0; STACK]);
-    let (mut xh, mut fh) = (Vec::new(), Vec::new());
-    let (x, f): (&mut [f64], &mut [f64]) = if n <= STACK {
-        (&mut xs[..n], &mut fs[..n])
-    } else {
-        xh.resize(n, 0.0);
-        fh.resize(n, 0.0);
-        (&mut xh, &mut fh)
-    };
-    for l in 0..LANES {
-        for (xc, qc) in x.iter_mut().zip(q) {
-            *xc = qc[l];
+    with_scratch(q.len().min(out.len()), |x, f| {
+        for l in 0..LANES {
+            for (xc, qc) in x.iter_mut().zip(q) {
+                *xc = qc[l];
+            }
+            eval(x, f);
+            for (oc, fc) in out.iter_mut().zip(f.iter()) {
+                oc[l] = *fc;
+            }
         }
-        eval(x, f);
-        for (oc, fc) in out.iter_mut().zip(f.iter()) {
-            oc[l] = *fc;
-        }
-    }
+    });
 }
 
 /// V lane by lane through `value` (a point per lane, gathered).
@@ -77,23 +79,15 @@ pub(crate) fn value_per_lane(q: &[Lanes], mut value: impl FnMut(&[f64]) -> Optio
 /// [`Lagrangian::value_lanes`] lane by lane through [`Lagrangian::value`] in f64: the scalar
 /// bits.
 pub(crate) fn lagrangian_per_lane<L: Lagrangian + ?Sized>(lag: &L, t: f64, q: &[Lanes], v: &[Lanes]) -> Lanes {
-    let n = q.len().min(v.len());
-    let (mut xs, mut vs) = ([0.0; STACK], [0.0; STACK]);
-    let (mut xh, mut vh) = (Vec::new(), Vec::new());
-    let (x, w): (&mut [f64], &mut [f64]) = if n <= STACK {
-        (&mut xs[..n], &mut vs[..n])
-    } else {
-        xh.resize(n, 0.0);
-        vh.resize(n, 0.0);
-        (&mut xh, &mut vh)
-    };
-    let mut out = [0.0; LANES];
-    for (l, o) in out.iter_mut().enumerate() {
-        for ((xc, wc), (qc, vc)) in x.iter_mut().zip(w.iter_mut()).zip(q.iter().zip(v)) {
-            *xc = qc[l];
-            *wc = vc[l];
+    with_scratch(q.len().min(v.len()), |x, w| {
+        let mut out = [0.0; LANES];
+        for (l, o) in out.iter_mut().enumerate() {
+            for ((xc, wc), (qc, vc)) in x.iter_mut().zip(w.iter_mut()).zip(q.iter().zip(v)) {
+                *xc = qc[l];
+                *wc = vc[l];
+            }
+            *o = lag.value(t, x, w);
         }
-        *o = lag.value(t, x, w);
-    }
-    out
+        out
+    })
 }
