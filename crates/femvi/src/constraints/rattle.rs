@@ -97,31 +97,31 @@ pub(crate) fn choose<L: Lagrangian>(
 /// Scratch of the RATTLE step (n coordinates, m constraints).
 #[derive(Debug, Clone)]
 pub(crate) struct RattleStep {
-    n: usize,
-    m: usize,
+    pub(super) n: usize,
+    pub(super) m: usize,
     /// f at the start and at the end of the step.
-    f0: Vec<f64>,
-    f1: Vec<f64>,
+    pub(super) f0: Vec<f64>,
+    pub(super) f1: Vec<f64>,
     /// The unconstrained drift h M⁻¹(p_k + (h/2) f_0).
-    drift: Vec<f64>,
+    pub(super) drift: Vec<f64>,
     /// q_k + Δq.
-    y: Vec<f64>,
+    pub(super) y: Vec<f64>,
     /// W = M⁻¹G(q_k)ᵀ stored by columns: `w[l n + a]`.
-    w: Vec<f64>,
+    pub(super) w: Vec<f64>,
     /// M⁻¹ G(q_{k+1})ᵀ by columns, for the projection.
-    w1: Vec<f64>,
+    pub(super) w1: Vec<f64>,
     /// An m×m matrix, its right-hand side and a row of G.
-    mat: Vec<f64>,
-    rhs: Vec<f64>,
-    row: Vec<f64>,
+    pub(super) mat: Vec<f64>,
+    pub(super) rhs: Vec<f64>,
+    pub(super) row: Vec<f64>,
     /// The momentum increment (p̃ − p_k, then p_{k+1} − p_k) and the compensation of the
     /// momentum's running sum.
-    p_tilde: Vec<f64>,
-    pcomp: Vec<f64>,
+    pub(super) p_tilde: Vec<f64>,
+    pub(super) pcomp: Vec<f64>,
     pub mu: Vec<f64>,
     /// u of the step before the last, for the extrapolated guess.
-    u_last: Vec<f64>,
-    have_last: bool,
+    pub(super) u_last: Vec<f64>,
+    pub(super) have_last: bool,
 }
 
 impl RattleStep {

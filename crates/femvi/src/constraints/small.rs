@@ -21,12 +21,14 @@ pub(crate) fn mass_solve(mass: &crate::lagrangian::MassMatrix, x: &[f64], out: &
     }
 }
 
+#[inline]
 pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Solves the row-major m×m system `a` x = `b` in place (x into `b`) by Gaussian elimination
 /// with partial pivoting; false if a pivot is zero or not finite.
+#[inline]
 pub(super) fn solve_small(a: &mut [f64], b: &mut [f64], m: usize) -> bool {
     if m == 1 {
         let x = b[0] / a[0];
@@ -92,6 +94,7 @@ fn solve_general(a: &mut [f64], b: &mut [f64], m: usize) -> bool {
 /// Ratio of the smallest to the largest singular value of the row-major m×n matrix `g`
 /// without allocating (one-sided Jacobi on the rows, in `scratch`, m n entries): the
 /// [`ConstraintJet::conditioning`] of a step's end node, checked every step.
+#[inline]
 pub(crate) fn conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -> f64 {
     if m == 0 {
         return 1.0;
@@ -105,6 +108,11 @@ pub(crate) fn conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -
         let s = dot(&g[..n], &g[..n]).sqrt();
         return if s > 0.0 && s.is_finite() { 1.0 } else { 0.0 };
     }
+    rows_conditioning(g, m, n, scratch)
+}
+
+/// [`conditioning`] of m ≥ 2 rows: the Jacobi sweeps.
+fn rows_conditioning(g: &[f64], m: usize, n: usize, scratch: &mut [f64]) -> f64 {
     let a = &mut scratch[..m * n];
     a.copy_from_slice(&g[..m * n]);
     for _sweep in 0..30 {

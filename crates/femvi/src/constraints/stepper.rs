@@ -6,6 +6,12 @@
 //! The run of `solve.rs` and the chaos run on the manifold ([`crate::chaos`]) take their
 //! steps here, so both follow the same nodes.
 
+#[path = "rattle_loop.rs"]
+mod rattle_loop;
+
+pub(super) use rattle_loop::TermNode;
+
+use super::jet::ConstraintJet;
 use super::layout::Layout;
 use super::limits::RANK_TOLERANCE;
 use super::project::Projector;
@@ -51,6 +57,8 @@ pub(crate) struct Stepper {
     insist: bool,
     /// m n scratch of the end node's conditioning.
     scratch: Vec<f64>,
+    /// A jet for the RATTLE loop's evaluations (`rattle_loop.rs`).
+    jet: ConstraintJet,
     /// Scratch of the linear projection (`small::project_linear`).
     projection: Vec<f64>,
     /// Whether `sys.end` (and the RATTLE step's end force) are those of the current node,
@@ -102,6 +110,7 @@ impl Stepper {
             fallback: solver.method == Method::Auto,
             insist: matches!(solver.method, Method::Explicit | Method::FixedPoint),
             scratch: vec![0.0; m * n],
+            jet: ConstraintJet::new(m, n),
             projection: vec![0.0; m * n + m * m + m],
             end_at_node: false,
         })

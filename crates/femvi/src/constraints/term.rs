@@ -20,7 +20,7 @@ use super::layout::{Enforcement, Layout};
 use super::project::state_multiplier;
 use super::small::copy;
 use super::start::start_on_manifold;
-use super::stepper::Stepper;
+use super::stepper::{Stepper, TermNode};
 use super::tangent::step_defect;
 use super::Constraints;
 use crate::discrete::Element;
@@ -29,7 +29,8 @@ use crate::forces::Force;
 use crate::lagrangian::Lagrangian;
 use crate::step::checkpoint::{Reader, Words};
 use crate::step::state::{Increments, LastElement, RunState};
-use crate::step::term::StepTerm;
+use crate::step::term::{StepTerm, TermAdvance, TermRun};
+use crate::step::Node;
 use crate::step::{Integrator, Method, SolverOptions, Start, TimeGrid};
 use std::cell::{Cell, RefCell};
 
@@ -367,6 +368,44 @@ impl<L: Lagrangian, C: Constraints> StepTerm for ConstrainedTerm<'_, L, C> {
 
     fn defect(&self) -> Option<f64> {
         self.defect
+    }
+
+    fn advance(
+        &mut self,
+        run: TermRun<'_>,
+        max_steps: usize,
+        at_node: &mut dyn FnMut(Node<'_>) -> bool,
+    ) -> Option<TermAdvance> {
+        if self.forcing.is_some() || self.defect.is_some() {
+            return None;
+        }
+        if !self.synced {
+            copy(&mut self.q, &run.state.q);
+            copy(&mut self.p, &run.state.p);
+            self.synced = true;
+        }
+        let parts = (self.lag, self.con, self.element);
+        let sizes = (run.state.n, self.con.count());
+        let node = TermNode {
+            q: &mut self.q,
+            p: &mut self.p,
+            v: &mut self.v,
+        };
+        let stepper = &mut self.stepper;
+        // The sizes the RATTLE loop is compiled for (coordinates, constraints): a point on a
+        // circle or a sphere, a point on a curve, a planar double pendulum.
+        macro_rules! fast {
+            ($n:literal, $m:literal) => {
+                stepper.rattle_loop::<L, C, $n, $m>(parts, node, &self.max_residual, run, max_steps, at_node)
+            };
+        }
+        match sizes {
+            (2, 1) => fast!(2, 1),
+            (3, 1) => fast!(3, 1),
+            (3, 2) => fast!(3, 2),
+            (4, 2) => fast!(4, 2),
+            _ => None,
+        }
     }
 
     fn ambient_tangent(&mut self, step: (f64, f64, f64)) -> Option<Option<nalgebra::DMatrix<f64>>> {

@@ -11,7 +11,7 @@ use super::grid::TimeGrid;
 use super::options::{SolverOptions, Start};
 use super::solver::{choose, Kind, Solver, StepContext};
 use super::state::{Increments, LastElement, Node, RunState};
-use super::term::StepTerm;
+use super::term::{StepTerm, TermAdvance, TermRun};
 use crate::discrete::Element;
 use crate::error::Result;
 use crate::lagrangian::Lagrangian;
@@ -333,6 +333,9 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
         if let Some(done) = self.wide_explicit(max_steps, at_node, unobserved) {
             return done;
         }
+        if let Some(done) = self.term_loop(max_steps, at_node) {
+            return done;
+        }
         let mut done = 0;
         while done < max_steps && self.step()? {
             done += 1;
@@ -368,6 +371,32 @@ impl<'a, L: Lagrangian> Integrator<'a, L> {
             None
         };
         Some(ex.advance_wide(lag, grid, &mut self.state, &mut self.last, max_steps, at_node, radius))
+    }
+
+    /// The term's own loop ([`StepTerm::advance`]), where it has one (None otherwise). A step
+    /// it could not take is taken again a step at a time, which reports its failure.
+    fn term_loop<F: FnMut(Node<'_>) -> bool>(&mut self, max_steps: usize, at_node: &mut F) -> Option<Result<usize>> {
+        if self.pending.is_some() || self.energy.is_some() {
+            return None;
+        }
+        let term = self.term.as_mut()?;
+        let run = TermRun {
+            grid: &self.grid,
+            state: &mut self.state,
+            last: &mut self.last,
+        };
+        let TermAdvance { mut done, failed } = term.advance(run, max_steps, at_node)?;
+        if failed && done < max_steps {
+            match self.step_term() {
+                Err(e) => return Some(Err(e)),
+                Ok(true) => {
+                    done += 1;
+                    at_node(self.node());
+                }
+                Ok(false) => {}
+            }
+        }
+        Some(Ok(done))
     }
 
     /// The fixed-size explicit path for the sizes it is compiled for (None otherwise).

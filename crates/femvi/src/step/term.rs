@@ -125,6 +125,37 @@ pub(crate) trait StepTerm {
     fn discrete_energy(&self) -> Option<DiscreteEnergy> {
         None
     }
+
+    /// Takes up to `max_steps` steps of the grid in a loop of the term's own, where it has one
+    /// for this run (the RATTLE steps of small constrained systems,
+    /// `constraints/rattle_loop.rs`), showing every node reached to `at_node` (false stops
+    /// after that node): the nodes, bits and carried state of as many
+    /// [`StepTerm::solve`]s with the integrator's commits. None if the term has no such loop
+    /// here (the integrator then steps one at a time).
+    fn advance(
+        &mut self,
+        _run: TermRun<'_>,
+        _max_steps: usize,
+        _at_node: &mut dyn FnMut(super::Node<'_>) -> bool,
+    ) -> Option<TermAdvance> {
+        None
+    }
+}
+
+/// What a term's own loop ([`StepTerm::advance`]) moves: the integrator's node and last
+/// element, along its grid.
+pub(crate) struct TermRun<'r> {
+    pub(crate) grid: &'r super::TimeGrid,
+    pub(crate) state: &'r mut RunState,
+    pub(crate) last: &'r mut LastElement,
+}
+
+/// How a term's own loop ended: the steps taken, and whether the next step failed (the
+/// integrator takes it again by [`StepTerm::solve`], which reports the failure).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct TermAdvance {
+    pub(crate) done: usize,
+    pub(crate) failed: bool,
 }
 
 /// The discrete energy Ẽ of a run in the energy mode with forces, measured on the solved
