@@ -17,6 +17,7 @@
 
 use super::super::jet::ConstraintJet;
 use super::super::limits::RANK_TOLERANCE;
+use super::super::rattle::{extrapolate, max_abs, moves_node, ROUNDOFF};
 use super::super::small::{conditioning, dot, mass_solve, solve_small};
 use super::super::Constraints;
 use super::Stepper;
@@ -51,10 +52,12 @@ struct Carry<const N: usize, const M: usize> {
     /// Compensations of the sums of q and p.
     comp: [f64; N],
     pcomp: [f64; N],
-    /// u = hλ̂ of the last step and of the one before, for the extrapolated guess.
+    /// u = hλ̂ of the last step and the history of the extrapolated guess
+    /// (`rattle::extrapolate`).
     u: [f64; M],
-    u_last: [f64; M],
-    have_last: bool,
+    hist: [[f64; M]; 3],
+    known: usize,
+    h_last: f64,
     /// Whether the end jet and force below are those of the node q (after a step here).
     reuse: bool,
     f1: [f64; N],
@@ -206,8 +209,13 @@ impl Stepper {
             comp: array::<N>(&self.comp)?,
             pcomp: array::<N>(&rattle.pcomp)?,
             u: array::<M>(self.x.get(N..N + M)?)?,
-            u_last: array::<M>(&rattle.u_last)?,
-            have_last: rattle.have_last,
+            hist: [
+                array::<M>(rattle.hist.get(..M)?)?,
+                array::<M>(rattle.hist.get(M..2 * M)?)?,
+                array::<M>(rattle.hist.get(2 * M..)?)?,
+            ],
+            known: rattle.known,
+            h_last: rattle.h_last,
             reuse,
             f1: array::<N>(&rattle.f1)?,
             g1: g,
@@ -245,8 +253,8 @@ impl Stepper {
             rattle.p_tilde.copy_from_slice(&taken.p_tilde);
             rattle.pcomp.copy_from_slice(&c.pcomp);
             rattle.mu.copy_from_slice(&taken.mu);
-            rattle.u_last.copy_from_slice(&c.u_last);
-            rattle.have_last = c.have_last;
+            rattle.hist.copy_from_slice(c.hist.as_flattened());
+            (rattle.known, rattle.h_last) = (c.known, c.h_last);
         }
     }
 }
@@ -317,19 +325,11 @@ fn step<L: Lagrangian, C: Constraints, const N: usize, const M: usize>(
     for l in 0..M {
         mass_solve(mass, &jac0[l], &mut w[l]);
     }
-    let (mut u, mut u_last, mut have_last) = (c.u, c.u_last, c.have_last);
-    if have_last {
-        for l in 0..M {
-            let guess = 2.0 * u[l] - u_last[l];
-            u_last[l] = u[l];
-            u[l] = guess;
-        }
-    } else {
-        u_last = u;
-        have_last = true;
-    }
+    let (mut u, mut hist, mut known, mut h_last) = (c.u, c.hist, c.known, c.h_last);
+    extrapolate(&mut u, hist.as_flattened_mut(), (&mut known, &mut h_last), h);
     let (mut g1, mut jac1) = ([0.0; M], [[0.0; N]; M]);
     let (mut iterations, mut converged) = (0, false);
+    let mut last_mat = [[0.0; M]; M];
     let mut dq: [f64; N];
     loop {
         dq = drift;
@@ -349,6 +349,15 @@ fn step<L: Lagrangian, C: Constraints, const N: usize, const M: usize>(
         if converged || rnorm == 0.0 {
             break;
         }
+        // The check of the iterate with the last matrix (`RattleStep::solve`).
+        if iterations > 0 {
+            let (mut mat, mut rhs) = (last_mat, g1);
+            if solve_small(mat.as_flattened_mut(), &mut rhs, M)
+                && moves_node(&rhs, w.as_flattened(), N) <= ROUNDOFF * scale
+            {
+                break;
+            }
+        }
         if iterations == set.max_iterations {
             return false;
         }
@@ -358,10 +367,11 @@ fn step<L: Lagrangian, C: Constraints, const N: usize, const M: usize>(
                 mat[i][l] = dot(&jac1[i], &w[l]);
             }
         }
+        last_mat = mat;
         if !solve_small(mat.as_flattened_mut(), &mut rhs, M) {
             return false;
         }
-        let dnorm = rhs.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let dnorm = max_abs(&rhs);
         for l in 0..M {
             u[l] += rhs[l];
         }
@@ -449,6 +459,6 @@ fn step<L: Lagrangian, C: Constraints, const N: usize, const M: usize>(
     (taken.g0, taken.jac0, taken.lambda, taken.mu) = (g0, jac0, lambda, mu);
     (taken.iterations, taken.t, taken.h) = (iterations, t, h);
     (c.q, c.p, c.comp, c.pcomp, c.f1, c.g1, c.jac1) = (q1, p1, comp, pcomp, f1, g1, jac1);
-    (c.u, c.u_last, c.have_last, c.reuse) = (u, u_last, have_last, true);
+    (c.u, c.hist, c.known, c.h_last, c.reuse) = (u, hist, known, h_last, true);
     true
 }
