@@ -122,17 +122,25 @@ fn both<L: Lagrangian + Sync, C: Constraints + Sync>(
     (slow.0.len(), slow.1.is_some())
 }
 
-#[test]
-fn the_loop_takes_the_stepper_s_steps_on_every_compiled_size() {
-    // Compiled g and G: the spherical pendulum (3, 1) and a point on a circle in space (3, 2).
+/// The spherical pendulum as expressions with the potential `potential`, and its start.
+fn spherical_pendulum(potential: &str) -> (ExprLagrangian, ExprConstraints, Start) {
     let xyz = names(&["x", "y", "z"]);
-    let lag = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z", &xyz, &[]).expect("L");
+    let l = format!("0.5*(x_dot^2 + y_dot^2 + z_dot^2) - {potential}");
+    let lag = ExprLagrangian::new(&l, &xyz, &[]).expect("L");
     let sphere = ExprConstraints::new(&names(&["x^2 + y^2 + z^2 - 1"]), &xyz, &[]).expect("g");
     let start = Start::Velocity {
         q: vec![0.6, 0.0, -0.8],
         v: vec![0.3, 1.5, 0.225],
     };
+    (lag, sphere, start)
+}
+
+#[test]
+fn the_loop_takes_the_stepper_s_steps_on_every_compiled_size() {
+    // Compiled g and G: the spherical pendulum (3, 1) and a point on a circle in space (3, 2).
+    let (lag, sphere, start) = spherical_pendulum("9.81*z");
     assert_eq!(both(&lag, &sphere, start, (0.01, 30.0), 50), (3000, false));
+    let xyz = names(&["x", "y", "z"]);
     let tilted = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*x", &xyz, &[]).expect("L");
     let circle = ExprConstraints::new(&names(&["x^2 + y^2 + z^2 - 1", "z - 0.3"]), &xyz, &[]).expect("g");
     let start = Start::Velocity {
@@ -162,13 +170,7 @@ fn the_loop_takes_the_stepper_s_steps_on_every_compiled_size() {
 fn a_step_that_fails_mid_run_fails_as_the_stepper_s_does() {
     // A time-dependent L whose force is not a number from t = 5 on: the run stops there,
     // after the same nodes and with the same error on both paths.
-    let xyz = names(&["x", "y", "z"]);
-    let lag = ExprLagrangian::new("0.5*(x_dot^2 + y_dot^2 + z_dot^2) - 9.81*z*sqrt(5 - t)", &xyz, &[]).expect("L");
-    let sphere = ExprConstraints::new(&names(&["x^2 + y^2 + z^2 - 1"]), &xyz, &[]).expect("g");
-    let start = Start::Velocity {
-        q: vec![0.6, 0.0, -0.8],
-        v: vec![0.3, 1.5, 0.225],
-    };
+    let (lag, sphere, start) = spherical_pendulum("9.81*z*sqrt(5 - t)");
     let (nodes, failed) = both(&lag, &sphere, start, (0.01, 30.0), 50);
     assert!(failed, "a step failed");
     assert!((495..=500).contains(&nodes), "at t = 5: {nodes} nodes");
