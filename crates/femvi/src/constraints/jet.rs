@@ -25,6 +25,13 @@ pub struct ConstraintJet {
     o2: Vec<HyperDual64>,
 }
 
+/// Infinity norm of the constraint values `g`, NaN if any is NaN ([`ConstraintJet::residual`]).
+#[inline(always)]
+pub(crate) fn residual(g: &[f64]) -> f64 {
+    g.iter()
+        .fold(0.0f64, |a, &x| if x.is_nan() { f64::NAN } else { a.max(x.abs()) })
+}
+
 impl ConstraintJet {
     /// Buffers for m constraints on n coordinates.
     pub fn new(m: usize, n: usize) -> Self {
@@ -136,9 +143,7 @@ impl ConstraintJet {
 
     /// Infinity norm of g.
     pub fn residual(&self) -> f64 {
-        self.g
-            .iter()
-            .fold(0.0f64, |a, &x| if x.is_nan() { f64::NAN } else { a.max(x.abs()) })
+        residual(&self.g)
     }
 
     /// The first constraint (0-based) whose value or Jacobian row is not finite at the last

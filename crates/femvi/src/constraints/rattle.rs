@@ -24,10 +24,12 @@
 //! and its jet is in hand (otherwise Newton goes on and stops when an update is within the
 //! tolerance, evaluating the jet once more). On the spherical pendulum at h = 0.01 that is
 //! 1.01 updates and 2 evaluations of g and G per step, against 1.98 and 3 with the line
-//! through two values and the tolerance test alone; the nodes follow the double-double RATTLE
-//! map as closely as before or closer (`tests/all/rattle_exact.rs`). The nodes then follow the RATTLE
-//! map evaluated in double-double arithmetic to a few ulps over 10⁴ steps
-//! (`tests/all/constraints_rattle.rs`).
+//! through two values and the tolerance test alone. The nodes follow the RATTLE map evaluated
+//! in double-double arithmetic to a few ulps over 10⁴ steps (`tests/all/rattle_exact.rs`,
+//! `tests/all/constraints_rattle.rs`), as closely as before the check or closer.
+//!
+//! Small systems take these steps in a loop of their own over fixed-size arrays
+//! (`rattle_loop.rs`, the same operations and bits); the fields it carries are `pub(super)`.
 //!
 //! [`choose`] decides when a constrained run takes these steps.
 
@@ -152,26 +154,26 @@ pub(crate) fn choose<L: Lagrangian>(
 /// Scratch of the RATTLE step (n coordinates, m constraints).
 #[derive(Debug, Clone)]
 pub(crate) struct RattleStep {
-    pub(super) n: usize,
-    pub(super) m: usize,
+    n: usize,
+    m: usize,
     /// f at the start and at the end of the step.
     pub(super) f0: Vec<f64>,
     pub(super) f1: Vec<f64>,
     /// The unconstrained drift h M⁻¹(p_k + (h/2) f_0).
-    pub(super) drift: Vec<f64>,
+    drift: Vec<f64>,
     /// q_k + Δq.
-    pub(super) y: Vec<f64>,
+    y: Vec<f64>,
     /// W = M⁻¹G(q_k)ᵀ stored by columns: `w[l n + a]`.
-    pub(super) w: Vec<f64>,
+    w: Vec<f64>,
     /// M⁻¹ G(q_{k+1})ᵀ by columns, for the projection.
-    pub(super) w1: Vec<f64>,
+    w1: Vec<f64>,
     /// An m×m matrix, its right-hand side and a row of G.
-    pub(super) mat: Vec<f64>,
+    mat: Vec<f64>,
     /// The Newton matrix G(y)W of the last iterate, kept for the check of the next
     /// (`RattleStep::solve`).
-    pub(super) last_mat: Vec<f64>,
-    pub(super) rhs: Vec<f64>,
-    pub(super) row: Vec<f64>,
+    last_mat: Vec<f64>,
+    rhs: Vec<f64>,
+    row: Vec<f64>,
     /// The momentum increment (p̃ − p_k, then p_{k+1} − p_k) and the compensation of the
     /// momentum's running sum.
     pub(super) p_tilde: Vec<f64>,
@@ -272,7 +274,7 @@ impl RattleStep {
         for l in 0..m {
             mass.solve(&start.jac[l * n..(l + 1) * n], &mut self.w[l * n..(l + 1) * n]);
         }
-        self.guess(u, h);
+        extrapolate(u, &mut self.hist, (&mut self.known, &mut self.h_last), h);
         let fail = |failure, residual: f64, iterations| NewtonFailure {
             failure,
             residual,
@@ -328,11 +330,6 @@ impl RattleStep {
             iterations += 1;
             converged = dnorm <= tol * scale;
         }
-    }
-
-    /// The Newton guess for u = hλ̂ ([`extrapolate`] with this step's history).
-    fn guess(&mut self, u: &mut [f64], h: f64) {
-        extrapolate(u, &mut self.hist, (&mut self.known, &mut self.h_last), h);
     }
 
     /// Δq = drift − W u.

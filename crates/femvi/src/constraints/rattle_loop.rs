@@ -15,7 +15,7 @@
 //! node before it, and the integrator takes the step again through [`Stepper::step`], which
 //! reports the failure as it always does.
 
-use super::super::jet::ConstraintJet;
+use super::super::jet::{residual as jet_residual, ConstraintJet};
 use super::super::limits::RANK_TOLERANCE;
 use super::super::rattle::{extrapolate, max_abs, moves_node, ROUNDOFF};
 use super::super::small::{conditioning, dot, mass_solve, solve_small};
@@ -282,13 +282,6 @@ impl<L, C: Constraints> Setting<'_, L, C> {
 /// A slice of length K as an array.
 fn array<const K: usize>(x: &[f64]) -> Option<[f64; K]> {
     x.get(..K)?.try_into().ok()
-}
-
-/// ‖g‖∞ as [`super::super::jet::ConstraintJet::residual`] takes it (NaN if any is NaN).
-#[inline(always)]
-fn jet_residual<const M: usize>(g: &[f64; M]) -> f64 {
-    g.iter()
-        .fold(0.0f64, |a, &x| if x.is_nan() { f64::NAN } else { a.max(x.abs()) })
 }
 
 /// One RATTLE step from the node in `c` at (t, h) (`RattleStep::solve`, `momentum` and
