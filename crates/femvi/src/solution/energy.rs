@@ -381,7 +381,7 @@ impl EnergyTracker {
 }
 
 /// Copies `src` into `dst` (of the same length; the shorter length otherwise): moves for up
-/// to four entries, `copy_from_slice` beyond. Where the length is not a constant, as in a
+/// to four entries, an element-wise loop beyond. Where the length is not a constant, as in a
 /// loop calling its observer per node through a pointer, `copy_from_slice` is a call to
 /// memcpy: 6 % of a RATTLE run of the spherical pendulum.
 #[inline(always)]
@@ -398,6 +398,7 @@ fn copy_short(dst: &mut [f64], src: &[f64]) {
 #[cfg(test)]
 mod tests {
     use super::{copy_short, EnergyTracker};
+    use crate::{models, Lagrangian, Start};
 
     /// Every length, the unrolled ones and beyond: `dst` becomes `src` entry for entry.
     #[test]
@@ -409,7 +410,6 @@ mod tests {
             assert_eq!(dst, src, "length {n}");
         }
     }
-    use crate::{models, Lagrangian, Start};
 
     /// xorshift64*, uniform in [−1, 1).
     fn uniform(state: &mut u64) -> f64 {
