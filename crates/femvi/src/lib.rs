@@ -30,6 +30,7 @@ pub mod lagrangian;
 pub mod models;
 pub mod optimize;
 pub mod rotation;
+mod slices;
 pub mod solution;
 pub mod solve;
 pub mod step;

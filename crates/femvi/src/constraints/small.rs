@@ -5,11 +5,7 @@
 //! conditioning of the constraint Jacobian G checked at every node (the ratio of its extreme
 //! singular values, by one-sided Jacobi rotations of its rows, Hestenes 1958).
 
-/// `dst = src` element by element (slices of a few numbers: no call to memmove).
-#[inline(always)]
-pub(crate) fn copy(dst: &mut [f64], src: &[f64]) {
-    dst.iter_mut().zip(src).for_each(|(d, s)| *d = *s);
-}
+pub(crate) use crate::slices::copy;
 
 /// out = M⁻¹x, the identity by [`copy`] (slices of a few numbers: no call to memmove).
 #[inline]

@@ -12,6 +12,7 @@ use super::dense::ElementEval;
 use crate::error::{check_len, invalid, Result};
 use crate::fem::LagrangeBasis;
 use crate::lagrangian::{hamiltonian, Lagrangian, PointDerivatives};
+use crate::slices::copy_short;
 use crate::step::{ElementNodes, Start};
 
 /// The energy of one node, as [`EnergyTracker::node`] computed it.
@@ -380,36 +381,10 @@ impl EnergyTracker {
     }
 }
 
-/// Copies `src` into `dst` (of the same length; the shorter length otherwise): moves for up
-/// to four entries, an element-wise loop beyond. Where the length is not a constant, as in a
-/// loop calling its observer per node through a pointer, `copy_from_slice` is a call to
-/// memcpy: 6 % of a RATTLE run of the spherical pendulum.
-#[inline(always)]
-fn copy_short(dst: &mut [f64], src: &[f64]) {
-    match (dst, src) {
-        ([a], [x]) => *a = *x,
-        ([a, b], [x, y]) => (*a, *b) = (*x, *y),
-        ([a, b, c], [x, y, z]) => (*a, *b, *c) = (*x, *y, *z),
-        ([a, b, c, d], [x, y, z, w]) => (*a, *b, *c, *d) = (*x, *y, *z, *w),
-        (dst, src) => dst.iter_mut().zip(src).for_each(|(a, x)| *a = *x),
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{copy_short, EnergyTracker};
+    use super::EnergyTracker;
     use crate::{models, Lagrangian, Start};
-
-    /// Every length, the unrolled ones and beyond: `dst` becomes `src` entry for entry.
-    #[test]
-    fn copy_short_copies_every_length() {
-        for n in 0..7 {
-            let src: Vec<f64> = (0..n).map(|i| 1.5 + i as f64).collect();
-            let mut dst = vec![f64::NAN; n];
-            copy_short(&mut dst, &src);
-            assert_eq!(dst, src, "length {n}");
-        }
-    }
 
     /// xorshift64*, uniform in [−1, 1).
     fn uniform(state: &mut u64) -> f64 {
